@@ -1,0 +1,68 @@
+"""Errors of the physics layer.
+
+Every error says what happened, what was given and how to fix it; the CLI prints
+``str(error)`` as one line. Solver failures carry their classified outcome so that the
+job layer can record them as data instead of crashing a sweep.
+"""
+
+from __future__ import annotations
+
+
+class FarmError(Exception):
+    """Base class of every error raised by :mod:`farm`."""
+
+
+class SpecError(FarmError, ValueError):
+    """A model spec, load case or solver setting is invalid (bad input, nothing run)."""
+
+
+class MeshError(FarmError, RuntimeError):
+    """gmsh failed, or produced a mesh that breaks an invariant (Jacobian, faces, sets)."""
+
+
+class ResultsError(FarmError, ValueError):
+    """A CalculiX result file is missing, truncated or not what the deck asked for."""
+
+
+class CcxNotFoundError(FarmError, FileNotFoundError):
+    """The ``ccx`` executable is not installed or not on ``PATH``."""
+
+
+class SolverError(FarmError, RuntimeError):
+    """A ``ccx`` run did not converge or did not finish.
+
+    Attributes
+    ----------
+    outcome : str
+        The classified outcome (see :class:`farm.ccx.outcome.Outcome`), e.g.
+        ``"too_many_cutbacks"`` or ``"timeout"``.
+    command : list of str
+        The command that ran.
+    returncode : int or None
+        Exit status, ``None`` when the process was killed on timeout.
+    tail : str
+        The last lines of the solver's output.
+    """
+
+    def __init__(
+        self,
+        outcome: str,
+        command: list[str],
+        returncode: int | None,
+        tail: str,
+        hint: str = "",
+    ) -> None:
+        self.outcome = outcome
+        self.command = list(command)
+        self.returncode = returncode
+        self.tail = tail
+        last = " | ".join(line.strip() for line in tail.strip().splitlines()[-3:] if line.strip())
+        msg = f"ccx failed ({outcome}, exit code {returncode}) running {' '.join(command)}"
+        if last:
+            msg += f": {last}"
+        if hint:
+            msg += f". {hint}"
+        super().__init__(msg)
+
+    def __reduce__(self):  # keep the fields when the error crosses a process boundary
+        return (type(self), (self.outcome, self.command, self.returncode, self.tail))

@@ -1,0 +1,386 @@
+"""Plain, typed, immutable descriptions of a tyre model and of what to do with it.
+
+Everything that changes a result lives in these frozen dataclasses, validated once when
+constructed, so that a spec that exists is a spec that can be meshed and solved. Units
+are N, mm, MPa and s throughout (DESIGN.md); the CLI converts kPa at its boundary.
+
+``to_dict``/``from_dict`` give the canonical form used for content hashes (jobs) and
+for study files; ``from_dict`` rejects unknown keys so that a typo is never ignored.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+import typing
+from dataclasses import dataclass, field
+from typing import Any, Literal, get_args, get_type_hints
+
+from farm.errors import SpecError
+
+ModelKind = Literal["reduced", "full"]
+RoadKind = Literal["iterative", "contact"]
+CutFaces = Literal["fixed", "free"]
+
+
+def _positive(name: str, value: float) -> None:
+    if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
+        raise SpecError(f"{name} must be a positive number, got {value!r}")
+
+
+@dataclass(frozen=True)
+class TyreGeometry:
+    """Meridional profile of the Trelleborg TM700 280/70R16 slick (thesis §2.4, §3.2).
+
+    The outer contour is a crowned tread arc, a shoulder/upper-sidewall curve to the
+    point of maximum section width and a lower sidewall down to the bead seat; the inner
+    contour is the outer one offset by a wall thickness that blends between regions.
+    All lengths in mm.
+
+    Parameters
+    ----------
+    rim_diameter : bead seat diameter (16 in).
+    section_width : maximum section width (280 mm).
+    section_height : section height, outer radius minus rim radius (0.70 x 280 mm).
+    rim_width : lateral distance between the two bead seats (9 in rim).
+    tread_width : lateral width of the crowned tread region.
+    crown_drop : radial drop of the outer contour from the centre to the tread edge.
+    bead_length : arc length of each bead region along the outer contour.
+    tread_thickness, sidewall_thickness, bead_thickness : wall thickness per region.
+    """
+
+    rim_diameter: float = 406.4
+    section_width: float = 280.0
+    section_height: float = 196.0
+    rim_width: float = 228.6
+    tread_width: float = 200.0
+    crown_drop: float = 8.0
+    bead_length: float = 40.0
+    tread_thickness: float = 20.0
+    sidewall_thickness: float = 10.0
+    bead_thickness: float = 20.0
+
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):
+            _positive(f"geometry.{f.name}", getattr(self, f.name))
+        if not self.rim_width < self.section_width:
+            raise SpecError(
+                f"geometry.rim_width ({self.rim_width}) must be smaller than "
+                f"geometry.section_width ({self.section_width})"
+            )
+        if not self.tread_width < self.section_width - 2 * self.sidewall_thickness:
+            raise SpecError(
+                f"geometry.tread_width ({self.tread_width}) leaves no room for the shoulders: "
+                f"keep it below section_width - 2 x sidewall_thickness "
+                f"({self.section_width - 2 * self.sidewall_thickness})"
+            )
+        walls = max(self.tread_thickness, self.sidewall_thickness, self.bead_thickness)
+        if not walls < self.section_height / 4:
+            raise SpecError(
+                f"wall thickness {walls} mm is too large for section_height "
+                f"{self.section_height} mm: keep every thickness below a quarter of it"
+            )
+        if not self.crown_drop < self.section_height / 4:
+            raise SpecError(
+                f"geometry.crown_drop ({self.crown_drop}) must be below a quarter of "
+                f"section_height ({self.section_height / 4})"
+            )
+
+    @property
+    def rim_radius(self) -> float:
+        return self.rim_diameter / 2
+
+    @property
+    def outer_radius(self) -> float:
+        """Radius of the crown centre line, unloaded and uninflated."""
+        return self.rim_radius + self.section_height
+
+
+@dataclass(frozen=True)
+class MeshDensity:
+    """Element counts of the structured hexahedral mesh (one element through the wall).
+
+    ``tread``, ``sidewall`` and ``bead`` count elements along the meridian in each
+    region (per side for sidewall and bead); ``circumferential`` counts elements around
+    the revolved sector (90 degrees for the reduced model, 360 for the full one).
+    """
+
+    tread: int = 8
+    sidewall: int = 5
+    bead: int = 2
+    circumferential: int = 20
+
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):
+            v = getattr(self, f.name)
+            if not (isinstance(v, int) and not isinstance(v, bool) and v >= 1):
+                raise SpecError(f"mesh.{f.name} must be a positive integer, got {v!r}")
+        if self.tread % 2:
+            raise SpecError(
+                f"mesh.tread must be even (a node row on the tyre's centre line), got {self.tread}"
+            )
+        if self.circumferential % 2 or self.circumferential < 4:
+            raise SpecError(
+                "mesh.circumferential must be even and at least 4 (a node row under the "
+                f"wheel centre), got {self.circumferential}"
+            )
+
+    @property
+    def meridional(self) -> int:
+        return self.tread + 2 * (self.sidewall + self.bead)
+
+
+@dataclass(frozen=True)
+class Material:
+    """Compressible Neo-Hookean rubber given by small-strain constants (thesis Table 3.1).
+
+    CalculiX's ``*HYPERELASTIC, NEO HOOKE`` takes C10 = G/2 and D1 = 2/K, with the shear
+    modulus G = E / (2 (1 + nu)) and bulk modulus K = E / (3 (1 - 2 nu)).
+    """
+
+    youngs_modulus: float
+    poisson_ratio: float
+
+    def __post_init__(self) -> None:
+        _positive("material.youngs_modulus", self.youngs_modulus)
+        nu = self.poisson_ratio
+        if not (isinstance(nu, int | float) and -1.0 < nu < 0.5):
+            raise SpecError(f"material.poisson_ratio must lie in (-1, 0.5), got {nu!r}")
+
+    @property
+    def c10(self) -> float:
+        return self.youngs_modulus / (4.0 * (1.0 + self.poisson_ratio))
+
+    @property
+    def d1(self) -> float:
+        bulk = self.youngs_modulus / (3.0 * (1.0 - 2.0 * self.poisson_ratio))
+        return 2.0 / bulk
+
+
+@dataclass(frozen=True)
+class Materials:
+    """One material per region; the regions become CalculiX element sets."""
+
+    tread: Material
+    sidewall: Material
+    bead: Material
+
+    def by_region(self) -> dict[str, Material]:
+        return {"tread": self.tread, "sidewall": self.sidewall, "bead": self.bead}
+
+
+@dataclass(frozen=True)
+class ContactLaw:
+    """Exponential pressure-overclosure law of the tyre-road contact (thesis §3.2).
+
+    ``clearance`` is CalculiX's c0, the distance from the road at which the contact
+    pressure has dropped to 1 % of ``pressure`` (p0, MPa, the pressure at zero distance).
+    """
+
+    clearance: float = 0.5
+    pressure: float = 2.0
+
+    def __post_init__(self) -> None:
+        _positive("contact.clearance", self.clearance)
+        _positive("contact.pressure", self.pressure)
+
+
+@dataclass(frozen=True)
+class ModelSpec:
+    """A complete finite element model: geometry, mesh, materials and boundary conditions.
+
+    ``kind="reduced"`` is the uninflated bottom sector next to the road (thesis §3.3.1),
+    ``kind="full"`` the inflated 360-degree tyre against a rigid road (§3.3.2).
+    ``road`` chooses the road boundary condition: the thesis' iterative prescribed
+    displacements (reduced only) or frictionless exponential contact with a rigid plane.
+    ``cut_faces`` says whether the sector's cut faces are clamped (reduced only).
+    """
+
+    kind: ModelKind
+    geometry: TyreGeometry = field(default_factory=TyreGeometry)
+    mesh: MeshDensity = field(default_factory=MeshDensity)
+    materials: Materials = field(
+        default_factory=lambda: Materials(*(Material(10.0, 0.499),) * 3)
+    )
+    road: RoadKind = "iterative"
+    sector_angle: float = 90.0
+    cut_faces: CutFaces = "fixed"
+    contact: ContactLaw = field(default_factory=ContactLaw)
+
+    def __post_init__(self) -> None:
+        _check_literal("kind", self.kind, ModelKind)
+        _check_literal("road", self.road, RoadKind)
+        _check_literal("cut_faces", self.cut_faces, CutFaces)
+        if self.kind == "full":
+            if self.sector_angle != 360.0:
+                raise SpecError(
+                    f"sector_angle must be 360 for the full model, got {self.sector_angle}"
+                )
+            if self.road != "contact":
+                raise SpecError(
+                    "road must be 'contact' for the full model (the iterative procedure is "
+                    f"the reduced model's), got {self.road!r}"
+                )
+            if self.mesh.circumferential % 4:
+                raise SpecError(
+                    "mesh.circumferential of the full model must be a multiple of 4 (it is "
+                    f"revolved in quarters), got {self.mesh.circumferential}"
+                )
+        elif not (isinstance(self.sector_angle, int | float) and 20 <= self.sector_angle < 180):
+            raise SpecError(
+                "sector_angle of the reduced model must be in [20, 180) degrees, "
+                f"got {self.sector_angle!r}"
+            )
+
+    @property
+    def is_full(self) -> bool:
+        return self.kind == "full"
+
+    @property
+    def inflated(self) -> bool:
+        return self.is_full
+
+    def to_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> ModelSpec:
+        return _from_dict(cls, data, "model")
+
+    def mesh_key(self) -> str:
+        """Content hash of what the mesh depends on (geometry, density, sector)."""
+        return content_hash(
+            {
+                "kind": self.kind,
+                "sector_angle": self.sector_angle,
+                "geometry": dataclasses.asdict(self.geometry),
+                "mesh": dataclasses.asdict(self.mesh),
+            }
+        )
+
+
+@dataclass(frozen=True)
+class LoadPath:
+    """Quasi-static loading solved in one go: inflate, then push the road up.
+
+    ``deflections`` (mm, strictly increasing) are the road's travel towards the wheel
+    axis measured from first touch of the unloaded (inflated) tyre; results are
+    produced at each of them. ``pressure`` is the inflation pressure in MPa.
+    """
+
+    deflections: tuple[float, ...]
+    pressure: float = 0.0
+
+    def __post_init__(self) -> None:
+        d = tuple(float(v) for v in self.deflections)
+        object.__setattr__(self, "deflections", d)
+        if not d:
+            raise SpecError("a load path needs at least one deflection")
+        for v in d:
+            if not (math.isfinite(v) and v > 0):
+                raise SpecError(f"deflection must be a positive number of mm, got {v!r}")
+        if any(b <= a for a, b in zip(d, d[1:], strict=False)):
+            raise SpecError(f"deflections must be strictly increasing, got {list(d)}")
+        if not (math.isfinite(self.pressure) and self.pressure >= 0):
+            raise SpecError(f"pressure must be zero or a positive number of MPa, got {self.pressure!r}")
+
+    def check_against(self, model: ModelSpec) -> None:
+        """Reject loads the model cannot take (raises :class:`SpecError`)."""
+        limit = model.geometry.section_height - model.geometry.tread_thickness
+        if self.deflections[-1] >= limit:
+            raise SpecError(
+                f"deflection {self.deflections[-1]} mm reaches through the tyre: keep it below "
+                f"the section height minus the tread ({limit:g} mm)"
+            )
+        if model.inflated and self.pressure <= 0:
+            raise SpecError("the full model is inflated: give a pressure > 0 (e.g. 0.2 MPa)")
+        if not model.inflated and self.pressure > 0:
+            raise SpecError(
+                f"the reduced model is not inflated (thesis Table 3.1): pressure must be 0, "
+                f"got {self.pressure} MPa"
+            )
+
+
+@dataclass(frozen=True)
+class SolverSettings:
+    """How to run ``ccx``; none of these change a converged result.
+
+    ``initial_increment`` and ``max_increment`` are fractions of a load ramp;
+    ``timeout`` is wall-clock seconds per ccx run; ``threads`` is passed explicitly
+    because a Dask nanny sets ``OMP_NUM_THREADS=1`` for its children.
+    """
+
+    threads: int = 1
+    timeout: float = 1800.0
+    initial_increment: float = 0.1
+    min_increment: float = 1e-5
+    max_increment: float = 0.25
+    max_increments: int = 500
+    keep_scratch: bool = False
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.threads, int) and self.threads >= 1):
+            raise SpecError(f"solver.threads must be a positive integer, got {self.threads!r}")
+        _positive("solver.timeout", self.timeout)
+        if not 0 < self.min_increment <= self.initial_increment <= self.max_increment <= 1:
+            raise SpecError(
+                "solver increments must satisfy 0 < min_increment <= initial_increment <= "
+                f"max_increment <= 1, got {self.min_increment}, {self.initial_increment}, "
+                f"{self.max_increment}"
+            )
+        if not (isinstance(self.max_increments, int) and self.max_increments >= 1):
+            raise SpecError(f"solver.max_increments must be >= 1, got {self.max_increments!r}")
+
+
+def content_hash(data: Any) -> str:
+    """SHA-256 of the canonical (sorted-key, compact) JSON form of ``data``."""
+    text = json.dumps(data, sort_keys=True, separators=(",", ":"), allow_nan=False)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def _check_literal(name: str, value: Any, literal: Any) -> None:
+    allowed = get_args(literal)
+    if value not in allowed:
+        raise SpecError(f"{name} must be one of {', '.join(map(repr, allowed))}, got {value!r}")
+
+
+def _from_dict(cls: type, data: Any, where: str) -> Any:
+    """Build a (nested) frozen dataclass from plain data, rejecting unknown keys."""
+    if not isinstance(data, dict):
+        raise SpecError(f"{where} must be a table of keys, got {type(data).__name__} {data!r}")
+    hints = get_type_hints(cls)
+    names = {f.name for f in dataclasses.fields(cls)}
+    unknown = sorted(set(data) - names)
+    if unknown:
+        raise SpecError(
+            f"unknown key {where}.{unknown[0]}; allowed keys: {', '.join(sorted(names))}"
+        )
+    kwargs = {}
+    for name, value in data.items():
+        hint = hints[name]
+        if dataclasses.is_dataclass(hint):
+            value = _from_dict(hint, value, f"{where}.{name}")
+        elif typing.get_origin(hint) is tuple:
+            if not isinstance(value, list | tuple):
+                raise SpecError(f"{where}.{name} must be a list, got {value!r}")
+            value = tuple(value)
+        elif hint is float and isinstance(value, int) and not isinstance(value, bool):
+            value = float(value)
+        elif hint in (float, int) and not _is_number(value, hint):
+            raise SpecError(f"{where}.{name} must be a {hint.__name__}, got {value!r}")
+        kwargs[name] = value
+    try:
+        return cls(**kwargs)
+    except TypeError as e:  # a required key is missing
+        raise SpecError(f"{where}: {e}") from e
+
+
+def _is_number(value: Any, hint: type) -> bool:
+    if isinstance(value, bool):
+        return False
+    if hint is int:
+        return isinstance(value, int)
+    return isinstance(value, int | float)
+

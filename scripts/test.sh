@@ -1,0 +1,15 @@
+#!/usr/bin/env bash
+# The test command (README, .ci/run): set up, lint, then run the default test suite.
+#   bash scripts/test.sh            default suite (what CI runs)
+#   bash scripts/test.sh --slow     only the slow tests (default-size meshes, long sweeps)
+#   bash scripts/test.sh -k frd     any other arguments go to pytest
+set -euo pipefail
+source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
+# This command installs ccx itself, so a test that needs ccx must never skip here.
+export FARM_REQUIRE_CCX=1
+ruff check .
+if [ "${1:-}" = "--slow" ]; then
+    shift
+    exec python -m pytest -m slow "$@"
+fi
+exec python -m pytest "$@"
