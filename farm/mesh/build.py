@@ -158,7 +158,8 @@ def _extract(model, groups: dict[str, tuple[int, int]]) -> dict:
             for entity in model.getEntitiesForPhysicalGroup(dim, tag):
                 types, _, node_tags = model.mesh.getElements(dim, entity)
                 if list(types) != [5]:  # 5 = 8-node hexahedron
-                    raise MeshError(f"gmsh made element types {list(types)} in {name}, not hexahedra")
+                    raise MeshError(
+                        f"gmsh made element types {list(types)} in {name}, not hexahedra")
                 conn.append(np.asarray(node_tags[0], dtype=np.int64).reshape(-1, 8))
             raw["elements"][name.lower()] = np.vstack(conn)
         else:

@@ -9,6 +9,8 @@ from the -y bead to the +y bead, circumferential column ``j`` in increasing angl
 
 from __future__ import annotations
 
+import os
+import uuid
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -45,7 +47,8 @@ class TyreMesh:
         Index into :data:`REGIONS`.
     node_sets : mapping of str to ndarray
         Sorted node ids per named set (from gmsh physical groups): ``INNER``, ``OUTER``,
-        ``TREAD_OUTER``, ``BEAD_SEAT`` (the clamped bead faces) and, for a sector, ``CUT_START``/``CUT_END``.
+        ``TREAD_OUTER``, ``BEAD_SEAT`` (the clamped bead faces) and, for a sector,
+        ``CUT_START``/``CUT_END``.
     inner_face, outer_face : ndarray, shape (n_elements,)
         CalculiX face number (1..6) of each element on the cavity / outside surface.
     inner_grid, outer_grid : ndarray, shape (n_rows, n_columns)
@@ -123,7 +126,7 @@ class TyreMesh:
         }
         arrays.update({f"set_{k}": v for k, v in self.node_sets.items()})
         path = Path(path)
-        tmp = path.with_name(path.name + f".tmp{np.random.randint(1 << 30)}.npz")
+        tmp = path.with_name(f"{path.name}.{os.getpid()}.{uuid.uuid4().hex}.tmp.npz")
         np.savez_compressed(tmp, **arrays)
         tmp.replace(path)  # atomic: concurrent workers never read a half-written file
 

@@ -1,0 +1,166 @@
+"""CalculiX input decks for the tyre models (thesis §3.2).
+
+A deck is assembled from small sections: the tyre mesh with its named sets (from the
+gmsh physical groups), the Neo-Hookean materials, an optional rigid road slab with
+node-to-surface contact, and one NLGEOM static step. Loads ramp with amplitudes inside
+ONE step: inflation over step time [0, 1], then the road over [1, 2]. (Inflating and
+loading as two ``*STEP``s was fragile in a prototype: a 9-40 mm first correction and
+cutbacks at the start of the second step.) ``*TIME POINTS`` make one run produce results
+at every deflection of a load path.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from farm.mesh.tyremesh import REGIONS, TyreMesh
+from farm.specs import ContactLaw, Materials, SolverSettings
+
+ELEMENT_TYPE = "C3D8I"  # incompatible modes: plain C3D8 locks at nu = 0.499 (§3.2)
+
+
+def _num(v: float) -> str:
+    return f"{float(v):.12g}"
+
+
+def _id_lines(ids: Iterable[int], per_line: int = 16) -> list[str]:
+    ids = [str(int(i)) for i in ids]
+    return [", ".join(ids[k:k + per_line]) for k in range(0, len(ids), per_line)]
+
+
+def mesh_lines(mesh: TyreMesh) -> list[str]:
+    """Nodes, elements per region (element sets TREAD/SIDEWALL/BEAD) and node sets."""
+    lines = ["*NODE, NSET=TYRE"]
+    lines += [f"{k + 1}, {_num(x)}, {_num(y)}, {_num(z)}" for k, (x, y, z) in enumerate(mesh.nodes)]
+    for r, region in enumerate(REGIONS):
+        ids = np.flatnonzero(mesh.element_region == r)
+        lines.append(f"*ELEMENT, TYPE={ELEMENT_TYPE}, ELSET={region.upper()}")
+        lines += [f"{e + 1}, " + ", ".join(map(str, mesh.elements[e])) for e in ids]
+    for name, ids in mesh.node_sets.items():
+        lines.append(f"*NSET, NSET={name}")
+        lines += _id_lines(ids)
+    return lines
+
+
+def material_lines(materials: Materials) -> list[str]:
+    """``*HYPERELASTIC, NEO HOOKE`` with C10 = G/2 and D1 = 2/K per region (Table 3.1)."""
+    lines = []
+    for region, m in materials.by_region().items():
+        name = region.upper()
+        lines += [f"*MATERIAL, NAME=M_{name}", "*HYPERELASTIC, NEO HOOKE",
+                  f"{_num(m.c10)}, {_num(m.d1)}",
+                  f"*SOLID SECTION, ELSET={name}, MATERIAL=M_{name}"]
+    return lines
+
+
+def cavity_pressure_lines(mesh: TyreMesh, pressure: float, amplitude: str | None) -> list[str]:
+    """Inflation pressure (MPa) on every element's cavity face."""
+    head = "*DLOAD" + (f", AMPLITUDE={amplitude}" if amplitude else "")
+    return [head] + [f"{e + 1}, P{f}, {_num(pressure)}" for e, f in enumerate(mesh.inner_face)]
+
+
+@dataclass(frozen=True)
+class Road:
+    """A rigid road slab under the tyre: its node and element ids and top-plane height."""
+
+    first_node: int
+    first_element: int
+    z_top: float
+    lines: tuple[str, ...]
+
+    @property
+    def node_set(self) -> str:
+        return "ROAD"
+
+
+def road_slab(mesh: TyreMesh, z_top: float, half_length: float, half_width: float,
+              divisions: tuple[int, int] = (8, 4), thickness: float = 10.0) -> Road:
+    """Rigid road: C3D8 slab whose top face (S2) is the contact master surface.
+
+    Every road node gets a prescribed displacement, so the slab is rigid and the sum of
+    its reaction forces is the road's reaction on the tyre.
+    """
+    nx, ny = divisions
+    xs = np.linspace(-half_length, half_length, nx + 1)
+    ys = np.linspace(-half_width, half_width, ny + 1)
+    n0, e0 = mesh.n_nodes + 1, mesh.n_elements + 1
+    lines = ["*NODE, NSET=ROAD"]
+    ids = np.arange(n0, n0 + 2 * xs.size * ys.size).reshape(2, xs.size, ys.size)
+    for layer, z in enumerate((z_top - thickness, z_top)):
+        for i, x in enumerate(xs):
+            for j, y in enumerate(ys):
+                lines.append(f"{ids[layer, i, j]}, {_num(x)}, {_num(y)}, {_num(z)}")
+    lines.append("*ELEMENT, TYPE=C3D8, ELSET=ROAD")
+    faces = []
+    e = e0
+    for i in range(nx):
+        for j in range(ny):
+            quad = [ids[0, i, j], ids[0, i + 1, j], ids[0, i + 1, j + 1], ids[0, i, j + 1]]
+            top = [ids[1, i, j], ids[1, i + 1, j], ids[1, i + 1, j + 1], ids[1, i, j + 1]]
+            lines.append(f"{e}, " + ", ".join(map(str, quad + top)))
+            faces.append(f"{e}, S2")
+            e += 1
+    lines += ["*SURFACE, NAME=ROAD_TOP, TYPE=ELEMENT", *faces,
+              "*MATERIAL, NAME=M_ROAD", "*ELASTIC", "210000, 0.3",
+              "*SOLID SECTION, ELSET=ROAD, MATERIAL=M_ROAD"]
+    return Road(n0, e0, z_top, tuple(lines))
+
+
+def contact_lines(mesh: TyreMesh, law: ContactLaw) -> list[str]:
+    """Frictionless node-to-surface contact of the outer tread with the road top.
+
+    The slave surface is element-face based so that ccx knows each slave node's area
+    and reports contact pressure (CSTR) rather than a force.
+    """
+    tread = REGIONS.index("tread")
+    faces = [f"{e + 1}, S{mesh.outer_face[e]}"
+             for e in np.flatnonzero(mesh.element_region == tread)]
+    return ["*SURFACE, NAME=TREAD_SURF, TYPE=ELEMENT", *faces,
+            "*SURFACE INTERACTION, NAME=ROAD_CONTACT",
+            "*SURFACE BEHAVIOR, PRESSURE-OVERCLOSURE=EXPONENTIAL",
+            f"{_num(law.clearance)}, {_num(law.pressure)}",
+            "*CONTACT PAIR, INTERACTION=ROAD_CONTACT, TYPE=NODE TO SURFACE",
+            "TREAD_SURF, ROAD_TOP"]
+
+
+def static_step_lines(period: float, settings: SolverSettings) -> list[str]:
+    """NLGEOM static step with automatic incrementation over ``period``."""
+    return [f"*STEP, NLGEOM, INC={settings.max_increments}", "*STATIC",
+            f"{_num(settings.initial_increment * period)}, {_num(period)}, "
+            f"{_num(settings.min_increment * period)}, {_num(settings.max_increment * period)}"]
+
+
+def time_points_lines(time_points: Sequence[float]) -> list[str]:
+    """The output times (model definition, referenced as ``OUT`` by the step's output)."""
+    return ["*TIME POINTS, NAME=OUT", *(_num(t) for t in time_points)]
+
+
+def measured_set_lines(node_sets: Sequence[str]) -> list[str]:
+    """Node set ``MEASURED``: the union of the sets whose results are written."""
+    return ["*NSET, NSET=MEASURED", *(f"{s}," for s in node_sets)]
+
+
+def output_lines(time_points: bool, contact: bool) -> list[str]:
+    """Step output: U and RF of ``MEASURED`` nodes, strain at the cavity, contact.
+
+    Output is limited to the nodes the measurements need (the .frd stays small and
+    quick to parse); ``*EL FILE`` E gives ccx's integration-point strains extrapolated
+    to and averaged at the nodes (thesis §4.2).
+    """
+    tp = ", TIME POINTS=OUT" if time_points else ""
+    lines = [f"*NODE FILE, NSET=MEASURED{tp}", "U, RF", f"*EL FILE, NSET=INNER{tp}", "E"]
+    if contact:
+        lines += [f"*CONTACT FILE{tp}", "CDIS, CSTR",
+                  f"*NODE PRINT, NSET=ROAD, TOTALS=ONLY{tp}", "RF"]
+    return lines
+
+
+def assemble(*sections: Iterable[str]) -> str:
+    """Join deck sections into the deck text."""
+    out = ["*HEADING", "tyre-farm virtual experiment (TM700 280/70R16)"]
+    for section in sections:
+        out += list(section)
+    return "\n".join(out) + "\n"

@@ -1,0 +1,249 @@
+"""The one place that runs ``ccx``.
+
+Every solve goes through :func:`run_ccx`: a scratch directory per run, an argument list
+(never a shell string), ``LC_ALL=C`` and an explicit thread count (a Dask nanny sets
+``OMP_NUM_THREADS=1`` for its children), a timeout, and the whole process group killed on
+timeout, cancellation or any exception. On Linux the solver also gets a parent-death
+signal, so a ccx never outlives the worker process that started it (a SIGKILLed Dask
+worker would otherwise leave an orphan solver running). The outcome is classified from
+the exit code and the output (:mod:`farm.ccx.outcome`); failures raise
+:class:`~farm.errors.SolverError` with the class, command, exit code and output tail.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+
+from farm.ccx.outcome import HINTS, Outcome, classify
+from farm.errors import CcxNotFoundError, SolverError
+
+TAIL_LINES = 40
+POLL_SECONDS = 0.1
+
+
+@dataclass(frozen=True)
+class CcxRun:
+    """A finished ccx run and where its files are."""
+
+    command: tuple[str, ...]
+    workdir: Path
+    jobname: str
+    returncode: int | None
+    seconds: float
+    outcome: Outcome
+    output_tail: str
+    increments: int
+    cutbacks: int
+    progress: tuple[tuple[float, float], ...] = ()
+    """(total time, seconds since start) at which each increment converged."""
+
+    def seconds_to(self, total_time: float) -> float:
+        """Seconds the solver took to reach ``total_time`` (the run's total if unknown)."""
+        for t, s in self.progress:
+            if t >= total_time - 1e-9:
+                return s
+        return self.seconds
+
+    def file(self, suffix: str) -> Path:
+        """Path of ``jobname.<suffix>`` (``frd``, ``dat``, ``sta``, ``inp``)."""
+        return self.workdir / f"{self.jobname}.{suffix}"
+
+
+def find_ccx() -> str:
+    """Absolute path of the solver: ``$FARM_CCX`` if set, else ``ccx`` on ``PATH``."""
+    name = os.environ.get("FARM_CCX", "ccx")
+    exe = shutil.which(name)
+    if exe is None:
+        raise CcxNotFoundError(
+            f"CalculiX solver {name!r} not found on PATH: install it with "
+            "`sudo apt-get install calculix-ccx` (or run scripts/setup.sh), "
+            "or point FARM_CCX at the executable"
+        )
+    return exe
+
+
+@lru_cache(maxsize=4)
+def ccx_version(exe: str | None = None) -> str:
+    """Version string printed by ``ccx -v``, e.g. ``"2.20"`` (part of experiment ids)."""
+    exe = exe or find_ccx()
+    out = subprocess.run([exe, "-v"], capture_output=True, text=True, timeout=30,
+                         env={**os.environ, "LC_ALL": "C"}).stdout
+    for word in out.split():
+        if word[:1].isdigit():
+            return word
+    return out.strip() or "unknown"
+
+
+@contextlib.contextmanager
+def scratch_dir(keep: bool = False, prefix: str = "ccx-") -> Iterator[Path]:
+    """A fresh directory under ``$FARM_SCRATCH_DIR`` (default: the system temp dir).
+
+    Removed on exit unless ``keep``; kept directories are reported by their path.
+    """
+    base = os.environ.get("FARM_SCRATCH_DIR")
+    if base:
+        Path(base).mkdir(parents=True, exist_ok=True)
+    path = Path(tempfile.mkdtemp(prefix=prefix, dir=base))
+    try:
+        yield path
+    finally:
+        if not keep:
+            shutil.rmtree(path, ignore_errors=True)
+
+
+def _die_with_parent() -> None:  # runs in the child between fork and exec
+    if sys.platform.startswith("linux"):
+        libc = ctypes.CDLL("libc.so.6", use_errno=True)
+        libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+
+
+def _solver_env(threads: int) -> dict[str, str]:
+    env = dict(os.environ)
+    n = str(threads)
+    env.update(LC_ALL="C", OMP_NUM_THREADS=n, CCX_NPROC_EQUATION_SOLVER=n,
+               CCX_NPROC_STIFFNESS=n, CCX_NPROC_RESULTS=n, NUMBER_OF_CPUS=n)
+    return env
+
+
+def _kill_group(proc: subprocess.Popen) -> None:
+    with contextlib.suppress(ProcessLookupError, PermissionError):
+        os.killpg(proc.pid, signal.SIGKILL)
+    with contextlib.suppress(Exception):
+        proc.wait(timeout=10)
+
+
+class _Progress:
+    """Watches the ``.sta`` file: when (in seconds since start) each increment converged."""
+
+    def __init__(self, sta: Path, start: float) -> None:
+        self.sta, self.start, self.size = sta, start, 0
+        self.marks: list[tuple[float, float]] = []
+
+    def poll(self) -> None:
+        try:
+            size = self.sta.stat().st_size
+        except OSError:
+            return
+        if size != self.size:
+            self.size = size
+            now = time.perf_counter() - self.start
+            seen = {t for t, _ in self.marks}
+            for t in _sta_rows(self.sta):
+                if t not in seen:
+                    self.marks.append((t, now))
+
+
+def _wait(proc: subprocess.Popen, timeout: float, should_stop,
+          progress: _Progress) -> Outcome | None:
+    """Wait for the solver; return TIMEOUT/CANCELLED if it had to be killed."""
+    deadline = time.monotonic() + timeout
+    while True:
+        try:
+            proc.wait(timeout=POLL_SECONDS)
+            progress.poll()
+            return None
+        except subprocess.TimeoutExpired:
+            progress.poll()
+            if time.monotonic() > deadline:
+                _kill_group(proc)
+                return Outcome.TIMEOUT
+            if should_stop is not None and should_stop():
+                _kill_group(proc)
+                return Outcome.CANCELLED
+
+
+def _sta_lines(path: Path) -> list[list[str]]:
+    """Rows of converged increments in a ``.sta`` file (failed attempts end in 'U')."""
+    rows = []
+    with contextlib.suppress(OSError):
+        for line in path.read_text(errors="replace").splitlines():
+            fields = line.split()
+            if len(fields) >= 7 and fields[0].isdigit() and fields[2].isdigit():
+                rows.append(fields)
+    return rows
+
+
+def _sta_rows(path: Path) -> list[float]:
+    """Total times of the converged increments in a ``.sta`` file."""
+    return [float(f[4]) for f in _sta_lines(path)]
+
+
+def read_sta(path: Path) -> tuple[int, int]:
+    """(converged increments, cutbacks) from a ccx ``.sta`` file; (0, 0) if absent."""
+    rows = _sta_lines(path)
+    return len(rows), sum(int(f[2]) - 1 for f in rows)
+
+
+def _tail(path: Path, lines: int = TAIL_LINES) -> str:
+    try:
+        return "\n".join(path.read_text(errors="replace").splitlines()[-lines:])
+    except OSError:
+        return ""
+
+
+def run_ccx(
+    deck: str,
+    workdir: Path,
+    *,
+    jobname: str = "job",
+    threads: int = 1,
+    timeout: float = 1800.0,
+    should_stop: Callable[[], bool] | None = None,
+    check: bool = True,
+) -> CcxRun:
+    """Write ``deck`` to ``workdir/jobname.inp``, run ccx on it and classify the outcome.
+
+    Parameters
+    ----------
+    deck : str
+        The input deck text.
+    workdir : Path
+        An existing, private directory (see :func:`scratch_dir`).
+    threads : int
+        Solver threads (all of ccx's thread variables are set to it).
+    timeout : float
+        Wall-clock limit in seconds; the process group is killed when it passes.
+    should_stop : callable, optional
+        Polled while the solver runs; returning True kills it (outcome ``cancelled``).
+    check : bool
+        Raise :class:`SolverError` unless the run converged.
+    """
+    exe = find_ccx()
+    (workdir / f"{jobname}.inp").write_text(deck)
+    command = (exe, "-i", jobname)
+    log = workdir / f"{jobname}.log"
+    start = time.perf_counter()
+    progress = _Progress(workdir / f"{jobname}.sta", start)
+    with open(log, "wb") as out:
+        proc = subprocess.Popen(
+            command, cwd=workdir, stdout=out, stderr=subprocess.STDOUT,
+            stdin=subprocess.DEVNULL, env=_solver_env(threads),
+            start_new_session=True, preexec_fn=_die_with_parent,
+        )
+        try:
+            killed = _wait(proc, timeout, should_stop, progress)
+        except BaseException:  # KeyboardInterrupt, a cancelled task, anything
+            _kill_group(proc)
+            raise
+    seconds = time.perf_counter() - start
+    tail = _tail(log)
+    returncode = None if killed else proc.returncode
+    outcome = killed or classify(returncode, log.read_text(errors="replace"))
+    increments, cutbacks = read_sta(workdir / f"{jobname}.sta")
+    run = CcxRun(command, workdir, jobname, returncode, seconds, outcome, tail,
+                 increments, cutbacks, tuple(progress.marks))
+    if check and outcome is not Outcome.CONVERGED:
+        raise SolverError(outcome.value, list(command), returncode, tail, HINTS.get(outcome, ""))
+    return run

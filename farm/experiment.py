@@ -1,0 +1,78 @@
+"""Run one load path end to end: mesh (cached), solve with ccx, measure.
+
+This is the unit of work a farm worker executes: one model, one pressure, several
+deflections, one :class:`PathResult` with a :class:`~farm.measure.Measurement` per
+deflection.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from farm.ccx.runner import ccx_version
+from farm.measure.measurement import Measurement, measure
+from farm.mesh import TyreMesh, mesh_for
+from farm.solve.contact import solve_contact_path
+from farm.solve.iterative import solve_iterative_path
+from farm.solve.states import PathSolution
+from farm.specs import LoadPath, ModelSpec, SolverSettings
+
+
+@dataclass(frozen=True, eq=False)
+class PathResult:
+    """The measurements of a solved load path and what solving it cost."""
+
+    model: ModelSpec
+    path: LoadPath
+    measurements: tuple[Measurement, ...]
+    solve_seconds: float
+    wall_seconds: float
+    ccx_runs: int
+    increments: int
+    solver: str
+
+    def save(self, file: str | Path, mesh: TyreMesh) -> None:
+        """Write the arrays (and node ids/coordinates) to a ``.npz`` file."""
+        m = self.measurements
+        np.savez_compressed(
+            file,
+            deflection=np.array([x.deflection for x in m]),
+            pressure=np.array([x.pressure for x in m]),
+            inner_node=mesh.inner_nodes, inner_xyz=mesh.xyz(mesh.inner_nodes),
+            tread_node=mesh.tread_nodes, tread_xyz=mesh.xyz(mesh.tread_nodes),
+            **{k: np.stack([x.arrays()[k] for x in m]) for k in m[0].arrays()},
+            model_spec=np.array(repr(self.model)), solver=np.array(self.solver),
+        )
+
+
+def solve_path(model: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: SolverSettings,
+               should_stop: Callable[[], bool] | None = None) -> PathSolution:
+    """Dispatch on the road boundary condition of ``model``."""
+    solver = solve_contact_path if model.road == "contact" else solve_iterative_path
+    return solver(model, mesh, path, settings, should_stop)
+
+
+def run_load_path(model: ModelSpec, path: LoadPath, settings: SolverSettings | None = None,
+                  *, should_stop: Callable[[], bool] | None = None) -> PathResult:
+    """Mesh ``model`` (cached), solve ``path`` and derive the measurements.
+
+    Raises :class:`~farm.errors.SpecError` for a load the model cannot take (nothing
+    is run) and :class:`~farm.errors.SolverError` when ccx fails.
+    """
+    settings = settings or SolverSettings()
+    path.check_against(model)
+    start = time.perf_counter()
+    mesh = mesh_for(model)
+    solution = solve_path(model, mesh, path, settings, should_stop)
+    measurements = measure(mesh, solution, path.pressure)
+    return PathResult(
+        model=model, path=path, measurements=tuple(measurements),
+        solve_seconds=solution.solve_seconds, wall_seconds=time.perf_counter() - start,
+        ccx_runs=solution.ccx_runs, increments=solution.increments,
+        solver=f"CalculiX {ccx_version()}",
+    )

@@ -1,0 +1,105 @@
+"""What one virtual experiment yields: the camera's measurements and the true forces.
+
+Measurements are taken relative to the unloaded reference state of the load path - the
+inflated, unloaded tyre for the full model, the undeformed one for the reduced model -
+because T2Cam measures against a reference point cloud of the inflated but unloaded tyre
+(thesis §2.2). The solver strain is reported as its change from that state.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from farm.measure.surface import cst_surface_strain, rotate_to_surface, surface_frames
+from farm.mesh.tyremesh import TyreMesh
+from farm.solve.states import PathSolution, SolvedState
+
+
+@dataclass(frozen=True, eq=False)
+class Measurement:
+    """One experiment's arrays (units: mm, N, N mm; strains dimensionless).
+
+    Attributes
+    ----------
+    deflection, pressure : float
+        Load case: road travel from first touch (mm) and inflation pressure (MPa).
+    displacement : ndarray, shape (n_inner, 3)
+        Inner-surface displacement from the reference state, global x, y, z.
+    strain : ndarray, shape (n_inner, 3)
+        Solver strain change from the reference state, local xx, yy, xy.
+    surface_strain : ndarray, shape (n_inner, 3)
+        CST surface strain from the reference state, local xx, yy, xy.
+    reaction_force : ndarray, shape (n_tread, 3)
+        Road force on each outer tread node.
+    total_force : ndarray, shape (3,)
+        Fx, Fy, Fz summed over the tread.
+    moment : ndarray, shape (3,)
+        Mx, My, Mz of the tread forces about the contact centre (0, 0, road z).
+    road_reaction : ndarray, shape (3,)
+        The road's reaction obtained independently of the tread forces (a check).
+    contact_nodes : int
+        Tread nodes carrying road force.
+    solve_seconds : float
+        Solver seconds spent to reach this state (see ``SolvedState``).
+    """
+
+    deflection: float
+    pressure: float
+    displacement: np.ndarray
+    strain: np.ndarray
+    surface_strain: np.ndarray
+    reaction_force: np.ndarray
+    total_force: np.ndarray
+    moment: np.ndarray
+    road_reaction: np.ndarray
+    contact_nodes: int
+    solve_seconds: float
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """The arrays the store holds for an experiment."""
+        return {
+            "displacement": self.displacement, "strain": self.strain,
+            "surface_strain": self.surface_strain, "reaction_force": self.reaction_force,
+            "total_force": self.total_force, "moment": self.moment,
+        }
+
+
+def tread_totals(mesh: TyreMesh, state: SolvedState) -> tuple[np.ndarray, np.ndarray]:
+    """Total force and moment about the contact centre from the tread node forces.
+
+    The contact centre is the point of the road plane under the wheel centre (TYDEX C
+    origin, thesis §2.5); lever arms use the deformed node positions, as a wheel force
+    transducer would see them.
+    """
+    force = state.tread_force
+    centre = np.array([0.0, 0.0, state.road_z])
+    arms = state.positions(mesh, mesh.tread_nodes) - centre
+    return force.sum(axis=0), np.cross(arms, force).sum(axis=0)
+
+
+def measure(mesh: TyreMesh, solution: PathSolution, pressure: float) -> list[Measurement]:
+    """Derive the measurements of every state of a solved load path."""
+    ref = solution.reference
+    grid = mesh.inner_grid
+    shape = (*grid.shape, 3)
+    x0 = mesh.xyz(mesh.inner_nodes)
+    ref_xyz = (x0 + ref.displacement[mesh.inner_nodes - 1]).reshape(shape)
+    frames = surface_frames(x0.reshape(shape)).reshape(-1, 3, 3)
+    out = []
+    for state in solution.states:
+        u = state.displacement[mesh.inner_nodes - 1]
+        cur_xyz = (x0 + u).reshape(shape)
+        total, moment = tread_totals(mesh, state)
+        out.append(Measurement(
+            deflection=state.deflection, pressure=pressure,
+            displacement=u - ref.displacement[mesh.inner_nodes - 1],
+            strain=rotate_to_surface(state.strain - ref.strain, frames),
+            surface_strain=cst_surface_strain(ref_xyz, cur_xyz, mesh.periodic).reshape(-1, 3),
+            reaction_force=state.tread_force, total_force=total, moment=moment,
+            road_reaction=state.road_reaction,
+            contact_nodes=int(np.count_nonzero(np.abs(state.tread_force).sum(axis=1))),
+            solve_seconds=state.solve_seconds,
+        ))
+    return out

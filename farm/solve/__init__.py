@@ -1,0 +1,1 @@
+"""Solving load paths with ccx: rigid-road contact and the thesis' iterative road."""
