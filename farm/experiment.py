@@ -19,17 +19,22 @@ from farm.measure.measurement import Measurement, measure
 from farm.mesh import TyreMesh, mesh_for
 from farm.solve.contact import solve_contact_path
 from farm.solve.iterative import solve_iterative_path
-from farm.solve.states import PathSolution
+from farm.solve.states import PathSolution, SolvedState
 from farm.specs import LoadPath, ModelSpec, SolverSettings
 
 
 @dataclass(frozen=True, eq=False)
 class PathResult:
-    """The measurements of a solved load path and what solving it cost."""
+    """The measurements of a solved load path and what solving it cost.
+
+    ``reference`` is the unloaded state the measurements are taken from (the inflated
+    tyre for the full model).
+    """
 
     model: ModelSpec
     path: LoadPath
     measurements: tuple[Measurement, ...]
+    reference: SolvedState
     solve_seconds: float
     wall_seconds: float
     ccx_runs: int
@@ -71,7 +76,7 @@ def run_load_path(model: ModelSpec, path: LoadPath, settings: SolverSettings | N
     solution = solve_path(model, mesh, path, settings, should_stop)
     measurements = measure(mesh, solution, path.pressure)
     return PathResult(
-        model=model, path=path, measurements=tuple(measurements),
+        model=model, path=path, measurements=tuple(measurements), reference=solution.reference,
         solve_seconds=solution.solve_seconds, wall_seconds=time.perf_counter() - start,
         ccx_runs=solution.ccx_runs, increments=solution.increments,
         solver=f"CalculiX {ccx_version()}",

@@ -78,10 +78,12 @@ def half_outer_contour(g: TyreGeometry, n: int = 4000) -> tuple[np.ndarray, floa
     t_edge = np.array([np.cos(phi_e), -np.sin(phi_e)])
     widest = np.array([g.section_width / 2, g.rim_radius + MAX_WIDTH_HEIGHT * g.section_height])
     # Control lengths of a round shoulder: about half the span each way (a quarter-circle
-    # Bezier uses 0.55 of its radius).
+    # Bezier uses 0.55 of its radius), but never reaching beyond the maximum width, so
+    # that by the convex-hull property the contour stays within the section width.
     span = np.linalg.norm(widest - edge)
+    along = min(0.55 * span, (widest[0] - edge[0]) / t_edge[0])
     shoulder = _bezier(
-        edge, edge + 0.55 * span * t_edge, widest + np.array([0.0, 0.55 * span]), widest, n // 4
+        edge, edge + along * t_edge, widest + np.array([0.0, 0.55 * span]), widest, n // 4
     )
 
     seat = np.array([g.rim_width / 2, g.rim_radius])
@@ -153,7 +155,9 @@ def build_section(g: TyreGeometry, mesh: MeshDensity, samples_per_element: int =
     s = np.concatenate(s_parts)
 
     outer = _resample(full, s_dense, s)
-    tangent = np.gradient(outer, s, axis=0)
+    # tangents from the dense contour: a difference over the coarse samples would tilt
+    # the end faces off the rim seat
+    tangent = _resample(np.gradient(full, s_dense, axis=0, edge_order=2), s_dense, s)
     tangent /= np.linalg.norm(tangent, axis=1, keepdims=True)
     inward = np.column_stack([tangent[:, 1], -tangent[:, 0]])  # towards the cavity
     inner = outer + wall_thickness(g, s, bounds)[:, None] * inward

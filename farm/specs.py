@@ -315,16 +315,20 @@ class LoadPath:
 class SolverSettings:
     """How to run ``ccx``; none of these change a converged result.
 
-    ``initial_increment`` and ``max_increment`` are fractions of a load ramp;
+    ``initial_increment``, ``min_increment`` and ``max_increment`` are fractions of a
+    load ramp (one unit of step time);
     ``timeout`` is wall-clock seconds per ccx run; ``threads`` is passed explicitly
     because a Dask nanny sets ``OMP_NUM_THREADS=1`` for its children.
     """
 
     threads: int = 1
     timeout: float = 1800.0
-    initial_increment: float = 0.1
+    # Fractions of one load ramp. Measured on the full model (200 kPa, 10-30 mm path):
+    # 0.1/0.25 took 22 increments, 0.5/0.5 took 15 and 40 % less time, same forces
+    # to 0.01 %; the time points cap the road ramp's increments anyway.
+    initial_increment: float = 0.25
     min_increment: float = 1e-5
-    max_increment: float = 0.25
+    max_increment: float = 0.5
     max_increments: int = 500
     keep_scratch: bool = False
 

@@ -127,10 +127,13 @@ def contact_lines(mesh: TyreMesh, law: ContactLaw) -> list[str]:
 
 
 def static_step_lines(period: float, settings: SolverSettings) -> list[str]:
-    """NLGEOM static step with automatic incrementation over ``period``."""
+    """NLGEOM static step with automatic incrementation over ``period``.
+
+    Increment sizes are fractions of one load ramp, which lasts one unit of step time.
+    """
     return [f"*STEP, NLGEOM, INC={settings.max_increments}", "*STATIC",
-            f"{_num(settings.initial_increment * period)}, {_num(period)}, "
-            f"{_num(settings.min_increment * period)}, {_num(settings.max_increment * period)}"]
+            f"{_num(settings.initial_increment)}, {_num(period)}, "
+            f"{_num(settings.min_increment)}, {_num(settings.max_increment)}"]
 
 
 def time_points_lines(time_points: Sequence[float]) -> list[str]:
