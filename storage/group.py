@@ -1,0 +1,157 @@
+"""Client side: create the group of a mesh (node sets written once); list groups.
+
+Creating writes metadata, so only the submitting client calls it (one metadata writer,
+DESIGN.md). A group is marked complete by its ``schema_version`` attribute, written
+last, so a client killed half-way leaves a group that the next call rebuilds.
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+import numpy as np
+import zarr
+
+from storage.errors import MeshMismatchError, SchemaError
+from storage.mesh import GroupAttrs, MeshNodes
+from storage.paths import StoreLike, check_group_name, open_group, open_store
+from storage.paths import publish as _publish
+from storage.paths import root_group as _root_group
+from storage.schema import (
+    CLIENT_CHUNK,
+    COMPONENTS,
+    EXPERIMENT,
+    FIXED_VARIABLES,
+    KNOWN_PARAMETER_UNITS,
+    MESH_VARIABLES,
+    REQUIRED_PARAMETERS,
+    SCHEMA_VERSION,
+    STRAIN_COMPONENTS,
+    WORKER_VARIABLES,
+    Variable,
+    parameter,
+)
+
+
+def create_array(g: zarr.Group, var: Variable, shape: tuple[int, ...]) -> zarr.Array:
+    """Create one variable of the schema in ``g`` (dims, dtype, fill, units, chunks)."""
+    # Worker variables: one experiment per chunk, node dims whole, so that a worker's
+    # write is whole chunks of its own. Client variables: large chunks, one writer.
+    if var.dims[0] != "experiment":
+        chunks = shape
+    elif var.writer == "worker":
+        chunks = (1, *shape[1:])
+    else:
+        chunks = (CLIENT_CHUNK,)
+    return g.create_array(
+        var.name,
+        shape=shape,
+        chunks=tuple(max(c, 1) for c in chunks),
+        dtype=str if var.dtype == "str" else var.dtype,
+        fill_value=var.fill,
+        dimension_names=var.dims,
+        attributes=var.attrs,
+        compressors="auto" if var.compressed else None,
+    )
+
+
+def create_group(store: StoreLike, group: str, mesh: MeshNodes, attrs: GroupAttrs) -> None:
+    """Create the group of one model mesh, with its node sets and no experiments.
+
+    Idempotent: calling it again with the same mesh (same ``mesh_key``, node ids, grid
+    positions and coordinates) changes nothing. Client only.
+
+    Parameters
+    ----------
+    store : path, URL or zarr store
+        Created when it does not exist yet (a new or empty directory).
+    group : str
+        Group name, e.g. derived from the mesh key.
+    mesh : MeshNodes
+        Node ids (N inner, M tread), reference coordinates (N, 3), (M, 3) and grid rows.
+    attrs : GroupAttrs
+        Model spec, mesh key, solver and package versions.
+
+    Raises
+    ------
+    MeshMismatchError
+        The group exists for a different mesh.
+    """
+    if not isinstance(mesh, MeshNodes) or not isinstance(attrs, GroupAttrs):
+        raise SchemaError(
+            f"create_group takes a MeshNodes and a GroupAttrs, got {type(mesh).__name__} and "
+            f"{type(attrs).__name__}"
+        )
+    check_group_name(group)
+    zs = open_store(store)
+    root = _root_group(zs, create=True)
+    if group in root and _is_complete(root, group):
+        _check_same_mesh(open_group(zs, group), group, mesh, attrs)
+    else:
+        _build(root, group, mesh, attrs)
+    _publish(zs)
+
+
+def _is_complete(root: zarr.Group, group: str) -> bool:
+    node = root[group]
+    if not isinstance(node, zarr.Group):
+        raise SchemaError(f"{group!r} is an array in this store, not a group: choose another name")
+    if "schema_version" in node.attrs:
+        return True
+    ours = set(FIXED_VARIABLES) | set(KNOWN_PARAMETER_UNITS)
+    foreign = sorted(set(node.keys()) - ours)
+    if foreign:
+        raise SchemaError(
+            f"group {group!r} exists but is not a tyre-farm group (it holds {foreign[0]!r}): "
+            "choose another group name"
+        )
+    return False  # a half-made group of ours: a client died creating it; rebuild it
+
+
+def _build(root: zarr.Group, group: str, mesh: MeshNodes, attrs: GroupAttrs) -> None:
+    g = root.create_group(group, overwrite=True)
+    values: dict[str, Any] = {
+        "component": np.array(COMPONENTS, dtype=object),
+        "strain_component": np.array(STRAIN_COMPONENTS, dtype=object),
+        **mesh.arrays(),
+    }
+    for var in MESH_VARIABLES:
+        create_array(g, var, values[var.name].shape)[...] = values[var.name]
+    sizes = {"experiment": 0, "inner_node": mesh.n_inner, "tread_node": mesh.n_tread,
+             "component": 3, "strain_component": 3}
+    experiment_vars = [EXPERIMENT, *(parameter(n, u) for n, (u, _) in REQUIRED_PARAMETERS.items()),
+                       *WORKER_VARIABLES]
+    for var in experiment_vars:
+        create_array(g, var, tuple(sizes[d] for d in var.dims))
+    # Last: the attribute that marks the group complete.
+    g.update_attributes({
+        "schema_version": SCHEMA_VERSION,
+        "model_spec": attrs.model_spec,
+        "mesh_key": attrs.mesh_key,
+        "solver": attrs.solver,
+        "package_versions": json.dumps(dict(attrs.package_versions), sort_keys=True),
+    })
+
+
+def _check_same_mesh(g: zarr.Group, group: str, mesh: MeshNodes, attrs: GroupAttrs) -> None:
+    stored_key = g.attrs.get("mesh_key")
+    if stored_key != attrs.mesh_key:
+        raise MeshMismatchError(
+            f"group {group!r} holds mesh {stored_key!r}, not {attrs.mesh_key!r}: use one group "
+            "per mesh (a new group name for this mesh)"
+        )
+    stored = {name: g[name][...] for name in mesh.arrays()}
+    diff = mesh.difference(stored)
+    if diff:
+        raise MeshMismatchError(
+            f"group {group!r} has mesh key {attrs.mesh_key!r} but another mesh: {diff}; "
+            "the mesh key must change when the mesh does"
+        )
+
+
+def list_groups(store: StoreLike) -> list[str]:
+    """Names of the experiment groups in a store, sorted."""
+    zs = open_store(store, read_only=True)
+    root = _root_group(zs)
+    return sorted(name for name, g in root.groups() if "schema_version" in g.attrs)

@@ -1,0 +1,120 @@
+"""Worker side: a per-process cache of a group's open arrays and of its id -> index map.
+
+Opening a dozen arrays costs more than writing an experiment (about 0.5 ms each), and a
+worker writes many experiments into one group, so the opened arrays are kept. The cache
+is sound because of the schema's rules: an id keeps its index forever, and a client's
+resize only grows arrays, so a cached array (with a stale, smaller shape) still writes
+the right chunk for every index it knows. A cached index is nevertheless checked on
+every write against the stored id (one small read), which also catches a store deleted
+and made anew at the same path; a miss or a mismatch reloads everything.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections import OrderedDict
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from zarr import AsyncArray
+from zarr.abc.store import Store
+from zarr.core.sync import sync
+from zarr.storage import FsspecStore, LocalStore
+
+from storage.errors import NotReservedError
+from storage.paths import describe, open_group
+from storage.reserve import read_ids
+from storage.schema import EXPERIMENT, WORKER_VARIABLES
+
+_MAX_HANDLES = 16
+_HANDLES: OrderedDict[tuple[object, ...], Handle] = OrderedDict()
+_LOCK = threading.Lock()  # a Dask worker may run tasks in several threads
+
+
+@dataclass
+class Handle:
+    """The open arrays of one group, as a worker needs them.
+
+    Attributes
+    ----------
+    arrays : dict of str to zarr.AsyncArray
+        ``experiment`` and every worker-written variable.
+    index : dict of str to int
+        Experiment id -> index, as far as known when loaded.
+    inner_node : (N,) int64, tread_node : (M,) int64
+        The group's node ids.
+    mesh_key : str
+        The group's mesh key.
+    """
+
+    arrays: dict[str, AsyncArray]
+    index: dict[str, int]
+    inner_node: np.ndarray
+    tread_node: np.ndarray
+    mesh_key: str
+
+
+def _key(store: Store, group: str) -> tuple[object, ...]:
+    if isinstance(store, LocalStore):  # a new LocalStore per call for the same path
+        return ("local", type(store), str(Path(store.root).resolve()), group)
+    if isinstance(store, FsspecStore):  # Dask hands each task its own unpickled copy
+        options = repr(sorted(store.fs.storage_options.items()))
+        return ("fsspec", type(store.fs).__name__, store.path, options, group)
+    # Other stores (in memory) are one object each; the handle holds a reference to the
+    # store, so its id cannot be reused while the entry lives.
+    return ("object", id(store), group)
+
+
+def _load(store: Store, group: str) -> Handle:
+    g = open_group(store, group)
+    names = [EXPERIMENT.name, *(v.name for v in WORKER_VARIABLES)]
+    return Handle(
+        arrays={name: g[name].async_array for name in names},
+        index={e: i for i, e in enumerate(read_ids(g))},
+        inner_node=g["inner_node"][...],
+        tread_node=g["tread_node"][...],
+        mesh_key=str(g.attrs.get("mesh_key")),
+    )
+
+
+def _verified(h: Handle, experiment_id: str, i: int) -> bool:
+    ids = h.arrays[EXPERIMENT.name]
+    return i < ids.shape[0] and str(sync(ids.getitem(i))) == experiment_id
+
+
+def locate(store: Store, group: str, experiment_id: str) -> tuple[Handle, int]:
+    """The group's handle and the index of ``experiment_id`` in it.
+
+    Raises
+    ------
+    NotReservedError
+        The id was never reserved in this group.
+    """
+    key = _key(store, group)
+    with _LOCK:
+        h = _HANDLES.get(key)
+        if h is not None:
+            _HANDLES.move_to_end(key)
+    i = h.index.get(experiment_id) if h is not None else None
+    if i is not None and _verified(h, experiment_id, i):
+        return h, i
+    h = _load(store, group)
+    with _LOCK:
+        _HANDLES[key] = h
+        while len(_HANDLES) > _MAX_HANDLES:
+            _HANDLES.popitem(last=False)
+    i = h.index.get(experiment_id)
+    if i is None:
+        raise NotReservedError(
+            f"experiment {experiment_id!r} is not reserved in group {group!r} of "
+            f"{describe(store)}: the client must storage.reserve(...) it before a worker "
+            "writes it"
+        )
+    return h, i
+
+
+def forget() -> None:
+    """Drop every cached handle (tests; a worker never needs to)."""
+    with _LOCK:
+        _HANDLES.clear()

@@ -1,0 +1,184 @@
+"""Client side: reserve experiment slots; the id -> index table they form.
+
+An experiment id gets one index along ``experiment`` forever. ``reserve`` resizes every
+experiment-dim array, so only the submitting client calls it (one metadata writer).
+Order makes it crash-safe: arrays grow first, then the new slots' parameters, then
+their ids (a slot exists once its id is written), then the consolidated metadata; a
+client killed half-way leaves empty trailing slots that the next call reuses.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import zarr
+
+from storage.errors import ParameterConflictError, SchemaError
+from storage.group import create_array
+from storage.paths import StoreLike, open_group, open_store
+from storage.paths import publish as _publish
+from storage.schema import (
+    EXPERIMENT_ID,
+    FIXED_VARIABLES,
+    KNOWN_PARAMETER_UNITS,
+    PARAMETER_NAME,
+    REQUIRED_PARAMETERS,
+    parameter,
+)
+
+
+def _check_ids(experiment_ids: Sequence[str]) -> list[str]:
+    if isinstance(experiment_ids, str):
+        raise SchemaError(
+            f"experiment_ids must be a sequence of ids, got one string {experiment_ids!r}"
+        )
+    ids = [str(e) if isinstance(e, np.str_) else e for e in experiment_ids]
+    for e in ids:
+        if not (isinstance(e, str) and EXPERIMENT_ID.fullmatch(e)):
+            raise SchemaError(
+                f"experiment id must be 1-128 letters, digits, '_', '.', ':' or '-' (a sha256 "
+                f"hex digest in the farm), got {e!r}"
+            )
+    if len(set(ids)) != len(ids):
+        dup = next(e for e, n in Counter(ids).items() if n > 1)
+        raise SchemaError(f"experiment id {dup!r} is given twice: reserve each id once")
+    return ids
+
+
+def _check_params(
+    g: zarr.Group, params: Mapping[str, Any], n: int, units: Mapping[str, str]
+) -> dict[str, np.ndarray]:
+    missing = sorted(set(REQUIRED_PARAMETERS) - set(params))
+    if missing:
+        raise SchemaError(
+            f"parameter {missing[0]!r} is missing: every experiment needs "
+            f"{', '.join(REQUIRED_PARAMETERS)}"
+        )
+    for name, unit in units.items():
+        known = g[name].attrs.get("units") if name in g else KNOWN_PARAMETER_UNITS.get(name)
+        if name not in params or (known is not None and known != unit):
+            raise SchemaError(
+                f"units={{{name!r}: {unit!r}}} does not fit: "
+                + (f"{name!r} is in {known!r}" if name in params else "no such parameter given")
+            )
+    out = {}
+    for name, value in params.items():
+        if not (isinstance(name, str) and PARAMETER_NAME.fullmatch(name)):
+            raise SchemaError(
+                f"parameter name must be lower-case letters, digits and '_', got {name!r}"
+            )
+        if name in FIXED_VARIABLES or (name in g and g[name].attrs.get("role") != "parameter"):
+            raise SchemaError(f"{name!r} is a variable of the schema, not a load-case parameter")
+        if name not in g and name not in units and name not in KNOWN_PARAMETER_UNITS:
+            raise SchemaError(
+                f"new parameter {name!r} needs units: pass units={{{name!r}: ...}} to reserve"
+            )
+        try:
+            a = np.broadcast_to(np.asarray(value, dtype=np.float64), (n,))
+        except (TypeError, ValueError) as e:
+            raise SchemaError(
+                f"parameter {name!r} must be a number or {n} numbers (one per id), got "
+                f"{np.shape(value)}"
+            ) from e
+        if not np.isfinite(a).all():
+            raise SchemaError(f"parameter {name!r} holds NaN or inf: give finite values")
+        out[name] = a
+    return out
+
+
+def read_ids(g: zarr.Group) -> list[str]:
+    """Reserved experiment ids in index order (surplus empty slots of a crash dropped)."""
+    raw = [str(e) for e in g["experiment"][...].tolist()]
+    used = next((i for i, e in enumerate(raw) if not e), len(raw))
+    if any(raw[used:]):
+        raise SchemaError(
+            f"group {g.path!r} has an empty experiment id at index {used} before reserved "
+            "ones: the store was modified by hand"
+        )
+    return raw[:used]
+
+
+def reserve(
+    store: StoreLike,
+    group: str,
+    experiment_ids: Sequence[str],
+    params: Mapping[str, Any],
+    *,
+    units: Mapping[str, str] | None = None,
+) -> dict[str, int]:
+    """Give each experiment id its slot (index along ``experiment``), forever.
+
+    New ids are appended: every experiment-dim array grows, the new slots read as
+    pending (status 0, NaN floats, -1 counts, empty error) and hold their parameters.
+    Ids already reserved keep their index; their parameters must be the stored ones.
+    Client only (this resizes arrays).
+
+    Parameters
+    ----------
+    store, group : the store and the group of the experiments' mesh.
+    experiment_ids : sequence of str, length K
+        Experiment ids, each given once.
+    params : mapping of str to (K,) array-like or scalar
+        Load-case parameters, at least ``deflection`` (mm) and ``pressure`` (MPa); any
+        other name becomes a new float64 parameter variable (NaN for earlier slots).
+    units : mapping of str to str, optional
+        Units of new parameters that the schema does not know.
+
+    Returns
+    -------
+    dict of str to int
+        Index of every requested id.
+    """
+    zs = open_store(store)
+    g = open_group(zs, group)
+    ids = _check_ids(experiment_ids)
+    units = dict(units or {})
+    values = _check_params(g, params, len(ids), units)
+    stored = read_ids(g)
+    index = {e: i for i, e in enumerate(stored)}
+    _check_known(g, group, ids, values, index)
+    rows = np.array([j for j, e in enumerate(ids) if e not in index], dtype=np.int64)
+    new = [ids[j] for j in rows]
+    k_old, k_new = len(stored), len(stored) + len(new)
+    _grow(g, values, units, k_new)
+    if new:
+        for name, a in values.items():
+            g[name][k_old:k_new] = a[rows]
+        g["experiment"][k_old:k_new] = np.array(new, dtype=object)  # ids last: slot is used
+        index.update({e: k_old + j for j, e in enumerate(new)})
+    _publish(zs)
+    return {e: index[e] for e in ids}
+
+
+def _check_known(
+    g: zarr.Group, group: str, ids: list[str], values: dict[str, np.ndarray],
+    index: dict[str, int],
+) -> None:
+    rows = [j for j, e in enumerate(ids) if e in index]
+    if not rows:
+        return
+    slots = np.array([index[ids[j]] for j in rows])
+    for name, a in values.items():
+        stored = g[name][...][slots] if name in g else np.full(len(rows), np.nan)
+        bad = np.flatnonzero(stored != a[rows])
+        if bad.size:
+            j = rows[bad[0]]
+            raise ParameterConflictError(
+                f"experiment {ids[j]!r} is reserved in group {group!r} with {name}="
+                f"{float(stored[bad[0]])}, not {float(a[j])}: an id stands for one load case "
+                "forever, so a changed load case needs a new id"
+            )
+
+
+def _grow(g: zarr.Group, values: dict[str, np.ndarray], units: dict[str, str], k: int) -> None:
+    for name in values:
+        if name not in g:
+            var = parameter(name, units.get(name) or KNOWN_PARAMETER_UNITS[name])
+            create_array(g, var, (k,))
+    for _, arr in g.arrays():
+        if arr.metadata.dimension_names and arr.metadata.dimension_names[0] == "experiment" \
+                and arr.shape[0] != k:
+            arr.resize((k, *arr.shape[1:]))

@@ -1,0 +1,218 @@
+"""Worker side: write one experiment, or its failure, into its own slot.
+
+A write touches only the chunks of its own index (one experiment per chunk along
+``experiment``, node dims whole, so every write is whole chunks) and never metadata.
+Order is what makes it crash-safe: ``status`` goes to pending first (so that re-writing
+a done experiment is never half old, half new), then every data chunk, then ``status``
+to done or failed. A writer killed anywhere leaves the slot not done; with atomic
+object writes (local directories: temporary file renamed into place; S3: whole-object
+PUT) no chunk is ever torn. Readers must take only ``status == 1`` as done.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import math
+import numbers
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+from zarr.core.sync import sync
+
+from storage.errors import AlreadyDoneError, MeshMismatchError, SchemaError, StoreError
+from storage.handles import Handle, locate
+from storage.paths import StoreLike, open_store
+from storage.schema import (
+    DONE,
+    EXPERIMENT_ID,
+    FAILED,
+    INFO_NAMES,
+    NOT_RECORDED,
+    PENDING,
+    RESULT_NAMES,
+    result_shape,
+    truncate_error,
+)
+
+_NODE_KEYS = ("inner_node", "tread_node")
+
+
+def _check_id(experiment_id: str) -> str:
+    if not (isinstance(experiment_id, str) and EXPERIMENT_ID.fullmatch(experiment_id)):
+        raise SchemaError(f"experiment id must be a reserved id string, got {experiment_id!r}")
+    return experiment_id
+
+
+def check_result(result: Mapping[str, Any], h: Handle) -> dict[str, np.ndarray]:
+    """Validate one experiment's result arrays against the group.
+
+    ``result`` holds every name of :data:`RESULT_NAMES` (shapes ``(N, 3)`` for
+    displacement, strain and surface_strain, ``(M, 3)`` for reaction_force, ``(3,)``
+    for total_force and moment), finite numbers only; it may also hold ``inner_node``
+    and ``tread_node`` ids, which must then be the group's. Returns float64 arrays with
+    a leading axis of length 1, ready to write into one slot.
+    """
+    unknown = sorted(set(result) - set(RESULT_NAMES) - set(_NODE_KEYS))
+    if unknown:
+        raise SchemaError(
+            f"unknown result variable {unknown[0]!r}; a result holds {', '.join(RESULT_NAMES)}"
+        )
+    missing = [n for n in RESULT_NAMES if n not in result]
+    if missing:
+        raise SchemaError(
+            f"result variable {missing[0]!r} is missing: a done experiment has all of "
+            f"{', '.join(RESULT_NAMES)}"
+        )
+    for key, stored in zip(_NODE_KEYS, (h.inner_node, h.tread_node), strict=True):
+        if key in result and not np.array_equal(np.asarray(result[key]), stored):
+            raise MeshMismatchError(
+                f"{key} ids of the result differ from the group's ({stored.size} nodes, first "
+                f"{stored[:3].tolist()}): write into the group of the mesh that was solved"
+            )
+    out = {}
+    for name in RESULT_NAMES:
+        a = np.asarray(result[name])
+        want = result_shape(name, h.inner_node.size, h.tread_node.size)
+        if a.dtype.kind not in "iuf" or a.shape != want:
+            raise SchemaError(
+                f"result {name!r} must be a real array of shape {want} for this group, got "
+                f"{a.dtype} array of shape {a.shape}"
+            )
+        bad = int(np.count_nonzero(~np.isfinite(a)))
+        if bad:
+            raise SchemaError(
+                f"result {name!r} holds {bad} NaN/inf values: store the run as a failure "
+                "(write_failure) instead"
+            )
+        out[name] = a.astype(np.float64)[np.newaxis]
+    return out
+
+
+def check_info(info: Mapping[str, Any], *, complete: bool) -> dict[str, np.ndarray]:
+    """Validate run bookkeeping: ``solve_seconds`` (s, >= 0) and integer counts.
+
+    With ``complete`` every name of :data:`INFO_NAMES` is required; otherwise a missing
+    one is stored as not recorded (NaN seconds, -1 counts).
+    """
+    unknown = sorted(set(info) - set(INFO_NAMES))
+    if unknown:
+        raise SchemaError(f"unknown info key {unknown[0]!r}; info holds {', '.join(INFO_NAMES)}")
+    missing = [n for n in INFO_NAMES if n not in info]
+    if complete and missing:
+        raise SchemaError(f"info {missing[0]!r} is missing: a done experiment records "
+                          f"{', '.join(INFO_NAMES)}")
+    seconds = info.get("solve_seconds", math.nan)
+    if "solve_seconds" in info and not (
+        isinstance(seconds, numbers.Real) and not isinstance(seconds, bool)
+        and math.isfinite(seconds) and seconds >= 0
+    ):
+        raise SchemaError(f"info 'solve_seconds' must be a number of seconds >= 0, got {seconds!r}")
+    out = {"solve_seconds": np.array([seconds], dtype=np.float64)}
+    for name in INFO_NAMES[1:]:
+        v = info.get(name, NOT_RECORDED)
+        if name in info and not (
+            isinstance(v, numbers.Integral) and not isinstance(v, bool) and 0 <= v < 2**31
+        ):
+            raise SchemaError(f"info {name!r} must be an integer >= 0, got {v!r}")
+        out[name] = np.array([v], dtype=np.int32)
+    return out
+
+
+async def _write_slot(h: Handle, i: int, values: dict[str, np.ndarray], status: int) -> None:
+    region = slice(i, i + 1)
+    state = h.arrays["status"]
+    await state.setitem(region, np.array([PENDING], dtype=np.int8))
+    await asyncio.gather(*(h.arrays[name].setitem(region, v) for name, v in values.items()))
+    await state.setitem(region, np.array([status], dtype=np.int8))  # last: publishes
+
+
+def _write(h: Handle, i: int, values: dict[str, np.ndarray], status: int, where: str) -> None:
+    try:
+        sync(_write_slot(h, i, values, status))
+    except Exception as e:  # the store's I/O error, whatever its class
+        raise StoreError(
+            f"writing {where} failed ({type(e).__name__}: {e}); it is not done: retry the "
+            "write (it is idempotent)"
+        ) from e
+
+
+def write_experiment(
+    store: StoreLike,
+    group: str,
+    experiment_id: str,
+    result: Mapping[str, Any],
+    info: Mapping[str, Any],
+    *,
+    mesh_key: str | None = None,
+) -> None:
+    """Write one solved experiment into its reserved slot and mark it done.
+
+    Idempotent: writing the same experiment again stores the same bytes.
+
+    Parameters
+    ----------
+    store, group : the store and the group the client reserved the id in.
+    experiment_id : str
+        A reserved id.
+    result : mapping of str to array
+        ``displacement`` (N, 3) mm, ``strain`` (N, 3), ``surface_strain`` (N, 3),
+        ``reaction_force`` (M, 3) N, ``total_force`` (3,) N, ``moment`` (3,) N mm; all
+        finite. Optionally ``inner_node`` (N,) and ``tread_node`` (M,) ids to check.
+    info : mapping
+        ``solve_seconds`` (s), ``increments``, ``ccx_runs``, ``contact_nodes``.
+    mesh_key : str, optional
+        When given, must be the group's mesh key.
+    """
+    zs = open_store(store)
+    h, i = locate(zs, group, _check_id(experiment_id))
+    _check_mesh_key(h, group, mesh_key)
+    values: dict[str, np.ndarray] = {**check_result(result, h), **check_info(info, complete=True)}
+    values["error"] = np.array([""], dtype=object)
+    _write(h, i, values, DONE, f"experiment {experiment_id!r} into group {group!r}")
+
+
+def write_failure(
+    store: StoreLike,
+    group: str,
+    experiment_id: str,
+    reason: str,
+    info: Mapping[str, Any],
+    *,
+    mesh_key: str | None = None,
+) -> None:
+    """Record that an experiment failed: status 2, the reason, what the run spent.
+
+    Result arrays of the slot are reset to NaN. ``reason`` longer than
+    :data:`storage.schema.MAX_ERROR_CHARS` is cut in the middle. ``info`` may hold any
+    of ``solve_seconds``, ``increments``, ``ccx_runs``, ``contact_nodes``.
+
+    Raises
+    ------
+    AlreadyDoneError
+        The experiment is done: a late failure never overwrites a good result.
+    """
+    if not (isinstance(reason, str) and reason.strip()):
+        raise SchemaError(f"a failure needs a reason (non-empty text), got {reason!r}")
+    zs = open_store(store)
+    h, i = locate(zs, group, _check_id(experiment_id))
+    _check_mesh_key(h, group, mesh_key)
+    values = check_info(info, complete=False)
+    if int(sync(h.arrays["status"].getitem(i))) == DONE:
+        raise AlreadyDoneError(
+            f"experiment {experiment_id!r} in group {group!r} is done; not recording the "
+            f"failure {reason[:80]!r} over it (re-run it with write_experiment if needed)"
+        )
+    n_inner, n_tread = h.inner_node.size, h.tread_node.size
+    for name in RESULT_NAMES:
+        values[name] = np.full((1, *result_shape(name, n_inner, n_tread)), np.nan)
+    values["error"] = np.array([truncate_error(reason)], dtype=object)
+    _write(h, i, values, FAILED, f"the failure of {experiment_id!r} into group {group!r}")
+
+
+def _check_mesh_key(h: Handle, group: str, mesh_key: str | None) -> None:
+    if mesh_key is not None and mesh_key != h.mesh_key:
+        raise MeshMismatchError(
+            f"group {group!r} holds mesh {h.mesh_key!r}, the experiment was solved on mesh "
+            f"{mesh_key!r}: write into the group of its own mesh"
+        )
