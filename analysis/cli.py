@@ -1,0 +1,223 @@
+"""``farm analyse pca|pcr|plsr|noise STORE``: one command per chapter-5 analysis.
+
+The lead's ``farm`` CLI mounts :data:`app` as ``farm analyse`` and turns
+:class:`~analysis.errors.AnalysisError` into one line on stderr; the commands here raise
+those errors and never exit themselves.
+"""
+
+from __future__ import annotations
+
+import importlib
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from analysis.errors import ParameterError
+
+
+def _study(name: str):
+    """Import a study module on first use: `farm --help` must not pay for scikit-learn."""
+    return importlib.import_module(f"analysis.studies.{name}")
+
+
+def dask_scheduler(address: str | None):
+    from analysis.cluster import scheduler
+
+    return scheduler(address)
+
+
+app = typer.Typer(
+    name="analyse",
+    help="PCA / PCR / PLSR / noise studies over a store (thesis chapter 5).",
+    no_args_is_help=True,
+    pretty_exceptions_enable=False,
+)
+
+Store = Annotated[str, typer.Argument(help="Zarr store: directory or fsspec URL.")]
+Group = Annotated[
+    str | None, typer.Option("--group", "-g", help="Group (mesh); optional if the store has one.")
+]
+Out = Annotated[
+    Path | None, typer.Option(help="Output folder (default: ./analysis-out/<command>).")
+]
+Pressure = Annotated[float | None, typer.Option(help="Only experiments at this pressure (MPa).")]
+Deflection = Annotated[float | None, typer.Option(help="Only experiments at this deflection (mm).")]
+Inputs = Annotated[
+    str | None,
+    typer.Option(
+        help="Comma list of input sets or directions (displacement,strain; Uz,exx; Uz+Uy)."
+    ),
+]
+Force = Annotated[
+    str, typer.Option("--force-component", help="Tread force component for Y: x, y or z.")
+]
+Reference = Annotated[
+    float | None,
+    typer.Option(help="Deflection (mm) of the reference experiment (default: median)."),
+]
+Scheduler = Annotated[
+    str | None, typer.Option(help="Dask scheduler address, e.g. tcp://host:8786.")
+]
+
+
+def _load(store: str, group: str | None, pressure: float | None, deflection: float | None):
+    from analysis import data
+
+    return data.load(store, group, pressure=pressure, deflection=deflection)
+
+
+def _out(out: Path | None, command: str) -> Path:
+    return out if out is not None else Path("analysis-out") / command
+
+
+def _done(report) -> None:
+    typer.echo(f"wrote {len(report.files)} files to {report.out} (see {report.out / 'summary.md'})")
+
+
+@app.command()
+def pca(
+    store: Store,
+    group: Group = None,
+    out: Out = None,
+    pressure: Pressure = None,
+    deflection: Deflection = None,
+    inputs: Inputs = None,
+    components: Annotated[int, typer.Option(help="Modes written to the eigen-vector tables.")] = 3,
+    force_component: Force = "z",
+    scheduler: Scheduler = None,
+) -> None:
+    """Cross-covariance PCA per direction: singular values, eigen-maps, importance (§5.3)."""
+    with dask_scheduler(scheduler):
+        ds = _load(store, group, pressure, deflection)
+        _done(
+            _study("crosscov").run(
+                ds, _out(out, "pca"), inputs=inputs, n_modes=components, component=force_component
+            )
+        )
+
+
+@app.command()
+def pcr(
+    store: Store,
+    group: Group = None,
+    out: Out = None,
+    pressure: Pressure = None,
+    deflection: Deflection = None,
+    inputs: Inputs = None,
+    components: Annotated[int, typer.Option(help="Largest number of modes shown.")] = 5,
+    reference_deflection: Reference = None,
+    force_component: Force = "z",
+    scheduler: Scheduler = None,
+) -> None:
+    """Principal component regression with 1..N modes (§5.4, Figs. 5.5-5.7)."""
+    with dask_scheduler(scheduler):
+        ds = _load(store, group, pressure, deflection)
+        _done(
+            _study("pcr").run(
+                ds,
+                _out(out, "pcr"),
+                inputs=inputs,
+                max_modes=components,
+                reference_deflection=reference_deflection,
+                component=force_component,
+            )
+        )
+
+
+@app.command()
+def plsr(
+    store: Store,
+    group: Group = None,
+    out: Out = None,
+    pressure: Pressure = None,
+    deflection: Deflection = None,
+    inputs: Inputs = None,
+    components: Annotated[int, typer.Option(help="Largest number of components shown.")] = 5,
+    cv: Annotated[
+        int | None, typer.Option(help="Choose components by k-fold CV with k folds.")
+    ] = None,
+    nipals: Annotated[
+        bool, typer.Option(help="Also fit scikit-learn's NIPALS (needs X in memory).")
+    ] = True,
+    seed: Annotated[int | None, typer.Option(help="Shuffle CV folds with this seed.")] = None,
+    reference_deflection: Reference = None,
+    force_component: Force = "z",
+    scheduler: Scheduler = None,
+) -> None:
+    """PLS regression, SIMPLS beside scikit-learn's NIPALS, PCTVAR (§5.5, Figs. 5.8-5.10)."""
+    with dask_scheduler(scheduler):
+        ds = _load(store, group, pressure, deflection)
+        _done(
+            _study("plsr").run(
+                ds,
+                _out(out, "plsr"),
+                inputs=inputs,
+                max_modes=components,
+                cv=cv,
+                nipals=nipals,
+                seed=seed,
+                reference_deflection=reference_deflection,
+                component=force_component,
+            )
+        )
+
+
+@app.command()
+def noise(
+    store: Store,
+    group: Group = None,
+    out: Out = None,
+    pressure: Pressure = None,
+    deflection: Deflection = None,
+    inputs: Inputs = None,
+    components: Annotated[
+        int | None, typer.Option(help="PLS components (default: all the data support, at most 10).")
+    ] = None,
+    draws: Annotated[int, typer.Option(help="Monte Carlo draws per noise level.")] = 100,
+    noise_levels: Annotated[
+        str | None,
+        typer.Option(
+            help="Comma list of multiples of the thesis level (1 mm, 4e-4) (default: 0,0.1,...,2)."
+        ),
+    ] = None,
+    seed: Annotated[int, typer.Option(help="Seed of the noise draws.")] = 0,
+    sampling: Annotated[
+        str,
+        typer.Option(
+            help="'inputs': N(0, σ²) on every input (thesis); 'subspace': same law, faster."
+        ),
+    ] = "inputs",
+    reference_deflection: Reference = None,
+    force_component: Force = "z",
+    scheduler: Scheduler = None,
+) -> None:
+    """Monte Carlo measurement noise on PLSR: node maps, Table 5.1, sweep (§5.6)."""
+    levels = _levels(noise_levels)
+    with dask_scheduler(scheduler):
+        ds = _load(store, group, pressure, deflection)
+        _done(
+            _study("noise").run(
+                ds,
+                _out(out, "noise"),
+                inputs=inputs,
+                n_components=components,
+                multipliers=levels,
+                draws=draws,
+                seed=seed,
+                reference_deflection=reference_deflection,
+                component=force_component,
+                sampling=sampling,
+            )
+        )
+
+
+def _levels(text: str | None):
+    if text is None:
+        return _study("noise").DEFAULT_MULTIPLIERS
+    try:
+        return tuple(float(v) for v in text.split(",") if v.strip())
+    except ValueError as exc:
+        raise ParameterError(
+            f"--noise-levels must be numbers separated by commas, got {text!r}"
+        ) from exc

@@ -1,0 +1,1 @@
+"""Reports: CSV tables (.tables), PNG figures (.plots), Markdown summaries (.markdown)."""

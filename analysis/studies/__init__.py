@@ -1,0 +1,1 @@
+"""One module per `farm analyse` command: load, fit, write tables, figures, summary."""

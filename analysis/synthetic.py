@@ -1,0 +1,262 @@
+"""Schema-conformant synthetic stores with a known latent structure (for tests, benchmarks).
+
+Writes one group that follows ``docs/schema.md`` (variables, dims, dtypes, units,
+status flags, one chunk per experiment along ``experiment``) with xarray's ``to_zarr``.
+The physics is a caricature of the thesis' chapter 5 dataset, not a tyre model:
+
+- the single latent variable is the deflection d (the thesis' 10..40 mm at 200 kPa);
+- the contact patch grows like a Hertz-ish ellipse, half-length sqrt(2 R d), so nodal
+  forces switch on as d grows and depend on d *nonlinearly*; total Fz ~ d^1.15 (about
+  4.6 kN at 30 mm, like the thesis' 4.5 kN);
+- inner-surface fields are Gaussian bumps around the contact whose width also grows
+  with d: Uz the strongest displacement, exx the strongest strain, as in Figs. 5.1-5.4.
+
+``signal="uz_only"`` keeps the d-dependence in Uz alone (all other inputs are zero plus
+noise), so Uz must rank first. ``noise`` adds independent Gaussian noise to every input,
+relative to each family's scale (30 mm for displacements, 2e-3 for strains).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass
+from typing import Literal
+
+import dask.array as da
+import numpy as np
+import xarray as xr
+
+R_INNER, R_TREAD, HALF_WIDTH = 300.0, 350.0, 100.0  # mm
+SCALE = {"displacement": 30.0, "strain": 2e-3}  # noise reference per family
+STRAIN_VARS = ("strain", "surface_strain")
+
+
+@dataclass(frozen=True)
+class Geometry:
+    """Structured inner and tread grids (rows: meridian from -y; cols: angle towards +x)."""
+
+    inner_s: np.ndarray  # (N,) meridian coordinate in [-1, 1]
+    inner_theta: np.ndarray  # (N,) angle from the contact centre, rad
+    inner_rc: tuple[np.ndarray, np.ndarray]
+    tread_s: np.ndarray
+    tread_theta: np.ndarray
+    tread_rc: tuple[np.ndarray, np.ndarray]
+
+    @property
+    def inner_xyz(self) -> np.ndarray:
+        return _xyz(R_INNER, self.inner_s, self.inner_theta)
+
+    @property
+    def tread_xyz(self) -> np.ndarray:
+        return _xyz(R_TREAD, self.tread_s, self.tread_theta)
+
+
+def _xyz(radius, s, theta):
+    return np.column_stack([radius * np.sin(theta), HALF_WIDTH * s, -radius * np.cos(theta)])
+
+
+def _grid(rows: int, cols: int, half_angle: float):
+    r, c = np.meshgrid(np.arange(rows), np.arange(cols), indexing="ij")
+    s = np.linspace(-1.0, 1.0, rows)[r.ravel()]
+    theta = np.linspace(-half_angle, half_angle, cols)[c.ravel()]
+    return s, theta, (r.ravel().astype(np.int32), c.ravel().astype(np.int32))
+
+
+def geometry(rows: int, cols: int, tread_rows: int, tread_cols: int) -> Geometry:
+    """Inner grid over ±60° of circumference, tread grid over ±35° (covers the patch)."""
+    s, th, rc = _grid(rows, cols, np.radians(60.0))
+    ts, tth, trc = _grid(tread_rows, tread_cols, np.radians(35.0))
+    return Geometry(s, th, rc, ts, tth, trc)
+
+
+def tread_forces(geo: Geometry, d: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """Road force on tread nodes, (K, M, 3) in N: an elliptic patch growing with d."""
+    xyz = geo.tread_xyz
+    a = np.sqrt(2.0 * R_TREAD * d)[:, None]  # patch half-length, mm
+    b = (HALF_WIDTH * (1.0 - np.exp(-d / 12.0)))[:, None]  # half-width, mm
+    shape = np.sqrt(np.clip(1.0 - (xyz[:, 0] / a) ** 2 - (xyz[:, 1] / b) ** 2, 0.0, None))
+    fz_total = 110.0 * d**1.15 * (p / 0.2) ** 0.3
+    norm = np.where(shape.sum(1) > 0, shape.sum(1), 1.0)
+    fz = shape * (fz_total / norm)[:, None]
+    fx = -0.02 * fz * xyz[:, 0] / a
+    fy = 0.02 * fz * xyz[:, 1] / b
+    return np.stack([fx, fy, fz], axis=-1)
+
+
+def inner_fields(geo: Geometry, d: np.ndarray, p: np.ndarray, signal: str) -> dict[str, np.ndarray]:
+    """Displacement (K, N, 3) in mm and strains (K, N, 3) for each experiment."""
+    th0 = 1.2 * np.sqrt(2.0 * R_TREAD * d)[:, None] / R_INNER  # bump half-width, rad
+    u = geo.inner_theta / th0
+    bump = np.exp(-(u**2))
+    g = np.cos(0.5 * np.pi * geo.inner_s) ** 2  # 1 on the crown, 0 at the beads
+    soft = ((0.2 / p) ** 0.3)[:, None]
+    amp, e = d[:, None] * soft, (d[:, None] / 30.0) ** 1.3 * soft
+    uz = amp * bump * (0.3 + 0.7 * g)
+    if signal == "uz_only":
+        zero = np.zeros_like(uz)
+        disp, strain = np.stack([zero, zero, uz], -1), np.zeros((*uz.shape, 3))
+        return {"displacement": disp, "strain": strain, "surface_strain": strain.copy()}
+    ux = 0.15 * amp * u * bump * g
+    uy = 0.25 * amp * geo.inner_s * bump * (1.0 - g)
+    exx = 2e-3 * e * (1.0 - 2.0 * u**2) * bump * g
+    eyy = 1.2e-3 * e * bump * (2.0 * g - 1.0)
+    exy = 6e-4 * e * u * geo.inner_s * bump
+    strain = np.stack([exx, eyy, exy], -1)
+    # CST strains (T2Cam) smooth the field over the triangles: a damped copy here.
+    return {
+        "displacement": np.stack([ux, uy, uz], -1),
+        "strain": strain,
+        "surface_strain": 0.9 * strain * (d[:, None, None] / 30.0) ** 0.05,
+    }
+
+
+def make_store(
+    path,
+    *,
+    n_experiments: int = 7,
+    rows: int = 12,
+    cols: int = 24,
+    tread_rows: int = 8,
+    tread_cols: int = 20,
+    signal: Literal["deflection", "uz_only"] = "deflection",
+    noise: float = 0.0,
+    group: str = "synthetic",
+    pressures=(0.2,),
+    deflection_range=(10.0, 40.0),
+    n_failed: int = 0,
+    n_pending: int = 0,
+    include_strain: bool = True,
+    seed: int = 0,
+    block: int = 256,
+) -> str:
+    """Write one synthetic group into the Zarr store at ``path``; returns the group name.
+
+    Parameters
+    ----------
+    n_experiments : int
+        Done experiments per pressure, deflections evenly spaced over
+        ``deflection_range`` (mm); K = n_experiments * len(pressures).
+    rows, cols : int
+        Inner grid (N = rows * cols nodes); ``tread_rows * tread_cols`` = M tread nodes.
+    signal : {"deflection", "uz_only"}
+        Latent structure, see the module docstring.
+    noise : float
+        Input noise, relative to 30 mm (displacements) and 2e-3 (strains).
+    pressures : sequence of float
+        Inflation pressures (MPa).
+    n_failed, n_pending : int
+        Extra experiments with status 2 / 0 whose float variables hold NaN.
+    include_strain : bool
+        Write ``strain`` and ``surface_strain`` (skip them for large benchmark stores).
+    block : int
+        Experiments generated per dask task (the Zarr chunks stay one per experiment).
+    """
+    geo = geometry(rows, cols, tread_rows, tread_cols)
+    d, p, status = _load_cases(n_experiments, pressures, deflection_range, n_failed, n_pending)
+    done = status == 1
+    forces = np.full((len(d), len(geo.tread_s), 3), np.nan)
+    forces[done] = tread_forces(geo, d[done], p[done])
+    ds = _skeleton(geo, d, p, status, forces, group, seed)
+    names = ("displacement", *STRAIN_VARS) if include_strain else ("displacement",)
+    for k, name in enumerate(names):
+        arr = _lazy_field(geo, d, p, status, name, signal, noise, seed + 7919 * k, block)
+        ds[name] = (("experiment", "inner_node", _comp_dim(name)), arr, {"units": _units(name)})
+    enc = {v: {"chunks": (1, *ds[v].shape[1:])} for v in ds.data_vars if "experiment" in ds[v].dims}
+    ds.to_zarr(path, group=group, mode="w", encoding=enc, consolidated=False)
+    return group
+
+
+def _comp_dim(name: str) -> str:
+    return "component" if name == "displacement" else "strain_component"
+
+
+def _units(name: str) -> str:
+    return "mm" if name == "displacement" else "1"
+
+
+def _load_cases(n, pressures, drange, n_failed, n_pending):
+    d = np.tile(np.linspace(*drange, n), len(pressures))
+    p = np.repeat(np.asarray(pressures, dtype=float), n)
+    status = np.ones(len(d), dtype=np.int8)
+    extra = n_failed + n_pending
+    d = np.concatenate([d, np.linspace(drange[0], drange[1], max(extra, 1))[:extra]])
+    p = np.concatenate([p, np.full(extra, float(pressures[0]))])
+    status = np.concatenate([status, np.full(n_failed, 2, np.int8), np.zeros(n_pending, np.int8)])
+    return d, p, status
+
+
+def _lazy_field(geo, d, p, status, name, signal, noise, seed, block) -> da.Array:
+    """(K, N, 3) dask array, generated ``block`` experiments per task."""
+    idx = da.arange(len(d), chunks=block)
+
+    def gen(ix):
+        out = np.full((len(ix), len(geo.inner_s), 3), np.nan)
+        ok = status[ix] == 1
+        if ok.any():
+            field = inner_fields(geo, d[ix][ok], p[ix][ok], signal)[name]
+            rng = np.random.default_rng([seed, int(ix[0]) if len(ix) else 0])
+            scale = SCALE["displacement" if name == "displacement" else "strain"]
+            out[ok] = field + noise * scale * rng.standard_normal(field.shape)
+        return out
+
+    chunks = (idx.chunks[0], (len(geo.inner_s),), (3,))
+    return da.map_blocks(gen, idx, new_axis=[1, 2], chunks=chunks, dtype=float)
+
+
+def _skeleton(geo, d, p, status, forces, group, seed) -> xr.Dataset:
+    """Coordinates, node variables and the small per-experiment variables."""
+    K = len(d)
+    ids = [hashlib.sha256(f"{group}/{seed}/{k}".encode()).hexdigest() for k in range(K)]
+    z_contact = -(R_TREAD - d)  # road plane: the contact centre is (0, 0, z_contact)
+    arm = geo.tread_xyz[None, :, :] - np.stack([0 * d, 0 * d, z_contact], -1)[:, None, :]
+    moment = np.cross(arm, forces).sum(axis=1)
+    exp = "experiment"
+    ds = xr.Dataset(
+        {
+            "inner_xyz": (("inner_node", "component"), geo.inner_xyz, {"units": "mm"}),
+            "tread_xyz": (("tread_node", "component"), geo.tread_xyz, {"units": "mm"}),
+            "inner_row": ("inner_node", geo.inner_rc[0], {"units": "1"}),
+            "inner_col": ("inner_node", geo.inner_rc[1], {"units": "1"}),
+            "tread_row": ("tread_node", geo.tread_rc[0], {"units": "1"}),
+            "tread_col": ("tread_node", geo.tread_rc[1], {"units": "1"}),
+            "reaction_force": ((exp, "tread_node", "component"), forces, {"units": "N"}),
+            "total_force": ((exp, "component"), forces.sum(axis=1), {"units": "N"}),
+            "moment": ((exp, "component"), moment, {"units": "N mm"}),
+            "deflection": (exp, d, {"units": "mm"}),
+            "pressure": (exp, p, {"units": "MPa"}),
+            "status": (
+                exp,
+                status,
+                {"units": "-", "flag_values": [0, 1, 2], "flag_meanings": "pending done failed"},
+            ),
+            "error": (
+                exp,
+                np.array(["" if s != 2 else "synthetic failure" for s in status], dtype=object),
+                {"units": "-"},
+            ),
+            "solve_seconds": (exp, np.where(status == 1, 1.0 + d / 10.0, np.nan), {"units": "s"}),
+            "increments": (exp, np.where(status == 1, 10, 0).astype(np.int32), {"units": "1"}),
+            "ccx_runs": (exp, np.where(status == 0, 0, 1).astype(np.int32), {"units": "1"}),
+            "contact_nodes": (
+                exp,
+                (np.nan_to_num(forces[..., 2]) > 0).sum(1).astype(np.int32),
+                {"units": "1"},
+            ),
+        },
+        coords={
+            exp: np.array(ids, dtype=object),
+            "inner_node": np.arange(1, len(geo.inner_s) + 1, dtype=np.int64),
+            "tread_node": np.arange(100001, 100001 + len(geo.tread_s), dtype=np.int64),
+            "component": np.array(["x", "y", "z"], dtype=object),
+            "strain_component": np.array(["xx", "yy", "xy"], dtype=object),
+        },
+        attrs={
+            "schema_version": 1,
+            "model_spec": json.dumps({"synthetic": True, "seed": seed}),
+            "mesh_key": f"synthetic-{len(geo.inner_s)}-{len(geo.tread_s)}",
+            "solver": "synthetic (analysis.synthetic)",
+            "package_versions": json.dumps({"numpy": np.__version__, "xarray": xr.__version__}),
+        },
+    )
+    return ds

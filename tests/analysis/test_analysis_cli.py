@@ -1,0 +1,186 @@
+"""`farm analyse ...` on a synthetic store: the files, and facts the tables must obey."""
+
+from __future__ import annotations
+
+import ast
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from analysis.cli import app
+from analysis.errors import EmptySelectionError, ParameterError, StoreError
+
+PNG = b"\x89PNG\r\n\x1a\n"
+runner = CliRunner()
+
+
+def _run(*args):
+    result = runner.invoke(app, [str(a) for a in args])
+    if result.exception is not None:
+        raise result.exception
+    assert result.exit_code == 0, result.output
+    return result
+
+
+def _check_outputs(out: Path, csvs, pngs):
+    for name in csvs:
+        assert not pd.read_csv(out / f"{name}.csv").empty, name
+    for name in pngs:
+        assert (out / name).read_bytes()[:8] == PNG, name
+    summary = (out / "summary.md").read_text()
+    assert summary.startswith("# ") and "## Selection" in summary
+    for line in summary.splitlines():  # every linked figure exists
+        if line.startswith("!["):
+            assert (out / line.split("(")[-1].rstrip(")")).exists()
+
+
+@pytest.fixture(scope="module")
+def outputs(thesis_store, tmp_path_factory):
+    base = tmp_path_factory.mktemp("out")
+    _run("pca", thesis_store, "--out", base / "pca")
+    _run("pcr", thesis_store, "--out", base / "pcr", "--reference-deflection", 30)
+    _run("plsr", thesis_store, "--out", base / "plsr", "--cv", 7, "--components", 4)
+    _run(
+        "noise",
+        thesis_store,
+        "--out",
+        base / "noise",
+        "--noise-levels",
+        "0,0.5,2",
+        "--draws",
+        200,
+        "--components",
+        3,
+    )
+    return base
+
+
+def test_pca_outputs(outputs):
+    out = outputs / "pca"
+    _check_outputs(
+        out,
+        ["singular_values", "importance", "eigen_vectors", "eigen_forces"],
+        ["singular_values_displacement.png", "eigen_maps_strain.png"],
+    )
+    imp = pd.read_csv(out / "importance.csv")
+    assert set(imp.loc[imp["rank"] == 1, "direction"]) == {"Uz", "exx", "cst_exx"}
+    assert len(imp) == 9
+
+
+def test_pcr_outputs(outputs, thesis_ds):
+    out = outputs / "pcr"
+    _check_outputs(
+        out,
+        ["variance_explained", "predictions", "thesis_comparison"],
+        ["variance.png", "predictions_displacement.png", "predictions_strain.png"],
+    )
+    var = pd.read_csv(out / "variance_explained.csv")
+    output = var[var["label"] == "output"]
+    assert output["cumulative_pct"].iloc[-1] == pytest.approx(100.0)
+    assert output["pct"].is_monotonic_decreasing
+    pred = pd.read_csv(out / "predictions.csv")
+    assert set(pred["n_modes"]) == {1, 2, 3, 4, 5}
+    y30 = thesis_ds["reaction_force"].sel(component="z").values[4]  # --reference-deflection 30
+    for _, part in pred.groupby(["inputs", "n_modes"]):
+        np.testing.assert_array_equal(part["reference"], y30)
+        assert part["error"].abs().max() < 0.25 * y30.max()
+
+
+def test_plsr_outputs(outputs):
+    out = outputs / "plsr"
+    _check_outputs(
+        out,
+        ["pctvar", "predictions", "thesis_comparison", "simpls_vs_nipals", "cross_validation"],
+        ["variance.png", "predictions_strain.png"],
+    )
+    pv = pd.read_csv(out / "pctvar.csv")
+    assert pv.groupby(["inputs", "method"])["y_pct"].sum().max() <= 100 + 1e-9
+    wide = pv.pivot_table(index=["inputs", "component"], columns="method", values="y_pct")
+    np.testing.assert_allclose(wide["simpls"], wide["nipals"], rtol=1e-4)
+    comp = pd.read_csv(out / "thesis_comparison.csv")
+    assert set(comp["inputs"]) == {"output", "displacement", "strain"}
+    assert set(pd.read_csv(out / "cross_validation.csv")["n_components"]) == {1, 2, 3, 4}
+
+
+def test_noise_outputs(outputs, thesis_ds):
+    out = outputs / "noise"
+    _check_outputs(
+        out,
+        ["totals", "nodes", "sweep"],
+        ["sweep.png", "nodes_displacement.png", "nodes_strain.png"],
+    )
+    sweep = pd.read_csv(out / "sweep.csv")
+    assert sorted(set(sweep["multiplier"])) == [0.0, 0.5, 1.0, 2.0]  # the thesis level is added
+    live = sweep[sweep["sigma"] > 0]
+    per_sigma = live["Fz_std_analytic"] / live["sigma"]
+    np.testing.assert_allclose(
+        per_sigma.groupby(live["inputs"]).std(), 0, atol=1e-9 * per_sigma.max()
+    )
+    ratio = live["nodal_avg_std"] / live["nodal_avg_std_analytic"]
+    assert ratio.between(0.85, 1.15).all()  # 200 draws: ~5 % sampling error
+    totals = pd.read_csv(out / "totals.csv")
+    ref = totals[totals["case"] == "reference"]
+    assert len(ref) == 1
+    y_ref = thesis_ds["reaction_force"].sel(component="z").values[3]  # 25 mm, the median
+    assert ref["Fz"].iloc[0] == pytest.approx(y_ref.sum())
+    noisy = totals[totals["sigma"] > 0]
+    assert set(noisy["sigma"]) == {1.0, 4e-4}  # thesis levels: 1 mm, 0.04 % strain
+
+
+def test_errors_are_raised_not_exited(thesis_store, two_pressure_store, tmp_path):
+    with pytest.raises(StoreError, match="pass --group"):
+        _run("pca", two_pressure_store, "--out", tmp_path)
+    with pytest.raises(EmptySelectionError):
+        _run("pcr", thesis_store, "--pressure", 9.0, "--out", tmp_path)
+    with pytest.raises(ParameterError):
+        _run("noise", thesis_store, "--noise-levels", "1,x", "--out", tmp_path)
+
+
+def test_analysis_never_imports_farm():
+    """Layering rule (DESIGN.md): analysis reads the store only."""
+    root = Path(__file__).resolve().parents[2] / "analysis"
+    for path in root.rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            names = (
+                [a.name for a in node.names]
+                if isinstance(node, ast.Import)
+                else ([node.module or ""] if isinstance(node, ast.ImportFrom) else [])
+            )
+            assert not any(n == "farm" or n.startswith("farm.") for n in names), path
+    code = (
+        "import sys, analysis.cli, analysis.synthetic, analysis.studies.noise; "
+        "assert not [m for m in sys.modules if m == 'farm' or m.startswith('farm.')]"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_runs_on_a_dask_cluster(uz_only_store, tmp_path, monkeypatch):
+    """--scheduler: the chunk-wise reductions go to the cluster; same tables as locally."""
+    from distributed import LocalCluster
+
+    local = _run("pca", uz_only_store, "--inputs", "Uz", "--out", tmp_path / "local")
+    assert "wrote" in local.output
+    with LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None
+    ) as cluster:
+        _run(
+            "pca",
+            uz_only_store,
+            "--inputs",
+            "Uz",
+            "--out",
+            tmp_path / "cluster",
+            "--scheduler",
+            cluster.scheduler_address,
+        )
+    a = pd.read_csv(tmp_path / "local" / "singular_values.csv")
+    b = pd.read_csv(tmp_path / "cluster" / "singular_values.csv")
+    np.testing.assert_allclose(a["singular_value"], b["singular_value"], rtol=1e-12)
+    monkeypatch.setattr("analysis.cluster.CONNECT_TIMEOUT", "1s")
+    with pytest.raises(StoreError, match="Dask scheduler"):
+        _run("pca", uz_only_store, "--out", tmp_path / "x", "--scheduler", "tcp://127.0.0.1:1")
