@@ -190,7 +190,7 @@ def _model(data: Any) -> ModelSpec:
     try:
         return ModelSpec.from_dict(_merge(spec.to_dict(), overrides, "model"))
     except SpecError as e:
-        raise StudyError(f"study: {e}") from e
+        raise StudyError(str(e)) from e
 
 
 def _merge(base: dict, override: dict, where: str) -> dict:
@@ -225,7 +225,7 @@ def _solver(data: Any) -> tuple[SolverSettings, int, bool]:
     try:
         settings = SolverSettings(**kwargs)
     except SpecError as e:
-        raise StudyError(f"study: {e}") from e
+        raise StudyError(str(e)) from e
     return settings, _integer(t.get("max_path_length", 0), "solver.max_path_length", 0), retry
 
 

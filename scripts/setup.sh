@@ -41,7 +41,11 @@ stamp=".venv/.installed-$(sha256sum pyproject.toml | cut -c1-16)"
 if [ ! -f "$stamp" ]; then
     [ -x .venv/bin/python ] || python3 -m venv .venv
     .venv/bin/python -m pip install -q --upgrade pip
-    .venv/bin/python -m pip install -q -e ".[test,s3]"
+    # "compat" editable mode puts the project root on sys.path (a .pth file). The default
+    # mode's import hook loses against namespace directories of the same name, and Dask
+    # workers put their scratch folder - which holds a "storage" directory - first on
+    # sys.path, shadowing our storage package.
+    .venv/bin/python -m pip install -q -e ".[test,s3]" --config-settings editable_mode=compat
     rm -f .venv/.installed-* && touch "$stamp"
 fi
 export PATH="$root/.venv/bin:$PATH"

@@ -47,7 +47,9 @@ def main(argv: list[str] | None = None) -> None:
     args = list(sys.argv[1:] if argv is None else argv)
     debug = args[:1] == ["--debug"]  # a root option: `farm --debug run ...`
     try:
-        app(args=args, prog_name="farm", standalone_mode=False)
+        code = app(args=args, prog_name="farm", standalone_mode=False)
+        if isinstance(code, int) and code != 0:  # click returns typer.Exit's code here
+            raise SystemExit(code)
     except typer.Exit as e:
         raise SystemExit(e.exit_code) from None
     except (typer.Abort, KeyboardInterrupt):

@@ -1,0 +1,73 @@
+"""Fixtures of the job-layer tests: small studies and a ccx that counts its runs."""
+
+from __future__ import annotations
+
+import stat
+import textwrap
+from pathlib import Path
+
+import pytest
+
+QUICK_MODEL = """
+[model]
+kind = "reduced"
+road = "contact"
+[model.mesh]
+tread = 4
+sidewall = 2
+bead = 1
+circumferential = 8
+"""
+
+
+def study_text(store: Path, deflections: str = "{ start = 5, stop = 30, step = 5 }",
+               solver: str = "max_path_length = 1", group: str | None = None) -> str:
+    head = f'[study]\nname = "test"\nstore = "{store}"\n'
+    if group:
+        head += f'group = "{group}"\n'
+    return head + QUICK_MODEL + f"\n[loads]\ndeflection_mm = {deflections}\n\n[solver]\n{solver}\n"
+
+
+@pytest.fixture
+def write_study(tmp_path):
+    def write(name="study.toml", **kwargs) -> Path:
+        path = tmp_path / name
+        path.write_text(study_text(tmp_path / "store.zarr", **kwargs))
+        return path
+
+    return write
+
+
+@pytest.fixture
+def counting_ccx(tmp_path, monkeypatch, ccx):
+    """Point FARM_CCX at a wrapper that logs every solve (not `ccx -v`); returns the log."""
+    log = tmp_path / "ccx-runs.log"
+    wrapper = tmp_path / "ccx-counting"
+    wrapper.write_text(textwrap.dedent(f"""\
+        #!/bin/sh
+        [ "$1" = "-i" ] && echo "$$ $(pwd)" >> {log}
+        exec {ccx} "$@"
+        """))
+    wrapper.chmod(wrapper.stat().st_mode | stat.S_IEXEC)
+    monkeypatch.setenv("FARM_CCX", str(wrapper))
+    log.touch()
+    return log
+
+
+def ccx_runs(log: Path) -> int:
+    return len(log.read_text().splitlines()) if log.exists() else 0
+
+
+def ccx_processes() -> list:
+    """Live ccx processes started from this machine's scratch dirs (psutil)."""
+    import psutil
+
+    found = []
+    for p in psutil.process_iter(["name", "status"]):
+        try:
+            if p.info["name"] == "ccx" and p.info["status"] != psutil.STATUS_ZOMBIE:
+                found.append(p)
+        except psutil.NoSuchProcess:
+            continue
+    return found
+

@@ -1,0 +1,87 @@
+"""Sweeps on the embedded LocalCluster with the real solver.
+
+Resubmission solves nothing again; a case that cannot converge is recorded while the
+others finish; a client killed mid-sweep leaves no solver behind, and resuming solves
+exactly what was left.
+"""
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+from conftest import ccx_processes, ccx_runs
+
+import storage
+from farm.cli import main
+from jobs.study import load_study
+from jobs.sweep import run_sweep
+
+pytestmark = pytest.mark.ccx
+
+
+def test_sweep_fills_the_store_and_resubmission_solves_nothing(write_study, counting_ccx):
+    study = load_study(write_study())
+    report = run_sweep(study, workers=2)
+    assert report.ok and len(report.done) == 6 and report.skipped == 0
+    runs = ccx_runs(counting_ccx)
+    assert runs == 6  # rigid-road contact, uninflated: one ccx run per experiment
+    ds = storage.done(storage.open_dataset(study.store, study.group_name))
+    assert ds.sizes["experiment"] == 6
+    fz = ds["total_force"].sel(component="z").values[np.argsort(ds["deflection"].values)]
+    assert np.all(np.diff(fz) > 0)
+
+    again = run_sweep(study, workers=2)
+    assert again.ok and again.skipped == 6 and not again.done
+    assert ccx_runs(counting_ccx) == runs
+
+
+def test_a_case_that_cannot_converge_is_recorded(write_study, capsys):
+    path = write_study(deflections="[10, 20, 170]",
+                       solver="max_path_length = 1\nretry_smaller_increments = false")
+    with pytest.raises(SystemExit) as info:
+        main(["sweep", "submit", str(path), "--workers", "2"])
+    out = capsys.readouterr().out
+    assert info.value.code == 1
+    assert "failed experiments" in out and "170" in out and "increment" in out
+    study = load_study(path)
+    counts = storage.status_counts(study.store, study.group_name)
+    assert counts == {"pending": 0, "done": 2, "failed": 1}
+
+
+def _wait_for_done(store, group, n, timeout=120):
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        try:
+            if storage.status_counts(store, group)["done"] >= n:
+                return
+        except storage.StoreError:
+            pass
+        time.sleep(0.5)
+    raise AssertionError(f"fewer than {n} experiments done after {timeout} s")
+
+
+def test_killed_client_then_resume_solves_only_what_was_left(write_study, counting_ccx):
+    path = write_study(deflections="{ start = 2, stop = 40, step = 2 }")
+    study = load_study(path)
+    client = subprocess.Popen([sys.executable, "-m", "farm", "sweep", "submit", str(path),
+                               "--workers", "2"], stdout=subprocess.DEVNULL,
+                              stderr=subprocess.DEVNULL, env=os.environ.copy())
+    try:
+        _wait_for_done(study.store, study.group_name, 4)
+    finally:
+        client.send_signal(signal.SIGKILL)
+        client.wait()
+    deadline = time.monotonic() + 30
+    while ccx_processes() and time.monotonic() < deadline:
+        time.sleep(0.5)
+    assert ccx_processes() == []  # the solvers died with their workers
+    before = storage.status_counts(study.store, study.group_name)
+    assert before["done"] >= 4 and before["done"] + before["pending"] == 20
+    runs = ccx_runs(counting_ccx)
+    report = run_sweep(study, workers=2)
+    assert report.ok and report.skipped == before["done"]
+    assert ccx_runs(counting_ccx) - runs == before["pending"]
