@@ -22,6 +22,8 @@ pkgs=()
 command -v ccx >/dev/null || pkgs+=(calculix-ccx)
 # CalculiX's own examples with reference results: the readers are validated on them
 [ -d /usr/share/doc/calculix-ccx-test/examples ] || pkgs+=(calculix-ccx-test)
+# docker-compose (v1, Debian) only validates docker-compose.yml in the tests: no engine
+command -v docker-compose >/dev/null || pkgs+=(docker-compose)
 declare -A lib_pkg=(
     [libGLU.so.1]=libglu1-mesa [libGL.so.1]=libgl1 [libXcursor.so.1]=libxcursor1
     [libXft.so.2]=libxft2 [libXinerama.so.1]=libxinerama1 [libXrender.so.1]=libxrender1

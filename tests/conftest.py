@@ -30,6 +30,18 @@ def ccx() -> str:
     return _ccx_or_skip()
 
 
+@pytest.fixture(scope="session")
+def docker_compose() -> str:
+    """Debian's ``docker-compose`` (validates the compose file; no engine needed)."""
+    exe = shutil.which("docker-compose")
+    if exe is None:
+        if REQUIRE_CCX:
+            pytest.fail("docker-compose is required here but not on PATH (scripts/setup.sh "
+                        "installs it)")
+        pytest.skip("docker-compose not installed: `bash scripts/test.sh` installs it")
+    return exe
+
+
 def pytest_collection_modifyitems(config, items):
     for item in items:
         if "ccx" in item.keywords and "ccx" not in getattr(item, "fixturenames", ()):
