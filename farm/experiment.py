@@ -28,13 +28,15 @@ class PathResult:
     """The measurements of a solved load path and what solving it cost.
 
     ``reference`` is the unloaded state the measurements are taken from (the inflated
-    tyre for the full model).
+    tyre for the full model); ``states`` are the solved states (full fields) behind the
+    measurements, one per deflection.
     """
 
     model: ModelSpec
     path: LoadPath
     measurements: tuple[Measurement, ...]
     reference: SolvedState
+    states: tuple[SolvedState, ...]
     solve_seconds: float
     wall_seconds: float
     ccx_runs: int
@@ -77,6 +79,7 @@ def run_load_path(model: ModelSpec, path: LoadPath, settings: SolverSettings | N
     measurements = measure(mesh, solution, path.pressure)
     return PathResult(
         model=model, path=path, measurements=tuple(measurements), reference=solution.reference,
+        states=solution.states,
         solve_seconds=solution.solve_seconds, wall_seconds=time.perf_counter() - start,
         ccx_runs=solution.ccx_runs, increments=solution.increments,
         solver=f"CalculiX {ccx_version()}",

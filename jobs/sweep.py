@@ -33,7 +33,7 @@ class SweepReport:
 
     study: Study
     total: int
-    skipped: int = 0
+    skipped: int = 0  # done before this sweep started
     done: list[str] = field(default_factory=list)
     failed: dict[str, str] = field(default_factory=dict)
     experiments: dict[str, Experiment] = field(default_factory=dict)
@@ -91,7 +91,8 @@ def run_sweep(study: Study, *, scheduler: str | None = None, workers: int | None
         status = storage.statuses(study.store, study.group_name, [e.id for e in exps])
         report = SweepReport(study, len(exps), experiments={e.id: e for e in exps},
                              dashboard=dashboard_link(client))
-        report.skipped = sum(s == storage.DONE for s in status.values())
+        before = {i for i, s in status.items() if s == storage.DONE}
+        report.skipped = len(before)
         todo = _todo(paths, status, retry_failed)
         for p in paths:
             if p not in todo:
@@ -99,7 +100,7 @@ def run_sweep(study: Study, *, scheduler: str | None = None, workers: int | None
                                       for e in p.experiments if status[e.id] == storage.FAILED})
         progress.started(report.dashboard, len(client.scheduler_info()["workers"]), report.total,
                          report.skipped)
-        _follow(client, study, todo, report, progress)
+        _follow(client, study, todo, report, progress, before)
     report.wall_seconds = time.perf_counter() - start
     progress.finished(report)
     return report
@@ -111,18 +112,20 @@ def _submit(client, study: Study, path: PathPlan):
     return client.submit(run_path, task, key=path.key, pure=False, retries=TASK_RETRIES)
 
 
-def _record(report: SweepReport, outcome: PathOutcome) -> None:
-    report.done += [i for i in outcome.done if i not in report.done]
+def _record(report: SweepReport, outcome: PathOutcome, before: set[str]) -> None:
+    # a task skips what is done: either before this sweep (counted in report.skipped) or
+    # by an earlier attempt of the same task on a worker that was lost (done now)
+    fresh = [i for i in (*outcome.done, *outcome.skipped) if i not in before]
+    report.done += [i for i in fresh if i not in report.done]
     report.failed.update(dict(outcome.failed))
-    for i in outcome.done:
+    for i in fresh:
         report.failed.pop(i, None)
-    report.skipped += len(outcome.skipped)
     report.solve_seconds += outcome.solve_seconds
     report.ccx_runs += outcome.ccx_runs
 
 
 def _follow(client, study: Study, todo: list[PathPlan], report: SweepReport,
-            progress: Progress) -> None:
+            progress: Progress, before: set[str]) -> None:
     """Wait for the tasks, recording outcomes; on interruption cancel them (kills ccx)."""
     futures = {_submit(client, study, p): p for p in todo}
     pending = dict(futures)
@@ -132,7 +135,7 @@ def _follow(client, study: Study, todo: list[PathPlan], report: SweepReport,
             for fut in [f for f in pending if f.status in ("finished", "error", "cancelled")]:
                 path = pending.pop(fut)
                 if fut.status == "finished":
-                    _record(report, fut.result())
+                    _record(report, fut.result(), before)
                 else:
                     _task_failed(study, report, path, fut)
                 fut.release()

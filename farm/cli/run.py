@@ -34,6 +34,8 @@ def run(
     timeout: float = typer.Option(1800.0, "--timeout", help="Seconds per ccx run."),
     out: Path = typer.Option(None, "--out", help="Save the arrays to this .npz file."),
     keep: bool = typer.Option(False, "--keep", help="Keep the solver's scratch directories."),
+    vtu: Path = typer.Option(None, "--vtu", help="Write the deformed tyre per deflection "
+                             "as ParaView VTU files into this folder."),
 ) -> None:
     """Solve one load path (one model, one pressure, several deflections) and print a table."""
     spec = build_model(model, materials, road, overrides)
@@ -52,6 +54,11 @@ def run(
     if out is not None:
         result.save(out, mesh_for(spec))
         Console(stderr=True).print(f"arrays saved to {out}")
+    if vtu is not None:
+        from farm.export import path_vtus
+
+        files = path_vtus(result, mesh_for(spec), vtu)
+        Console(stderr=True).print(f"{len(files)} VTU files written to {vtu}")
 
 
 def _print_table(result: PathResult, kpa: float) -> None:

@@ -1,0 +1,44 @@
+"""``farm reproduce --quick`` end to end on test-sized meshes; the second run solves nothing."""
+
+import json
+import re
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from farm.cli import main
+
+pytestmark = pytest.mark.ccx
+
+
+def _run(out):
+    main(["reproduce", "--coarse", "--out", str(out), "--workers", "2"])
+    return json.loads((out / "report.json").read_text())
+
+
+def test_reproduce_writes_a_complete_report_and_is_idempotent(tmp_path):
+    out = tmp_path / "rep"
+    first = _run(out)
+    text = (out / "report.md").read_text()
+    for heading in ("## Provenance", "## Chapter 3", "## Chapter 5", "## Study files"):
+        assert heading in text
+    for link in re.findall(r"\]\(([^)]+\.png)\)", text):
+        assert (out / link).is_file(), link
+    tables = {p.stem: pd.read_csv(p) for p in (out / "tables").glob("*.csv")}
+    assert tables, "no tables written"
+    for name, frame in tables.items():
+        assert len(frame), name
+        numeric = frame.select_dtypes("number")
+        assert np.isfinite(numeric.to_numpy()).all(), name
+    curves = tables["validation__force_deflection_thesis_fig_3_3"]
+    assert list(curves["deflection mm"]) == [5, 10, 15, 20, 25, 30, 35, 40]
+    assert curves.shape[1] == 4 and (curves.iloc[:, 1:].diff().iloc[1:] > 0).all().all()
+    points = tables["validation__thesis_reference_points_3_3_3_4"]
+    assert list(points["thesis Fz N"]) == [3933.0, 4476.0, 359.0]
+    variance = tables["dataset__plsr_thesis_comparison"]
+    assert len(variance) == 9 and variance["measured_cum_pct"].between(0, 100).all()
+    assert sum(stage["ccx_runs"] for stage in first.values()) > 0
+
+    second = _run(out)
+    assert sum(stage["ccx_runs"] for stage in second.values()) == 0
