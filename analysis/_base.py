@@ -9,7 +9,7 @@ import numpy as np
 from sklearn.utils.validation import validate_data
 
 from analysis.errors import ComponentsError, ParameterError
-from analysis.moments import check_finite
+from analysis.moments import check_finite, compute_moments
 
 
 def check_xy(estimator, X, y):
@@ -57,3 +57,26 @@ def too_many_components(asked: int, available: int, n_samples: int, why: str) ->
     )
     error.available = available  # lets a caller asking for "all" fall back to the maximum
     return error
+
+
+class MomentsFitMixin:
+    """``fit`` for the estimators that learn from centred sums of products.
+
+    ``fit`` validates, reduces (X, y) to :class:`~analysis.moments.Moments` (chunk-wise for
+    dask arrays) and hands them to the estimator's own ``fit_moments``.
+    """
+
+    _n_components_may_be_none = True
+
+    def fit(self, X, y):
+        """Fit on X of shape (K, N) and y of shape (K,) or (K, M); numpy or dask arrays.
+
+        Returns
+        -------
+        self
+        """
+        check_n_components(self.n_components, allow_none=self._n_components_may_be_none)
+        X, Y, one_d = check_xy(self, X, y)
+        self.fit_moments(compute_moments(X, Y))
+        self._predict_1d = one_d
+        return self

@@ -18,12 +18,14 @@ import pandas as pd
 from sklearn.base import BaseEstimator, ClassNamePrefixFeaturesOutMixin, TransformerMixin
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from analysis._base import check_n_components, check_xy, too_many_components
+from analysis._base import MomentsFitMixin, check_n_components, too_many_components
 from analysis.data import family
-from analysis.moments import Moments, compute_moments
+from analysis.moments import Moments
 
 
-class CrossCovariancePCA(ClassNamePrefixFeaturesOutMixin, TransformerMixin, BaseEstimator):
+class CrossCovariancePCA(
+    MomentsFitMixin, ClassNamePrefixFeaturesOutMixin, TransformerMixin, BaseEstimator
+):
     """SVD of the cross-covariance T = X̄ᵀȲ (thesis eqs. 5.1-5.2).
 
     Parameters
@@ -49,17 +51,6 @@ class CrossCovariancePCA(ClassNamePrefixFeaturesOutMixin, TransformerMixin, Base
 
     def __init__(self, n_components=None):
         self.n_components = n_components
-
-    def fit(self, X, y):
-        """Fit on X (K, N) and y (K,) or (K, M); numpy or dask arrays.
-
-        Returns
-        -------
-        self : CrossCovariancePCA
-        """
-        check_n_components(self.n_components, allow_none=True)
-        X, Y, _ = check_xy(self, X, y)
-        return self.fit_moments(compute_moments(X, Y))
 
     def fit_moments(self, moments: Moments):
         """Fit from precomputed :class:`~analysis.moments.Moments` (out-of-core entry).

@@ -15,11 +15,11 @@ import numpy as np
 from sklearn.base import BaseEstimator, MultiOutputMixin, RegressorMixin
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from analysis._base import check_n_components, check_xy, too_many_components
-from analysis.moments import Moments, compute_moments
+from analysis._base import MomentsFitMixin, check_n_components, too_many_components
+from analysis.moments import Moments
 
 
-class PCRegression(MultiOutputMixin, RegressorMixin, BaseEstimator):
+class PCRegression(MomentsFitMixin, MultiOutputMixin, RegressorMixin, BaseEstimator):
     """PCR with r* input and output modes (thesis §5.4).
 
     Parameters
@@ -53,19 +53,6 @@ class PCRegression(MultiOutputMixin, RegressorMixin, BaseEstimator):
 
     def __init__(self, n_components=None):
         self.n_components = n_components
-
-    def fit(self, X, y):
-        """Fit on X (K, N) and y (K,) or (K, M); numpy or dask arrays.
-
-        Returns
-        -------
-        self : PCRegression
-        """
-        check_n_components(self.n_components, allow_none=True)
-        X, Y, one_d = check_xy(self, X, y)
-        self.fit_moments(compute_moments(X, Y))
-        self._predict_1d = one_d
-        return self
 
     def fit_moments(self, moments: Moments):
         """Fit from precomputed :class:`~analysis.moments.Moments`.

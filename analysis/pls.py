@@ -25,8 +25,8 @@ from sklearn.base import (
 )
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from analysis._base import check_n_components, check_xy, too_many_components
-from analysis.moments import Moments, compute_moments
+from analysis._base import MomentsFitMixin, check_n_components, too_many_components
+from analysis.moments import Moments
 
 
 def simpls(xx: np.ndarray, xy: np.ndarray, n_components: int, n_samples: int) -> dict:
@@ -70,6 +70,7 @@ def _orthogonalise(v: np.ndarray, basis: np.ndarray) -> np.ndarray:
 
 
 class SIMPLSRegression(
+    MomentsFitMixin,
     ClassNamePrefixFeaturesOutMixin,
     TransformerMixin,
     RegressorMixin,
@@ -101,21 +102,10 @@ class SIMPLSRegression(
     n_features_in_ : int
     """
 
+    _n_components_may_be_none = False
+
     def __init__(self, n_components=2):
         self.n_components = n_components
-
-    def fit(self, X, y):
-        """Fit on X (K, N) and y (K,) or (K, M); numpy or dask arrays.
-
-        Returns
-        -------
-        self : SIMPLSRegression
-        """
-        check_n_components(self.n_components, allow_none=False)
-        X, Y, one_d = check_xy(self, X, y)
-        self.fit_moments(compute_moments(X, Y))
-        self._predict_1d = one_d
-        return self
 
     def fit_moments(self, moments: Moments):
         """Fit from precomputed :class:`~analysis.moments.Moments`.

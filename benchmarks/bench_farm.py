@@ -13,13 +13,12 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import os
-import shutil
-import subprocess
 import tempfile
 import time
 from pathlib import Path
 
-from farm.ccx.runner import find_ccx
+from bare_ccx import bare_seconds
+
 from farm.experiment import run_load_path
 from farm.mesh import cache as mesh_cache
 from farm.presets import default_model
@@ -40,29 +39,13 @@ def package_run(spec, path, scratch: Path) -> tuple[float, list[Path]]:
     return wall, decks
 
 
-def bare_run(decks: list[Path], scratch: Path) -> float:
-    """Wall time of ccx alone on the same decks, one after the other."""
-    exe = find_ccx()
-    env = {**os.environ, "LC_ALL": "C", "OMP_NUM_THREADS": "1", "CCX_NPROC_EQUATION_SOLVER": "1"}
-    total = 0.0
-    for k, deck in enumerate(decks):
-        work = scratch / f"bare{k}"
-        work.mkdir()
-        shutil.copy(deck, work / "job.inp")
-        start = time.perf_counter()
-        subprocess.run([exe, "-i", "job"], cwd=work, env=env, check=True,
-                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        total += time.perf_counter() - start
-    return total
-
-
 def overhead(spec, path, repeat: int) -> None:
     pkg, bare = [], []
     for _ in range(repeat):
         with tempfile.TemporaryDirectory() as tmp:
             wall, decks = package_run(spec, path, Path(tmp))
             pkg.append(wall)
-            bare.append(bare_run(decks, Path(tmp)))
+            bare.append(bare_seconds(decks))
     p, b = min(pkg), min(bare)
     print(f"overhead  {spec.kind} model, {len(decks)} decks: bare ccx {b:.2f} s, "
           f"package {p:.2f} s  ->  overhead {100 * (p - b) / b:+.1f} % of solve time "

@@ -13,13 +13,12 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import os
-import shutil
-import subprocess
 import tempfile
 import time
 from pathlib import Path
 
-from farm.ccx.runner import find_ccx
+from bare_ccx import bare_seconds
+
 from jobs.study import parse_study
 from jobs.sweep import run_sweep
 
@@ -50,21 +49,6 @@ deflection_mm = {{ start = 2, stop = 40, step = 2 }}
 [solver]
 max_path_length = 1
 """
-
-
-def bare_seconds(decks: list[Path]) -> float:
-    exe, total = find_ccx(), 0.0
-    env = {**os.environ, "LC_ALL": "C", "OMP_NUM_THREADS": "1", "CCX_NPROC_EQUATION_SOLVER": "1"}
-    with tempfile.TemporaryDirectory() as tmp:
-        for k, deck in enumerate(decks):
-            work = Path(tmp) / str(k)
-            work.mkdir()
-            shutil.copy(deck, work / "job.inp")
-            start = time.perf_counter()
-            subprocess.run([exe, "-i", "job"], cwd=work, env=env, check=True,
-                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-            total += time.perf_counter() - start
-    return total
 
 
 def main() -> None:

@@ -8,47 +8,17 @@ marked ``ccx`` run the solver on our decks and on CalculiX's own published examp
 from __future__ import annotations
 
 import gzip
-import os
-import shutil
-import subprocess
 from pathlib import Path
 
 import numpy as np
 import pytest
+from ccx_examples import DATA, EXAMPLES, example, solve
 
 from farm.ccx import block_times, read_dat, read_frd, select_blocks
 from farm.ccx import dat as dat_module
 from farm.errors import ResultsError
 
-DATA = Path(__file__).parent / "data"
-DEBIAN_EXAMPLES = "/usr/share/doc/calculix-ccx-test/examples/test"
-EXAMPLES = Path(os.environ.get("FARM_CCX_EXAMPLES", DEBIAN_EXAMPLES))
 ONE = DATA / "one_element.dat"
-
-
-def run_ccx(ccx: str, deck: Path, workdir: Path) -> subprocess.CompletedProcess:
-    """Run ``ccx`` on ``deck`` (copied into ``workdir``) on one thread."""
-    workdir.mkdir(parents=True, exist_ok=True)
-    target = workdir / deck.name.removesuffix(".gz")
-    if deck.suffix == ".gz":
-        target.write_bytes(gzip.decompress(deck.read_bytes()))
-    else:
-        shutil.copy(deck, target)
-    env = {**os.environ, "OMP_NUM_THREADS": "1", "CCX_NPROC_EQUATION_SOLVER": "1"}
-    return subprocess.run(
-        [ccx, "-i", target.stem], cwd=workdir, env=env, capture_output=True, text=True, timeout=120
-    )
-
-
-def example(name: str, suffix: str) -> Path:
-    """A file of the ccx test suite, plain or gzipped; skip (or fail in CI) without it."""
-    for path in (EXAMPLES / f"{name}{suffix}", EXAMPLES / f"{name}{suffix}.gz"):
-        if path.exists():
-            return path
-    message = f"CalculiX examples not found in {EXAMPLES} (apt-get install calculix-ccx-test)"
-    if os.environ.get("FARM_REQUIRE_CCX") == "1":
-        pytest.fail(message)
-    pytest.skip(message)
 
 
 def dat_file(tmp_path: Path, text: str) -> Path:
@@ -279,8 +249,8 @@ def test_missing_file_raises(tmp_path):
 
 @pytest.mark.ccx
 def test_block_deck_prints(ccx, tmp_path):
-    run = run_ccx(ccx, DATA / "block.inp", tmp_path)
-    assert run.returncode == 0, run.stdout[-2000:]
+    run = solve(DATA / "block.inp", tmp_path)
+    assert run.returncode == 0, run.output_tail
     blocks = read_dat(tmp_path / "block.dat")
     times = [0.25, 0.5, 0.75, 1.0, 1.5, 2.0]  # *TIME POINTS also thin out the prints
     for quantity in ("displacements", "forces", "total force", "strains", "stresses",
@@ -301,8 +271,8 @@ def test_block_deck_prints(ccx, tmp_path):
 
 @pytest.mark.ccx
 def test_contact_deck_prints_match_the_frd(ccx, tmp_path):
-    run = run_ccx(ccx, DATA / "contact.inp", tmp_path)
-    assert run.returncode == 0, run.stdout[-2000:]
+    run = solve(DATA / "contact.inp", tmp_path)
+    assert run.returncode == 0, run.output_tail
     blocks, f = read_dat(tmp_path / "contact.dat"), read_frd(tmp_path / "contact.frd")
     stresses = select_blocks(blocks, "contact stress")
     slips = select_blocks(blocks, "relative contact displacement")
@@ -327,8 +297,8 @@ def test_contact_deck_prints_match_the_frd(ccx, tmp_path):
 def test_shear_strain_convention_and_component_order(ccx, tmp_path):
     """Simple shear u_x = 0.001 z: both files hold the tensor component (gamma / 2),
     the frd in the order XY, YZ, ZX and the dat in the order xy, xz, yz."""
-    run = run_ccx(ccx, DATA / "shear.inp", tmp_path)
-    assert run.returncode == 0, run.stdout[-2000:]
+    run = solve(DATA / "shear.inp", tmp_path)
+    assert run.returncode == 0, run.output_tail
     strains, stresses = read_dat(tmp_path / "shear.dat")
     np.testing.assert_allclose(strains.values, [[0, 0, 0, 0, 0.0005, 0]] * 8, atol=1e-12)
     np.testing.assert_allclose(stresses.column("sxz"), 1000 / 2.6 * 0.001, rtol=1e-6)  # G gamma
@@ -338,7 +308,7 @@ def test_shear_strain_convention_and_component_order(ccx, tmp_path):
 
 @pytest.mark.ccx
 def test_diverging_deck_prints_only_converged_increments(ccx, tmp_path):
-    run = run_ccx(ccx, DATA / "diverge.inp", tmp_path)
+    run = solve(DATA / "diverge.inp", tmp_path)
     assert run.returncode != 0
     np.testing.assert_array_equal(block_times(read_dat(tmp_path / "diverge.dat")), [0.4, 0.8])
 
@@ -370,8 +340,8 @@ def test_example_dat_matches_the_reference(ccx, tmp_path, name):
     CalculiX's own ``datcheck.pl``. (Most agree exactly; the solver changed little.)
     """
     reference = read_dat(example(name, ".dat.ref"))
-    run = run_ccx(ccx, example(name, ".inp"), tmp_path)
-    assert run.returncode == 0, run.stdout[-2000:]
+    run = solve(example(name, ".inp"), tmp_path)
+    assert run.returncode == 0, run.output_tail
     ours = read_dat(tmp_path / f"{name}.dat")
     assert reference and len(ours) == len(reference)
     for a, b in zip(ours, reference, strict=True):
@@ -386,6 +356,6 @@ def test_example_dat_matches_the_reference(ccx, tmp_path, name):
 @pytest.mark.ccx
 @pytest.mark.parametrize("name", ["dloadlinI", "pret3"])
 def test_example_totals_are_sums(ccx, tmp_path, name):
-    run = run_ccx(ccx, example(name, ".inp"), tmp_path)
-    assert run.returncode == 0, run.stdout[-2000:]
+    run = solve(example(name, ".inp"), tmp_path)
+    assert run.returncode == 0, run.output_tail
     assert assert_totals_are_sums(read_dat(tmp_path / f"{name}.dat")) >= 1

@@ -8,52 +8,22 @@ published examples (Debian's ``calculix-ccx-test``, reference results from ccx 2
 from __future__ import annotations
 
 import gzip
-import os
-import shutil
-import subprocess
 from pathlib import Path
 
 import numpy as np
 import pytest
+from ccx_examples import DATA, EXAMPLES, example, solve
 
 from farm.ccx import frd as frd_module
 from farm.ccx import read_dat, read_frd, select_blocks
 from farm.errors import ResultsError
 
-DATA = Path(__file__).parent / "data"
-DEBIAN_EXAMPLES = "/usr/share/doc/calculix-ccx-test/examples/test"
-EXAMPLES = Path(os.environ.get("FARM_CCX_EXAMPLES", DEBIAN_EXAMPLES))
 ONE = DATA / "one_element.frd"
 DIVERGED = DATA / "diverge.frd"
 DISP = ("D1", "D2", "D3")
 
 
 # --------------------------------------------------------------------------- helpers
-
-
-def run_ccx(ccx: str, deck: Path, workdir: Path) -> subprocess.CompletedProcess:
-    """Run ``ccx`` on ``deck`` (copied into ``workdir``) on one thread."""
-    workdir.mkdir(parents=True, exist_ok=True)
-    target = workdir / deck.name.removesuffix(".gz")
-    if deck.suffix == ".gz":
-        target.write_bytes(gzip.decompress(deck.read_bytes()))
-    else:
-        shutil.copy(deck, target)
-    env = {**os.environ, "OMP_NUM_THREADS": "1", "CCX_NPROC_EQUATION_SOLVER": "1"}
-    return subprocess.run(
-        [ccx, "-i", target.stem], cwd=workdir, env=env, capture_output=True, text=True, timeout=120
-    )
-
-
-def example(name: str, suffix: str) -> Path:
-    """A file of the ccx test suite, plain or gzipped; skip (or fail in CI) without it."""
-    for path in (EXAMPLES / f"{name}{suffix}", EXAMPLES / f"{name}{suffix}.gz"):
-        if path.exists():
-            return path
-    message = f"CalculiX examples not found in {EXAMPLES} (apt-get install calculix-ccx-test)"
-    if os.environ.get("FARM_REQUIRE_CCX") == "1":
-        pytest.fail(message)
-    pytest.skip(message)
 
 
 def rewrite(tmp_path: Path, source: Path, edit) -> Path:
@@ -318,8 +288,8 @@ def test_diverged_flag_overrides_the_guess():
 
 @pytest.mark.ccx
 def test_block_deck_time_points_and_steps(ccx, tmp_path):
-    run = run_ccx(ccx, DATA / "block.inp", tmp_path)
-    assert run.returncode == 0, run.stdout[-2000:]
+    run = solve(DATA / "block.inp", tmp_path)
+    assert run.returncode == 0, run.output_tail
     f = read_frd(tmp_path / "block.frd")
     assert f.complete and f.names() == ["DISP", "TOSTRAIN", "FORC"]
     np.testing.assert_array_equal(f.times(), [0.25, 0.5, 0.75, 1.0, 1.5, 2.0])
@@ -333,8 +303,8 @@ def test_block_deck_time_points_and_steps(ccx, tmp_path):
 
 @pytest.mark.ccx
 def test_contact_deck_writes_contact_block(ccx, tmp_path):
-    run = run_ccx(ccx, DATA / "contact.inp", tmp_path)
-    assert run.returncode == 0, run.stdout[-2000:]
+    run = solve(DATA / "contact.inp", tmp_path)
+    assert run.returncode == 0, run.output_tail
     f = read_frd(tmp_path / "contact.frd")
     assert f.names() == ["DISP", "TOSTRAIN", "FORC", "CONTACT"]
     contact = f.at("CONTACT", 1.0)
@@ -353,8 +323,8 @@ def test_contact_deck_writes_contact_block(ccx, tmp_path):
 
 @pytest.mark.ccx
 def test_diverging_deck_is_read_as_diverged(ccx, tmp_path):
-    run = run_ccx(ccx, DATA / "diverge.inp", tmp_path)
-    assert run.returncode != 0 and "increment size smaller than minimum" in run.stdout
+    run = solve(DATA / "diverge.inp", tmp_path)
+    assert run.returncode != 0 and "increment size smaller than minimum" in run.output_tail
     f = read_frd(tmp_path / "diverge.frd")
     assert not f.complete and f.times().tolist() == [0.4, 0.8]
     assert {r.name for r in f.residuals} == {"DISP", "FORC"}
@@ -384,8 +354,8 @@ def test_example_frd_matches_the_reference(ccx, tmp_path, name):
     of the block's largest value (the criterion of CalculiX's own ``datcheck.pl``).
     """
     reference = read_frd(example(name, ".frd.ref"))
-    run = run_ccx(ccx, example(name, ".inp"), tmp_path)
-    assert run.returncode == 0, run.stdout[-2000:]
+    run = solve(example(name, ".inp"), tmp_path)
+    assert run.returncode == 0, run.output_tail
     ours = read_frd(tmp_path / f"{name}.frd")
     assert ours.complete and reference.complete
     np.testing.assert_array_equal(ours.node_ids, reference.node_ids)
@@ -402,8 +372,8 @@ def test_example_frd_matches_the_reference(ccx, tmp_path, name):
 @pytest.mark.ccx
 @pytest.mark.parametrize("name", ["cubespring", "section", "planestress3"])
 def test_example_frd_equals_dat_where_both_hold_displacements(ccx, tmp_path, name):
-    run = run_ccx(ccx, example(name, ".inp"), tmp_path)
-    assert run.returncode == 0, run.stdout[-2000:]
+    run = solve(example(name, ".inp"), tmp_path)
+    assert run.returncode == 0, run.output_tail
     f, blocks = read_frd(tmp_path / f"{name}.frd"), read_dat(tmp_path / f"{name}.dat")
     printed = select_blocks(blocks, "displacements")
     assert printed
