@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from farm.mesh.tyremesh import REGIONS, TyreMesh
-from farm.specs import ContactLaw, Materials, SolverSettings
+from farm.specs import ContactLaw, Materials, ModelSpec, SolverSettings
 
 ELEMENT_TYPE = "C3D8I"  # incompatible modes: plain C3D8 locks at nu = 0.499 (§3.2)
 
@@ -53,6 +53,14 @@ def material_lines(materials: Materials) -> list[str]:
         lines += [f"*MATERIAL, NAME=M_{name}", "*HYPERELASTIC, NEO HOOKE",
                   f"{_num(m.c10)}, {_num(m.d1)}",
                   f"*SOLID SECTION, ELSET={name}, MATERIAL=M_{name}"]
+    return lines
+
+
+def support_lines(spec: ModelSpec) -> list[str]:
+    """Clamped beads on the rim seat, and a sector's cut faces when they are fixed (§3.2)."""
+    lines = ["*BOUNDARY", "BEAD_SEAT, 1, 3, 0"]
+    if not spec.is_full and spec.cut_faces == "fixed":
+        lines += ["CUT_START, 1, 3, 0", "CUT_END, 1, 3, 0"]
     return lines
 
 

@@ -44,20 +44,13 @@ def _solve(deck: str, settings: SolverSettings, should_stop,
         return run, read_frd(run.file("frd"))
 
 
-def _bead_and_cut_bcs(spec: ModelSpec) -> list[str]:
-    lines = ["*BOUNDARY", "BEAD_SEAT, 1, 3, 0"]
-    if not spec.is_full and spec.cut_faces == "fixed":
-        lines += ["CUT_START, 1, 3, 0", "CUT_END, 1, 3, 0"]
-    return lines
-
-
 def inflate(spec: ModelSpec, mesh: TyreMesh, pressure: float, settings: SolverSettings,
             should_stop: Callable[[], bool] | None = None) -> tuple[CcxRun, float]:
     """Inflate the tyre alone; return the run and the lowest tread z afterwards."""
     deck = D.assemble(
         D.mesh_lines(mesh), D.material_lines(spec.materials),
         D.measured_set_lines(("TREAD_OUTER",)),
-        D.static_step_lines(1.0, settings), _bead_and_cut_bcs(spec),
+        D.static_step_lines(1.0, settings), D.support_lines(spec),
         D.cavity_pressure_lines(mesh, pressure, None),
         ["*NODE FILE, NSET=MEASURED", "U", "*END STEP"],
     )
@@ -88,7 +81,7 @@ def path_deck(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: SolverS
         D.mesh_lines(mesh), D.material_lines(spec.materials), road.lines,
         D.contact_lines(mesh, spec.contact), amplitudes, D.time_points_lines(out_times),
         D.measured_set_lines(("INNER", "OUTER", "ROAD")),
-        D.static_step_lines(t0 + 1.0, settings), _bead_and_cut_bcs(spec),
+        D.static_step_lines(t0 + 1.0, settings), D.support_lines(spec),
         ["*BOUNDARY, AMPLITUDE=ROAD_RAMP", "ROAD, 1, 2, 0", f"ROAD, 3, 3, {travel!r}"],
         pressure, D.output_lines(time_points=True, contact=True), ["*END STEP"],
     )
@@ -129,7 +122,9 @@ def contact_forces(frd: FrdFile, mesh: TyreMesh, time: float, positions: np.ndar
         ids = block.node_ids
         force[ids - 1, 2] = cpress * slave_areas(faces, positions)[ids - 1]
     tread = mesh.tread_nodes
-    if np.any(force[np.setdiff1d(np.arange(1, mesh.n_nodes + 1), tread) - 1] != 0):
+    outside = np.ones(mesh.n_nodes, dtype=bool)
+    outside[tread - 1] = False
+    if np.any(force[outside] != 0):
         raise ResultsError("contact pressure on a node outside the outer tread")
     return force[tread - 1]
 

@@ -37,10 +37,7 @@ SUPPORT_SETS = ("BEAD_SEAT", "CUT_START", "CUT_END")
 def prescribed_deck(spec: ModelSpec, mesh: TyreMesh, uz: dict[int, float],
                     settings: SolverSettings) -> str:
     """Deck with the vertical displacement ``uz[node]`` prescribed on contact nodes."""
-    bcs = ["*BOUNDARY", "BEAD_SEAT, 1, 3, 0"]
-    if spec.cut_faces == "fixed":
-        bcs += ["CUT_START, 1, 3, 0", "CUT_END, 1, 3, 0"]
-    bcs += [f"{node}, 3, 3, {value!r}" for node, value in sorted(uz.items())]
+    bcs = D.support_lines(spec) + [f"{node}, 3, 3, {value!r}" for node, value in sorted(uz.items())]
     return D.assemble(
         D.mesh_lines(mesh), D.material_lines(spec.materials),
         D.measured_set_lines(("INNER", "OUTER")),
