@@ -1,12 +1,12 @@
 """Load paths with frictionless contact against a rigid road plane (thesis §3.2).
 
 The full model is first inflated alone, which gives the height at which the road first
-touches the inflated tyre (deflection zero). The load path itself is then ONE ccx run:
-inflation ramps over step time [0, 1] with the road held clear (the exponential law
-diverges if the road starts within its clearance or touches during inflation), then
-the road rises over [1, 2] and results are written at the time of every deflection.
-Ramping to 40 mm costs about as much as ramping to 10 mm, so a whole path costs about
-one run (prototype: 14.8 s for 10-40 mm, 1 core).
+touches the inflated tyre (deflection zero; cached per model, pressure and solver). The
+load path itself is then ONE ccx run: inflation ramps over step time [0, 1] with the
+road held clear (the exponential law diverges if the road starts within its clearance or
+touches during inflation), then the road rises over [1, 2] and results are written at
+the time of every deflection. Ramping to 40 mm costs about as much as ramping to 10 mm,
+so a whole path costs about one run (prototype: 14.8 s for 10-40 mm, 1 core).
 
 Per-node road forces: in node-to-surface contact the slave nodes are free (their RF is
 zero), so the force on each tread node is its contact pressure times its slave area.
@@ -16,17 +16,21 @@ with that, the tread forces sum to the road's reaction within 0.01 % (measured).
 
 from __future__ import annotations
 
+import contextlib
+import json
+import os
 from collections.abc import Callable
 
 import numpy as np
 
 from farm.ccx import deck as D
 from farm.ccx.frd import FrdFile, read_frd
-from farm.ccx.runner import CcxRun, run_ccx, scratch_dir
+from farm.ccx.runner import CcxRun, ccx_version, run_ccx, scratch_dir
 from farm.errors import ResultsError
+from farm.mesh.cache import cache_dir
 from farm.mesh.tyremesh import HEX_FACES, REGIONS, TyreMesh
 from farm.solve.states import PathSolution, SolvedState, inner_strain, node_field
-from farm.specs import LoadPath, ModelSpec, SolverSettings
+from farm.specs import LoadPath, ModelSpec, SolverSettings, content_hash
 
 TIME_RTOL = 1e-5  # the .frd prints times below 1 with 6 digits only
 
@@ -58,6 +62,29 @@ def inflate(spec: ModelSpec, mesh: TyreMesh, pressure: float, settings: SolverSe
     block = frd.results_named("DISP")[-1]
     z = mesh.xyz(block.node_ids)[:, 2] + block.values[:, 2]
     return run, float(z.min())
+
+
+def touch_height(spec: ModelSpec, mesh: TyreMesh, pressure: float, settings: SolverSettings,
+                 should_stop: Callable[[], bool] | None = None) -> tuple[float, CcxRun | None]:
+    """Where the road first touches the inflated tyre: cached per model, pressure, solver.
+
+    Every load path at one pressure needs the same inflation pre-run; a sweep that splits
+    paths (or re-runs one) reads it from the cache instead. Returns the height and the
+    run, or ``None`` when the cache answered.
+    """
+    key = content_hash({"model": spec.to_dict(), "pressure": pressure, "solver": ccx_version()})
+    path = cache_dir() / "inflation" / f"{key[:32]}.json"
+    try:
+        return float(json.loads(path.read_text())["touch_z"]), None
+    except (OSError, ValueError, KeyError):
+        pass
+    run, z = inflate(spec, mesh, pressure, settings, should_stop)
+    with contextlib.suppress(OSError):  # a read-only cache only costs a re-run
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")
+        tmp.write_text(json.dumps({"touch_z": z}))
+        tmp.replace(path)
+    return z, run
 
 
 def path_deck(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: SolverSettings,
@@ -150,8 +177,8 @@ def solve_contact_path(spec: ModelSpec, mesh: TyreMesh, path: LoadPath,
     runs: list[CcxRun] = []
     touch_z = mesh.bottom_z
     if spec.inflated:
-        run, touch_z = inflate(spec, mesh, path.pressure, settings, should_stop)
-        runs.append(run)
+        touch_z, run = touch_height(spec, mesh, path.pressure, settings, should_stop)
+        runs += [run] if run is not None else []
     deck, times, z_start = path_deck(spec, mesh, path, settings, touch_z)
     run, frd = _solve(deck, settings, should_stop, "path")
     runs.append(run)
