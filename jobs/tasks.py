@@ -28,6 +28,7 @@ from farm.errors import FarmError, SolverError
 from farm.experiment import run_load_path
 from farm.specs import LoadPath, ModelSpec, SolverSettings
 from jobs.expand import Experiment, PathPlan
+from jobs.loops.guard import smaller_increments
 
 RETRY_SMALLER = {"too_many_cutbacks", "increment_below_minimum", "max_increments", "diverged"}
 
@@ -61,14 +62,6 @@ def _info(result, m) -> dict:
             "ccx_runs": result.ccx_runs, "contact_nodes": m.contact_nodes}
 
 
-def _smaller(settings: SolverSettings) -> SolverSettings:
-    return dataclasses.replace(
-        settings, initial_increment=settings.initial_increment / 4,
-        max_increment=settings.max_increment / 4,
-        min_increment=min(settings.min_increment, settings.initial_increment / 400),
-        max_increments=settings.max_increments * 4)
-
-
 def _solve(model: ModelSpec, exps: list[Experiment], settings: SolverSettings,
            task: PathTask, should_stop, retried: bool = False) -> PathOutcome:
     """Solve the experiments as one path; on failure apply the retry policy."""
@@ -81,7 +74,8 @@ def _solve(model: ModelSpec, exps: list[Experiment], settings: SolverSettings,
                 raise
             return _record_failure(task, exps, str(e))
         if task.retry_smaller_increments and not retried:
-            return _solve(model, exps, _smaller(settings), task, should_stop, retried=True)
+            smaller = smaller_increments(settings)
+            return _solve(model, exps, smaller, task, should_stop, retried=True)
         if len(exps) > 1:
             parts = [_solve(model, [x], settings, task, should_stop, retried) for x in exps]
             return PathOutcome(task.path.key, sum((p.done for p in parts), ()),

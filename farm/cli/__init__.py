@@ -33,7 +33,7 @@ def _root(
 
 def _register() -> None:
     from analysis.cli import app as analyse
-    from farm.cli import export, reproduce, run, sweep  # noqa: F401  (register on import)
+    from farm.cli import calibrate, export, invert, reproduce, run, sweep  # noqa: F401
 
     app.add_typer(analyse, name="analyse", help="Chapter-5 analyses of a store: "
                   "cross-covariance PCA, PCR, PLSR, Monte Carlo noise.")

@@ -21,7 +21,8 @@ def test_reproduce_writes_a_complete_report_and_is_idempotent(tmp_path):
     out = tmp_path / "rep"
     first = _run(out)
     text = (out / "report.md").read_text()
-    for heading in ("## Provenance", "## Chapter 3", "## Chapter 5", "## Study files"):
+    for heading in ("## Provenance", "## Chapter 3", "## Chapter 4", "## Chapter 5",
+                    "## Study files"):
         assert heading in text
     for link in re.findall(r"\]\(([^)]+\.png)\)", text):
         assert (out / link).is_file(), link
@@ -38,7 +39,29 @@ def test_reproduce_writes_a_complete_report_and_is_idempotent(tmp_path):
     assert list(points["thesis Fz N"]) == [3933.0, 4476.0, 359.0]
     variance = tables["dataset__plsr_thesis_comparison"]
     assert len(variance) == 9 and variance["measured_cum_pct"].between(0, 100).all()
-    assert sum(stage["ccx_runs"] for stage in first.values()) > 0
+    forces = tables["inverse__forces_and_moments_ours_and_the_thesis_tables_4_1_4_3"]
+    assert list(forces["condition"]) == ["reference", "ideal", "ideal", *(
+        [c for c in ("noise", "guess-90", "guess-uniform") for _ in range(2)])]
+    assert (out / "ch4" / "nodal_errors_guess-uniform.png").is_file()
+    assert first["validation"]["ccx_runs"] > 0 and first["inverse"]["ccx_runs"] > 0
 
     second = _run(out)
     assert sum(stage["ccx_runs"] for stage in second.values()) == 0
+
+
+@pytest.mark.parametrize(("quick", "coarse", "optimizers", "repeats"), [
+    (True, True, {"least-squares"}, 1), (True, False, {"least-squares"}, 2),
+    (False, False, {"least-squares", "nelder-mead"}, 10)])
+def test_the_chapter_4_study_has_the_thesis_conditions(tmp_path, quick, coarse, optimizers,
+                                                       repeats):
+    from farm.cli.reproduce.inverse import study_text
+    from farm.cli.reproduce.stages import Options
+    from jobs.inverse.study import parse_inverse_study
+
+    opts = Options(out=tmp_path, store=str(tmp_path / "s.zarr"), quick=quick, coarse=coarse)
+    study = parse_inverse_study(study_text(opts), "ch4.toml", tmp_path)
+    assert [c.name for c in study.conditions] == ["ideal", "noise", "guess-90", "guess-uniform"]
+    assert {o.name for o in study.optimizers} == optimizers
+    assert [c.repeats for c in study.conditions] == [1, repeats, repeats, repeats]
+    assert study.model.materials.tread.youngs_modulus < 10  # the 359 N reference (§4.1)
+    assert study.deflection == 30 and study.noise.displacement == 1.0

@@ -26,7 +26,7 @@ def reproduce(
 ) -> None:
     """Run the thesis study (chapters 3-5) on the farm and write OUT/report.md."""
     from farm.ccx.runner import ccx_version, find_ccx
-    from farm.cli.reproduce import report, stages
+    from farm.cli.reproduce import inverse, report, stages
     from farm.errors import SpecError
     from farm.presets import MATERIAL_PRESETS
 
@@ -41,7 +41,8 @@ def reproduce(
     console = Console()
     done = []
     for name, stage in (("chapter 3: validation", stages.validation),
-                        ("chapter 5: dataset analyses", stages.dataset)):
+                        ("chapter 5: dataset analyses", stages.dataset),
+                        ("chapter 4: inverse problems", inverse.inverse)):
         console.rule(name)
         done.append(stage(opts))
     path = report.write(opts, done, f"CalculiX {ccx_version()}")

@@ -1,0 +1,152 @@
+"""``farm calibrate``: fit region moduli (and thicknesses) to force-deflection points."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from farm.cli import app
+
+
+def _print(console: Console, title: str, frame) -> None:
+    table = Table(title=title)
+    for col in frame.columns:
+        table.add_column(str(col), justify="right")
+    for row in frame.itertuples(index=False):
+        table.add_row(*(f"{v:.4g}" if isinstance(v, float) else str(v) for v in row))
+    console.print(table)
+
+
+def _figure(curves, points, path: Path) -> None:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(6.5, 4.5), layout="constrained")
+    FigureCanvasAgg(fig)
+    ax = fig.subplots()
+    for (label, kpa), part in curves.groupby(["model", "pressure_kpa"], sort=False):
+        ax.plot(part["deflection_mm"], part["fz_n"], "--" if label == "start" else "-",
+                marker="o", ms=3, label=f"{label}, {kpa:g} kPa")
+    ax.plot([p.deflection for p in points], [p.force for p in points], "k*", ms=12,
+            label="reference points")
+    ax.set_xlabel("deflection [mm]")
+    ax.set_ylabel("Fz [N]")
+    ax.legend(fontsize=8)
+    ax.set_title("Force-deflection: start vs calibrated model")
+    fig.savefig(path, dpi=120)
+
+
+@app.command("calibrate")
+def calibrate(
+    model: str = typer.Option("reduced", "--model", "-m", help="Tyre model: full or reduced."),
+    references: Path = typer.Option(
+        None, "--references", help="CSV of reference points (model, deflection_mm, "
+        "pressure_kpa, force_n) [default: the thesis' points of the model]."),
+    parameters: str = typer.Option(
+        None, "--parameters", help="Comma list of: modulus, tread, sidewall, bead, "
+        "tread_thickness, sidewall_thickness, bead_thickness [default: modulus for the "
+        "reduced model, tread,sidewall,bead for the full one]."),
+    thickness: bool = typer.Option(False, "--thickness", help="Also fit the three wall "
+                                   "thicknesses (a new mesh per evaluation)."),
+    materials: str = typer.Option("table-3.1", "--materials", help="Start material preset."),
+    overrides: list[str] = typer.Option(
+        [], "--set", help="Override a model setting, e.g. --set mesh.circumferential=8."),
+    max_evaluations: int = typer.Option(60, "--max-evaluations", help="Evaluation budget "
+                                        "(one evaluation = one parameter set)."),
+    prior_weight: float = typer.Option(1e-4, "--prior-weight", help="Weight of the pull "
+                                       "towards the start values (per e-fold, squared)."),
+    scheduler: str = typer.Option(None, "--scheduler", help="Address of a running Dask "
+                                  "scheduler [default: an embedded LocalCluster]."),
+    workers: int = typer.Option(None, "--workers", help="Embedded cluster: worker processes "
+                                "[default: one per core]."),
+    out: Path = typer.Option(Path("calibration"), "--out", help="Folder for the tables, the "
+                             "figure and the fitted preset (JSON)."),
+    cache: Path = typer.Option(None, "--cache", help="Evaluation cache [default: "
+                               "<out>/evaluations]; a re-run replays it without ccx."),
+) -> None:
+    """Fit Young's moduli (and thicknesses) to force-deflection points, on the farm.
+
+    By default the thesis' points: reduced 359 N at 30 mm; full 3933 N at 25 mm / 80 kPa
+    and 4476 N at 30 mm / 200 kPa. Prints the fitted values and each point's residual;
+    writes tables, a force-deflection figure and fitted.json to --out.
+    """
+    from farm.ccx.runner import find_ccx
+    from farm.cli.params import build_model
+    from farm.errors import SpecError
+    from jobs.calibrate.fit import CalibrationSettings
+    from jobs.calibrate.params import Parameters, default_parameters
+    from jobs.calibrate.references import read_points, thesis_points
+    from jobs.calibrate.run import run_calibration
+
+    if model not in ("reduced", "full"):
+        raise SpecError(f"unknown model {model!r}: choose 'reduced' or 'full'")
+    base = build_model(model, materials, None, overrides)
+    names = (tuple(s.strip() for s in parameters.split(",") if s.strip()) if parameters
+             else default_parameters(model, thickness))
+    params = Parameters(names, base)
+    points = read_points(references, model) if references else thesis_points(model)
+    if max_evaluations < 2 or prior_weight < 0:
+        raise SpecError("--max-evaluations must be >= 2 and --prior-weight >= 0")
+    if scheduler is None:
+        find_ccx()
+    console = Console(width=None if sys.stdout.isatty() else 160)
+    last = [-1]
+
+    def progress(state) -> None:
+        if state.parameter_sets != last[0]:
+            last[0] = state.parameter_sets
+            console.print(f"parameter sets {state.parameter_sets}/{state.budget}  load paths "
+                          f"{state.stats.evaluations}  rounds {state.stats.rounds}  best cost "
+                          f"{state.best:.4g}  worst point {100 * state.worst_point:.2f} %")
+
+    report = run_calibration(
+        params, points, str(cache or out / "evaluations"), scheduler=scheduler,
+        workers=workers, progress=progress,
+        cal=CalibrationSettings(max_evaluations=max_evaluations, prior_weight=prior_weight))
+    _report(console, report, params, points, out)
+    raise typer.Exit(0 if report.ok else 1)
+
+
+def _report(console: Console, report, params, points, out: Path) -> None:
+    import numpy as np
+    import pandas as pd
+
+    from jobs.calibrate.run import parameter_table, point_table
+
+    result = report.result
+    start = params.start()
+    out.mkdir(parents=True, exist_ok=True)
+    frames = {"parameters": parameter_table(result), "points": point_table(result)}
+    _print(console, f"fitted parameters ({result.status})", frames["parameters"])
+    _print(console, "reference points: force N, residual %",
+           frames["points"].drop(columns="source"))
+    for name, frame in frames.items():
+        frame.to_csv(out / f"{name}.csv", index=False)
+    history = pd.DataFrame(np.exp(result.theta_history) * [start[n] for n in params.names],
+                           columns=list(params.names)).assign(cost=result.cost_history)
+    history.to_csv(out / "history.csv", index_label="parameter_set")
+    if not report.curves.empty:
+        report.curves.to_csv(out / "curves.csv", index=False)
+        _figure(report.curves, points, out / "force_deflection.png")
+        failed = report.curves[report.curves["fz_n"].isna()]
+        for (label, kpa), _ in failed.groupby(["model", "pressure_kpa"]):
+            console.print(f"[yellow]warning: the {label} model did not converge along the "
+                          f"{kpa:g} kPa curve (see {out / 'curves.csv'})")
+    spec = result.spec()
+    preset = {region: {"youngs_modulus": m.youngs_modulus, "poisson_ratio": m.poisson_ratio}
+              for region, m in spec.materials.by_region().items()}
+    geometry = {n: getattr(spec.geometry, n) for n in
+                ("tread_thickness", "sidewall_thickness", "bead_thickness")}
+    (out / "fitted.json").write_text(json.dumps(
+        {"model": spec.kind, "materials": preset, "geometry": geometry,
+         "residuals_pct": list(100 * result.residuals), "status": result.status},
+        indent=2))
+    s = result.stats
+    console.print(f"{s.evaluations} evaluations in {s.rounds} rounds ({s.solved} load paths "
+                  f"solved, {s.cached} from the cache), {report.wall_seconds:.0f} s wall; "
+                  f"tables, figure and fitted.json in {out}")

@@ -1,0 +1,126 @@
+"""``farm invert``: the virtual inverse problems of thesis chapter 4 as loops on Dask."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import typer
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+from farm.cli import app
+
+STUDY = typer.Argument(..., help="Inverse study file (TOML), e.g. examples/inverse_thesis.toml.")
+SCHEDULER = typer.Option(None, "--scheduler", help="Address of a running Dask scheduler, "
+                         "e.g. tcp://host:8786 [default: an embedded LocalCluster].")
+WORKERS = typer.Option(None, "--workers", help="Embedded cluster: worker processes "
+                       "[default: one per core]. External: wait for this many workers.")
+OUT = typer.Option(None, "--out", help="Folder for the tables (CSV) and histograms (PNG) "
+                   "[default: <store>-<group>-report next to the store].")
+REPEATS = typer.Option(None, "--repeats", help="Cap every condition's repeats (quick runs).")
+
+
+class RichLoops:
+    """One progress bar per loop (evaluations of its budget, best objective), and a line
+    when a loop ends."""
+
+    def __init__(self, console: Console) -> None:
+        self.console, self.bar, self.tasks = console, None, []
+
+    def started(self, dashboard: str, workers: int, loops) -> None:
+        self.console.print(f"dashboard: {dashboard}   workers: {workers}   loops: {len(loops)}")
+        self.bar = Progress(TextColumn("{task.description}", style="bold"), BarColumn(),
+                            MofNCompleteColumn(), TextColumn("best {task.fields[best]}"),
+                            TextColumn("{task.fields[status]}"), TimeElapsedColumn(),
+                            console=self.console, transient=False)
+        self.bar.start()
+        self.tasks = [self.bar.add_task(s.label, total=s.budget, best="-", status=s.status)
+                      for s in loops]
+
+    def advanced(self, loops) -> None:
+        if self.bar is None:
+            return
+        for task, s in zip(self.tasks, loops, strict=True):
+            self.bar.update(task, completed=min(s.stats.evaluations, s.budget),
+                            best=f"{s.best:.3g}", status=s.status)
+
+    def loop_finished(self, state, result, error: str) -> None:
+        if result is None:
+            self.console.print(f"[red]{state.label}: failed: {error}")
+            return
+        self.console.print(f"{state.label}: {result.status}, Fz {result.x.sum():.1f} N, "
+                           f"objective {result.objective:.3g}, {len(result.f_history)} "
+                           f"evaluations, {result.stats.rounds} rounds, "
+                           f"{result.wall_seconds:.0f} s")
+
+    def finished(self, report) -> None:
+        if self.bar is not None:
+            self.bar.stop()
+
+
+def _print(console: Console, title: str, frame, digits: int = 3) -> None:
+    table = Table(title=title)
+    for col in frame.columns:
+        table.add_column(str(col), justify="right")
+    for row in frame.itertuples(index=False):
+        table.add_row(*(_cell(v, digits) for v in row))
+    console.print(table)
+
+
+def _cell(value, digits: int) -> str:
+    if value is None or (isinstance(value, float) and value != value):
+        return "-"
+    return f"{value:.{digits}g}" if isinstance(value, float) else str(value)
+
+
+def _default_out(study) -> Path:
+    if "://" in study.store:
+        return Path(f"{study.group}-report").resolve()
+    return Path(f"{study.store.rstrip('/')}-{study.group}-report")
+
+
+@app.command("invert")
+def invert(study_file: Path = STUDY, scheduler: str = SCHEDULER, workers: int = WORKERS,
+           out: Path = OUT, repeats: int = REPEATS) -> None:
+    """Identify tread forces from inner-surface measurements (thesis ch. 4), FEM in the loop.
+
+    Prints and writes Tables 4.1-4.4 beside the thesis' values, histograms of the nodal
+    force errors (Figs. 4.2/4.3), and stores every solve's history in the study's group.
+    Running it again replays every evaluation from the cache (no ccx): resuming.
+    """
+    from farm.ccx.runner import find_ccx
+    from jobs.inverse import tables
+    from jobs.inverse.run import run_inverse, summary_line
+    from jobs.inverse.study import load_inverse_study, with_repeats
+
+    study = load_inverse_study(study_file)  # everything is validated before anything runs
+    if repeats is not None:
+        if repeats < 1:
+            raise typer.BadParameter("--repeats must be >= 1")
+        study = with_repeats(study, repeats)
+    if scheduler is None:
+        find_ccx()
+    console = Console(width=None if sys.stdout.isatty() else 180)
+    report = run_inverse(study, scheduler=scheduler, workers=workers,
+                         progress=RichLoops(console))
+    folder = (out or _default_out(study)).expanduser()
+    folder.mkdir(parents=True, exist_ok=True)
+    frames = {name: getattr(tables, name)(report.results, report.problem)
+              for name in ("forces", "rmse", "nodal_errors", "cost", "per_solve")}
+    titles = {"forces": "Forces and moments, mean ± std over repeats (thesis Tables 4.1/4.3)",
+              "rmse": "RMSE: U mm, strain microstrain (thesis Tables 4.2/4.4)",
+              "nodal_errors": "Nodal force errors [N] (thesis Figs. 4.2/4.3)",
+              "cost": "Cost per solve (means)"}
+    for name, frame in frames.items():
+        frame.to_csv(folder / f"{name}.csv", index=False)
+    for name, frame in tables.views(report.results, report.problem).items():
+        _print(console, titles[name], frame)
+    figures = tables.histograms(report.results, report.problem, folder)
+    console.print(summary_line(report))
+    console.print(f"results: {study.store} (group {study.group}); tables and "
+                  f"{len(figures)} histograms in {folder}")
+    for label, error in report.errors.items():
+        console.print(f"[red]{label}: {error}")
+    raise typer.Exit(0 if report.ok else 1)

@@ -1,0 +1,107 @@
+"""Chapter 4 of ``farm reproduce``: the virtual inverse problems (Tables 4.1-4.4).
+
+The reference is the reduced model at 30 mm on the iterative road with the
+"thesis-calibrated" materials, whose 359 N is the thesis' own reference force (§4.1),
+so that forces and moments compare directly. ``--quick`` solves the thesis' four
+conditions with the parallel-Jacobian least squares (§5.2/§6.2's recommendation: a few
+dozen sequential rounds instead of hundreds of serial evaluations) and two repeats of
+each random condition (one on the test-sized ``--coarse`` meshes); ``--full`` adds the
+thesis' own Nelder-Mead and ten repeats.
+Evaluations are cached next to the store, so a second run solves nothing.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pandas as pd
+
+from farm.cli.reproduce.stages import COARSE_MESH, Options, StageResult
+
+MATERIALS = "thesis-calibrated"
+
+# (name, initial guess, scale, guess sigma N, noise) - thesis §4.3-4.5
+CONDITIONS = (("ideal", "scaled", 0.9, 0.0, False), ("noise", "scaled", 0.9, 0.0, True),
+              ("guess-90", "scaled", 0.9, 4.0, True),
+              ("guess-uniform", "uniform", 1.0, 4.0, True))
+
+
+def study_text(opts: Options) -> str:
+    """The inverse study of the reproduction (written next to the report)."""
+    repeats = 1 if opts.coarse else 2 if opts.quick else 10
+    optimizers = ['"least-squares"'] if opts.quick else ['"nelder-mead"', '"least-squares"']
+    mesh = f"[model.mesh]\n{COARSE_MESH['reduced']}\n" if opts.coarse else ""
+    lines = [f'[study]\nname = "ch4-{"quick" if opts.quick else "full"}-{opts.mesh_tag()}"',
+             f'store = "{opts.store}"\nseed = 0\n',
+             f'[model]\nkind = "reduced"\nmaterials = "{MATERIALS}"\n{mesh}',
+             "[reference]\ndeflection_mm = 30\n",
+             "[noise]\ndisplacement_mm = 1.0\nstrain = 4e-4\n",
+             # ccx's .frd carries six significant digits: relative changes of the cost
+             # below ~1e-5 are rounding, and polishing them cost 2-4x the rounds
+             "[optimizers.least-squares]\nmax_evaluations = 200\nfd_step_n = 0.1\n"
+             "tolerance = 1e-5\n"]
+    if not opts.quick:
+        lines.append('[optimizers.nelder-mead]\nmax_evaluations = 600\n'
+                     'noise_draw = "per_evaluation"\n')
+    for name, initial, scale, sigma, noise in CONDITIONS:
+        lines.append(f'[[conditions]]\nname = "{name}"\nmethods = ["displacement", "strain"]\n'
+                     f'optimizers = [{", ".join(optimizers)}]\ninitial = "{initial}"\n'
+                     f"scale = {scale}\nguess_sigma_n = {sigma}\n"
+                     f"noise = {str(noise).lower()}\nrepeats = {repeats if noise else 1}\n")
+    return "\n".join(lines)
+
+
+def inverse(opts: Options) -> StageResult:
+    """Run the chapter-4 study on the farm and tabulate it beside the thesis."""
+    from jobs.inverse import tables
+    from jobs.inverse.run import run_inverse, summary_line
+    from jobs.inverse.study import parse_inverse_study
+
+    start, stage = time.perf_counter(), StageResult("inverse")
+    text = study_text(opts)
+    study = parse_inverse_study(text, "ch4.toml", opts.out)
+    stage.studies["ch4"] = text
+    report = run_inverse(study, scheduler=opts.scheduler, workers=opts.workers)
+    print(f"ch4: {summary_line(report)}")
+    stage.ccx_runs, stage.solver_seconds = report.totals.solved, report.totals.solver_seconds
+    stage.notes += _notes(report)
+    if report.results:
+        stage.tables.update(_tables(tables, report))
+        folder = opts.out / "ch4"
+        for path in tables.histograms(report.results, report.problem, folder):
+            stage.figures[f"Nodal force errors, {path.stem.removeprefix('nodal_errors_')} "
+                          "(thesis Figs. 4.2/4.3)"] = path
+    stage.wall_seconds = time.perf_counter() - start
+    return stage
+
+
+def _notes(report) -> list[str]:
+    problem, t = report.problem, report.totals
+    notes = [f"reference: reduced model ({MATERIALS} materials) at {report.study.deflection:g}"
+             f" mm on the iterative road, Fz = {problem.reference['total_force'][2]:.1f} N "
+             f"(thesis 359.08 N); {problem.n} unknown nodal forces (thesis 14)",
+             f"{len(report.results)} solves, {t.evaluations} evaluations, {t.solved} solved by "
+             f"ccx this run, {t.cached} from the evaluation cache, {t.shared} shared between "
+             "loops; noise is drawn once per solve for least squares, at every evaluation "
+             "for Nelder-Mead (as the thesis, §4.4)"]
+    notes += [f"{label}: {error}" for label, error in report.errors.items()]
+    return notes
+
+
+def _tables(tables, report) -> dict[str, pd.DataFrame]:
+    results, problem = report.results, report.problem
+    views = tables.views(results, problem)
+    nodal = tables.nodal_errors(results, problem)
+    for col in ("thesis_std", "thesis_std_over_max_force"):
+        nodal[col] = [_text(v) for v in nodal[col]]
+    cost = tables.cost(results, problem)
+    return {"Forces and moments, ours and the thesis' (Tables 4.1/4.3)": views["forces"],
+            "RMSE of the inner-surface fields: ours (thesis), mm and microstrain "
+            "(Tables 4.2/4.4)": views["rmse"],
+            "Nodal force errors x - x_true, N (Figs. 4.2/4.3)": nodal,
+            "Solver cost per solve (means over repeats)": cost}
+
+
+def _text(value) -> str:
+    return "-" if value is None or not np.isfinite(value) else f"{value:.3g}"

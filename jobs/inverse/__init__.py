@@ -1,0 +1,9 @@
+"""Virtual inverse problems of thesis chapter 4 on the farm: ``farm invert``.
+
+- :mod:`jobs.inverse.study`: the study file (conditions, optimisers, noise, masks)
+- :mod:`jobs.inverse.problem`: the reference experiment and the forward model
+- :mod:`jobs.inverse.objective`: eqs. 4.1/4.2 and the combined residuals, noise
+- :mod:`jobs.inverse.guesses`: initial guesses (scaled, uniform, thickness offset)
+- :mod:`jobs.inverse.loop`: one solve; :mod:`jobs.inverse.run`: all of a study on Dask
+- :mod:`jobs.inverse.store`, :mod:`jobs.inverse.tables`: results group, Tables 4.1-4.4
+"""

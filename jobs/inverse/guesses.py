@@ -1,0 +1,62 @@
+"""Initial guesses x0 of the inverse loops (thesis §4.3-4.5, §5.2/§6.2).
+
+- ``scaled``: ``scale`` x the true forces (90 % in the thesis) + N(0, σ) per node;
+- ``uniform``: the same force on every unknown, the test section's secant stiffness
+  times the deflection over the number of nodes in contact (= Fz_ref / n; §4.5), times
+  ``scale``, + N(0, σ);
+- ``offset``: the thickness-offset guess (§5.2, §6.2): the measured (noisy, when the
+  condition has noise) inner surface offset by the wall thickness gives the outer
+  surface; its vertical displacement prescribed on the unknown nodes gives reaction
+  forces (one ccx run, :func:`farm.solve.forces.offset_outer_uz`), + N(0, σ).
+
+Random parts are seeded by the loop's (study seed, condition, repeat), the same for
+every method and optimiser of a repeat, so that they start from the same point.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from farm.solve.forces import offset_outer_uz
+from jobs.errors import JobError
+from jobs.inverse.objective import Objective
+from jobs.inverse.problem import Problem
+from jobs.inverse.study import Condition
+from jobs.loops.evaluator import Evaluator, LoopStats, failed
+
+
+class GuessError(JobError, RuntimeError):
+    """The thickness-offset guess could not be solved."""
+
+
+def guess_stream(seed: Sequence[int]) -> list[int]:
+    return [*seed, 3]
+
+
+def initial_guess(problem: Problem, condition: Condition, seed: Sequence[int],
+                  objective: Objective, evaluator: Evaluator, stats: LoopStats) -> np.ndarray:
+    """x0 of one loop, shape (n,), N."""
+    rng = np.random.default_rng(guess_stream(seed))
+    jitter = rng.normal(0.0, condition.guess_sigma, problem.n) if condition.guess_sigma else 0.0
+    if condition.initial == "scaled":
+        base = condition.scale * problem.x_true
+    elif condition.initial == "uniform":
+        total = float(problem.reference["total_force"][2])
+        base = np.full(problem.n, condition.scale * total / problem.n)
+    else:
+        base = offset_guess(problem, objective, evaluator, stats)
+    return base + jitter
+
+
+def offset_guess(problem: Problem, objective: Objective, evaluator: Evaluator,
+                 stats: LoopStats) -> np.ndarray:
+    """Reaction forces of the unknowns with the offset inner surface prescribed."""
+    measured_u, _ = objective.measured(0)
+    uz = offset_outer_uz(problem.mesh, measured_u, problem.nodes)
+    arrays = evaluator.run([problem.prescribed_evaluation(uz)], stats)[0]
+    if (message := failed(arrays)) is not None:
+        raise GuessError(f"the thickness-offset guess failed: {message}")
+    where = {int(n): k for k, n in enumerate(problem.mesh.tread_nodes)}
+    return np.array([arrays["tread_force"][where[int(n)], 2] for n in problem.nodes])

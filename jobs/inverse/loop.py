@@ -1,0 +1,147 @@
+"""One virtual inverse solve: a condition, a method, an optimiser and a repeat.
+
+A loop runs in a client thread. It asks the shared :class:`~jobs.loops.evaluator.
+Evaluator` for forward evaluations in batches and blocks only itself; it keeps the
+history of every evaluation (x and the objective the optimiser saw), and ends with
+the forward evaluation at its final x, from which Tables 4.1-4.4 are computed.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from farm.specs import content_hash
+from jobs.inverse.guesses import initial_guess
+from jobs.inverse.objective import Objective, field_rmse
+from jobs.inverse.problem import Problem
+from jobs.inverse.study import Condition, InverseStudy, OptimizerSettings
+from jobs.loops import optimizers
+from jobs.loops.evaluator import Evaluator, Interrupted, LoopStats, failed
+
+
+@dataclass(frozen=True)
+class LoopSpec:
+    """What distinguishes one loop of a study from the others."""
+
+    condition: Condition
+    method: str
+    optimizer: OptimizerSettings
+    repeat: int
+
+    @property
+    def label(self) -> str:
+        return f"{self.condition.name}/{self.method}/{self.optimizer.name}#{self.repeat}"
+
+
+def expand_loops(study: InverseStudy) -> list[LoopSpec]:
+    """Every loop of the study: conditions x methods x optimisers x repeats."""
+    return [LoopSpec(c, m, study.optimizer(o), r)
+            for c in study.conditions for m in c.methods for o in c.optimizers
+            for r in range(c.repeats)]
+
+
+def loop_seed(study: InverseStudy, spec: LoopSpec) -> list[int]:
+    """Seed of a loop's noise and guess: shared by the methods/optimisers of a repeat."""
+    return [study.seed, int(content_hash(spec.condition.name)[:8], 16), spec.repeat]
+
+
+def loop_id(study: InverseStudy, spec: LoopSpec) -> str:
+    """Content hash of a loop: the problem and everything about this solve."""
+    return content_hash({"problem": study.problem_hash(), "seed": loop_seed(study, spec),
+                         "condition": vars(spec.condition) | {"repeats": None},
+                         "method": spec.method, "optimizer": vars(spec.optimizer)})
+
+
+@dataclass
+class LoopState:
+    """Live state of a loop, for progress displays (written by the loop's thread)."""
+
+    label: str
+    budget: int
+    status: str = "queued"
+    best: float = float("nan")
+    stats: LoopStats = field(default_factory=LoopStats)
+
+
+@dataclass(frozen=True, eq=False)
+class LoopResult:
+    """A finished (or interrupted) loop.
+
+    ``x_history`` (k, n) and ``f_history`` (k,) hold every evaluation in order, the
+    objective as the optimiser saw it (noisy when the condition has noise);
+    ``final`` the forward evaluation at ``x`` and ``rmse`` its field errors against the
+    noise-free reference (mm, strain).
+    """
+
+    spec: LoopSpec
+    id: str
+    x0: np.ndarray
+    x: np.ndarray
+    objective: float
+    status: str
+    message: str
+    x_history: np.ndarray
+    f_history: np.ndarray
+    final: dict
+    rmse: dict
+    stats: LoopStats
+    wall_seconds: float
+
+
+def _objective(study: InverseStudy, problem: Problem, spec: LoopSpec, seed,
+               mask: np.ndarray | None, scale: float) -> Objective:
+    opt = spec.optimizer
+    return Objective(problem, spec.method, study.noise if spec.condition.noise else None,
+                     opt.noise_draw, seed, mask, (opt.regularisation, opt.weight, scale))
+
+
+def run_loop(study: InverseStudy, problem: Problem, spec: LoopSpec, evaluator: Evaluator,
+             state: LoopState, mask: np.ndarray | None = None,
+             stop: Callable[[np.ndarray, float], bool] | None = None) -> LoopResult:
+    """Run one loop to its end; raises :class:`Interrupted` if the run shuts down."""
+    start = time.perf_counter()
+    state.status = "running"
+    seed = loop_seed(study, spec)
+    probe = _objective(study, problem, spec, seed, mask, 1.0)
+    x0 = initial_guess(problem, spec.condition, seed, probe, evaluator, state.stats)
+    objective = _objective(study, problem, spec, seed, mask,
+                           max(float(np.mean(np.abs(x0))), 1e-9))
+    xs: list[np.ndarray] = []
+    fs: list[float] = []
+
+    def batch(points):
+        results = evaluator.run([problem.forward_evaluation(p) for p in points], state.stats)
+        out = []
+        for p, arrays in zip(points, results, strict=True):
+            r = objective.residuals(arrays, p, len(fs))
+            xs.append(np.array(p, dtype=float))
+            fs.append(float(np.linalg.norm(r)))
+            out.append(r)
+        state.best = float(np.min(fs))
+        return out
+
+    outcome = _optimise(spec.optimizer, batch, x0, stop)
+    final = evaluator.run([problem.forward_evaluation(outcome.x)], state.stats)[0]
+    status = outcome.status if failed(final) is None else "failed"
+    message = outcome.message if failed(final) is None else failed(final)
+    state.status = status
+    return LoopResult(spec, loop_id(study, spec), x0, outcome.x, outcome.objective, status,
+                      message, np.array(xs).reshape(-1, problem.n), np.array(fs), final,
+                      {} if failed(final) else field_rmse(final, problem.reference),
+                      state.stats, time.perf_counter() - start)
+
+
+def _optimise(opt: OptimizerSettings, batch, x0: np.ndarray, stop) -> optimizers.Outcome:
+    if opt.name == "nelder-mead":
+        return optimizers.nelder_mead(batch, x0, max_evaluations=opt.max_evaluations,
+                                      xatol=opt.xatol, fatol=opt.fatol, stop=stop)
+    return optimizers.least_squares(batch, x0, max_evaluations=opt.max_evaluations,
+                                    fd_step=opt.fd_step, ftol=opt.tolerance,
+                                    xtol=opt.tolerance, gtol=opt.tolerance, stop=stop)
+
+
+__all__ = ["Interrupted", "LoopResult", "LoopSpec", "LoopState", "expand_loops", "run_loop"]

@@ -1,0 +1,109 @@
+"""The virtual inverse problem of a study: the reference experiment and its unknowns.
+
+Thesis §4.2: the unknowns are the vertical forces on the tread nodes in contact in the
+reference virtual experiment (14 in the thesis and, at 30 mm, in this model too);
+their true values are the reference's road forces on those nodes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from farm.mesh import TyreMesh, mesh_for
+from farm.specs import ModelSpec, SolverSettings
+from jobs.errors import JobError
+from jobs.inverse.evaluate import (
+    ForwardTask,
+    PrescribedTask,
+    ReferenceTask,
+    canonical,
+    forward,
+    forward_key,
+    prescribed,
+    prescribed_key,
+    reference,
+    reference_key,
+)
+from jobs.inverse.study import InverseStudy
+from jobs.loops.evaluator import Evaluation, Evaluator, failed
+
+
+class ReferenceFailedError(JobError, RuntimeError):
+    """The reference virtual experiment failed or touches the road nowhere."""
+
+
+@dataclass(frozen=True, eq=False)
+class Problem:
+    """Everything the loops of a study share.
+
+    Attributes
+    ----------
+    nodes : ndarray of int, shape (n,)
+        The unknowns' outer tread node ids (in contact in the reference).
+    x_true : ndarray, shape (n,)
+        The reference's vertical road force on each, N.
+    grid : ndarray of int, shape (n, 2)
+        (row, column) of each unknown on the tread grid.
+    xyz : ndarray, shape (n, 3)
+        Reference coordinates of the unknowns, mm.
+    reference : dict of arrays
+        The virtual experiment's measurements: ``displacement`` and ``strain``
+        (n_inner, 3), ``total_force`` and ``moment`` (3,), ``tread_force`` (n_tread, 3).
+    road_z : float
+        Height of the road (the contact centre), mm.
+    """
+
+    model: ModelSpec
+    mesh: TyreMesh
+    solver: str
+    settings: SolverSettings
+    deflection: float
+    road_z: float
+    nodes: np.ndarray
+    x_true: np.ndarray
+    grid: np.ndarray
+    xyz: np.ndarray
+    reference: dict
+
+    @property
+    def n(self) -> int:
+        return self.nodes.size
+
+    def forward_evaluation(self, x: np.ndarray) -> Evaluation:
+        task = ForwardTask(self.model.to_dict(), tuple(int(v) for v in self.nodes),
+                           canonical(x), float(self.road_z), self.settings)
+        return Evaluation(forward_key(task, self.solver), forward, task, "inverse-forward")
+
+    def prescribed_evaluation(self, uz: dict[int, float]) -> Evaluation:
+        nodes = tuple(int(v) for v in self.nodes)
+        task = PrescribedTask(self.model.to_dict(), nodes, canonical([uz[n] for n in nodes]),
+                              float(self.road_z), self.settings)
+        return Evaluation(prescribed_key(task, self.solver), prescribed, task,
+                          "inverse-prescribed")
+
+
+def reference_evaluation(study: InverseStudy, solver: str) -> Evaluation:
+    task = ReferenceTask(study.model.to_dict(), float(study.deflection), study.settings)
+    return Evaluation(reference_key(task, solver), reference, task, "inverse-reference")
+
+
+def build_problem(study: InverseStudy, evaluator: Evaluator, solver: str) -> Problem:
+    """Solve (or replay) the reference experiment and set up the unknowns."""
+    arrays = evaluator.run([reference_evaluation(study, solver)])[0]
+    if (message := failed(arrays)) is not None:
+        raise ReferenceFailedError(f"the reference experiment at {study.deflection:g} mm failed: "
+                              f"{message}")
+    mesh = mesh_for(study.model)
+    fz = arrays["tread_force"][:, 2]
+    index = np.flatnonzero(fz > 0)
+    if index.size == 0:
+        raise ReferenceFailedError(f"no tread node touches the road at {study.deflection:g} mm")
+    nodes = mesh.tread_nodes[index]
+    first, stop = mesh.tread_rows
+    tread = mesh.outer_grid[first:stop]
+    grid = np.array([np.argwhere(tread == n)[0] for n in nodes])
+    return Problem(study.model, mesh, solver, study.settings, study.deflection,
+                   mesh.bottom_z + study.deflection, nodes, fz[index].copy(), grid,
+                   mesh.xyz(nodes), dict(arrays))

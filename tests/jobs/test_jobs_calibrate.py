@@ -1,0 +1,151 @@
+"""Material calibration: reference points, parameters, and recovering known moduli from
+force-deflection curves the model itself produced (coarse reduced model, real solver)."""
+
+import dataclasses
+import json
+
+import numpy as np
+import pytest
+
+from farm.cli import main
+from farm.experiment import run_load_path
+from farm.presets import default_model
+from farm.specs import LoadPath, Material, Materials, MeshDensity
+from jobs.calibrate.fit import CalibrationSettings
+from jobs.calibrate.params import Parameters, default_parameters
+from jobs.calibrate.references import ReferencePoint, read_points, thesis_points
+from jobs.calibrate.run import run_calibration
+from jobs.errors import StudyError
+
+COARSE = default_model("reduced", mesh=MeshDensity(tread=4, sidewall=2, bead=1,
+                                                   circumferential=8))
+MESH_FLAGS = ["--set", "mesh.tread=4", "--set", "mesh.sidewall=2", "--set", "mesh.bead=1",
+              "--set", "mesh.circumferential=8"]
+
+
+def test_thesis_points_are_the_defaults():
+    assert [(p.deflection, 1000 * p.pressure, p.force) for p in thesis_points("full")] == [
+        (25.0, 80.0, 3933.0), (30.0, 200.0, 4476.0)]
+    assert [(p.deflection, p.force) for p in thesis_points("reduced")] == [(30.0, 359.0)]
+
+
+def test_csv_points_are_read_per_model(tmp_path):
+    path = tmp_path / "refs.csv"
+    path.write_text("model,deflection_mm,pressure_kpa,force_n\nfull,20,120,3000\n"
+                    "reduced,15,0,150\nfull,35,200,6000\n")
+    assert read_points(path, "full") == (ReferencePoint("full", 20.0, 0.12, 3000.0, str(path)),
+                                         ReferencePoint("full", 35.0, 0.2, 6000.0, str(path)))
+    assert [p.force for p in read_points(path, "reduced")] == [150.0]
+
+
+@pytest.mark.parametrize(("text", "match"), [
+    ("model,deflection_mm,force_n\nfull,20,3000\n", "missing pressure_kpa"),
+    ("model,deflection_mm,pressure_kpa,force_n\n", "at least one row"),
+    ("model,deflection_mm,pressure_kpa,force_n\ntruck,20,120,3000\n", "line 2: model"),
+    ("model,deflection_mm,pressure_kpa,force_n\nfull,20,0,3000\n", "line 2: the full model"),
+    ("model,deflection_mm,pressure_kpa,force_n\nfull,-2,80,3000\n", "deflection_mm"),
+    ("model,deflection_mm,pressure_kpa,force_n\nfull,20,80,lots\n", "force_n must be a number"),
+    ("model,deflection_mm,pressure_kpa,force_n\nreduced,20,0,300\n", "no reference point"),
+])
+def test_bad_reference_files_name_the_problem(tmp_path, text, match):
+    path = tmp_path / "refs.csv"
+    path.write_text(text)
+    with pytest.raises(StudyError, match=match):
+        read_points(path, "full")
+
+
+@pytest.mark.parametrize(("names", "region_factors", "geometry"), [
+    (("modulus",), {"tread": 2.0, "sidewall": 2.0, "bead": 2.0}, {}),
+    (("sidewall",), {"tread": 1.0, "sidewall": 2.0, "bead": 1.0}, {}),
+    (("tread", "sidewall_thickness"), {"tread": 2.0, "sidewall": 1.0, "bead": 1.0},
+     {"sidewall_thickness": 20.0}),
+])
+def test_parameters_scale_the_model(names, region_factors, geometry):
+    base = default_model("full")
+    params = Parameters(names, base)
+    spec = params.spec(np.full(len(names), np.log(2.0)))
+    for region, m in spec.materials.by_region().items():
+        old = base.materials.by_region()[region]
+        assert m.youngs_modulus == pytest.approx(region_factors[region] * old.youngs_modulus)
+        assert m.poisson_ratio == old.poisson_ratio
+    for name, value in geometry.items():
+        assert getattr(spec.geometry, name) == pytest.approx(value)
+    assert params.spec(np.zeros(len(names))) == base
+    low, high = params.bounds()
+    assert np.all(low < 0) and np.all(high > 0)
+
+
+@pytest.mark.parametrize(("names", "match"), [
+    (("youngs",), "unknown parameter"), (("modulus", "tread"), "do not combine"),
+    (("bead", "bead"), "each once"), ((), "at least one"),
+])
+def test_bad_parameter_sets_are_refused(names, match):
+    with pytest.raises(StudyError, match=match):
+        Parameters(names, default_model("full"))
+
+
+def test_default_parameters():
+    assert default_parameters("reduced") == ("modulus",)
+    assert default_parameters("full", thickness=True) == (
+        "tread", "sidewall", "bead", "tread_thickness", "sidewall_thickness", "bead_thickness")
+
+
+def _curve(spec, deflections):
+    result = run_load_path(spec, LoadPath(tuple(deflections)))
+    return [m.total_force[2] for m in result.measurements]
+
+
+@pytest.mark.ccx
+def test_recovers_known_moduli_from_the_models_own_curve(tmp_path):
+    truth = {"tread": 7.0, "sidewall": 14.0}
+    spec = dataclasses.replace(COARSE, materials=Materials(
+        Material(truth["tread"], 0.499), Material(truth["sidewall"], 0.499),
+        Material(10.0, 0.499)))
+    deflections = (10.0, 20.0, 30.0)
+    points = [ReferencePoint("reduced", d, 0.0, f) for d, f in
+              zip(deflections, _curve(spec, deflections), strict=True)]
+    params = Parameters(("tread", "sidewall"), COARSE)  # starts from 10 / 10 MPa
+    report = run_calibration(params, points, str(tmp_path / "cache"), workers=2, curves=False,
+                             cal=CalibrationSettings(max_evaluations=40, prior_weight=0.0,
+                                                     target=1e-4))
+    result = report.result
+    assert result.status in ("target_reached", "converged")
+    for name, value in truth.items():
+        assert result.values[name] == pytest.approx(value, rel=0.02)
+    assert np.abs(result.residuals).max() <= 1e-4
+    assert np.abs(result.start_forces - [p.force for p in points]).max() > 50  # it moved
+    assert result.stats.rounds < result.stats.evaluations  # Jacobian columns side by side
+
+
+@pytest.mark.ccx
+def test_cli_fits_a_modulus_to_a_csv_and_writes_the_report(tmp_path, capsys):
+    spec = dataclasses.replace(COARSE, materials=Materials(*(Material(6.0, 0.499),) * 3))
+    (force,) = _curve(spec, (25.0,))
+    refs = tmp_path / "refs.csv"
+    refs.write_text(f"model,deflection_mm,pressure_kpa,force_n\nreduced,25,0,{force}\n")
+    out = tmp_path / "cal"
+    with pytest.raises(SystemExit) as info:
+        main(["calibrate", "--model", "reduced", "--references", str(refs), *MESH_FLAGS,
+              "--workers", "2", "--out", str(out)])
+        raise SystemExit(0)  # main returns normally on success
+    assert info.value.code == 0
+    fitted = json.loads((out / "fitted.json").read_text())
+    assert fitted["materials"]["tread"]["youngs_modulus"] == pytest.approx(6.0, rel=0.01)
+    assert abs(fitted["residuals_pct"][0]) <= 0.5
+    for name in ("parameters.csv", "points.csv", "curves.csv", "force_deflection.png"):
+        assert (out / name).stat().st_size > 0
+    assert "fitted parameters" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(("args", "match"), [
+    (["--model", "truck"], "unknown model"),
+    (["--parameters", "tread,modulus"], "do not combine"),
+    (["--references", "missing.csv"], "cannot read references"),
+    (["--set", "mesh.tread=3"], "mesh.tread must be even"),
+])
+def test_cli_refuses_bad_input_in_one_line(tmp_path, capsys, args, match):
+    with pytest.raises(SystemExit) as info:
+        main(["calibrate", *args, "--out", str(tmp_path / "cal")])
+    err = capsys.readouterr().err
+    assert info.value.code != 0 and match in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "cal").exists()
