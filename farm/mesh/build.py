@@ -19,6 +19,7 @@ from farm.geometry import REGIONS as SECTION_REGIONS
 from farm.geometry import Section, build_section
 from farm.mesh.session import gmsh_session
 from farm.mesh.tyremesh import REGIONS, TyreMesh, face_with_nodes, hex_jacobians
+from farm.mesh.version import mesh_key
 from farm.specs import ModelSpec
 
 SAMPLES_PER_ELEMENT = 4
@@ -196,7 +197,7 @@ def _assemble(raw: dict, section: Section, spec: ModelSpec) -> TyreMesh:
     _, outer_grid = _surface_grid(nodes, sets["OUTER"], section.outer, spec)
     first = spec.mesh.bead + spec.mesh.sidewall
     mesh = TyreMesh(
-        mesh_key=spec.mesh_key(), kind=spec.kind, sector_angle=float(spec.sector_angle),
+        mesh_key=mesh_key(spec), kind=spec.kind, sector_angle=float(spec.sector_angle),
         nodes=nodes, elements=elements, element_region=region, node_sets=sets,
         inner_face=inner_face, outer_face=outer_face, inner_grid=inner_grid,
         outer_grid=outer_grid, angles=angles, tread_rows=(first, first + spec.mesh.tread + 1),

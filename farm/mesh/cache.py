@@ -1,7 +1,8 @@
 """Mesh once per model: an in-process memo in front of an on-disk cache.
 
-Meshes depend only on geometry, density and sector (``ModelSpec.mesh_key``), not on
-materials or loads, so a sweep meshes each model once per machine. Files are written
+Meshes depend only on geometry, density and sector, and on the mesher's code
+(:func:`farm.mesh.version.mesh_key`), not on materials or loads, so a sweep meshes each
+model once per machine. Files are written
 atomically, so workers sharing a cache directory never see a partial mesh.
 """
 
@@ -12,6 +13,7 @@ from pathlib import Path
 
 from farm.mesh.build import build_mesh
 from farm.mesh.tyremesh import TyreMesh
+from farm.mesh.version import mesh_key
 from farm.specs import ModelSpec
 
 _MEMO: dict[str, TyreMesh] = {}
@@ -27,7 +29,7 @@ def cache_dir() -> Path:
 
 def mesh_for(spec: ModelSpec, directory: str | Path | None = None) -> TyreMesh:
     """The mesh of ``spec``, built at most once per process and cache directory."""
-    key = spec.mesh_key()
+    key = mesh_key(spec)
     if key in _MEMO:
         return _MEMO[key]
     folder = Path(directory) if directory is not None else cache_dir()

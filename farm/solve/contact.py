@@ -72,7 +72,8 @@ def touch_height(spec: ModelSpec, mesh: TyreMesh, pressure: float, settings: Sol
     paths (or re-runs one) reads it from the cache instead. Returns the height and the
     run, or ``None`` when the cache answered.
     """
-    key = content_hash({"model": spec.to_dict(), "pressure": pressure, "solver": ccx_version()})
+    key = content_hash({"model": spec.to_dict(), "mesh": mesh.mesh_key, "pressure": pressure,
+                        "solver": ccx_version()})
     path = cache_dir() / "inflation" / f"{key[:32]}.json"
     try:
         return float(json.loads(path.read_text())["touch_z"]), None

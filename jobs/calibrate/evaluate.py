@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from farm.experiment import run_load_path
+from farm.mesh.version import mesh_key
 from farm.specs import LoadPath, ModelSpec, SolverSettings, content_hash
 from jobs.loops.evaluator import Evaluation
 from jobs.loops.guard import guarded
@@ -45,5 +46,5 @@ def curve_evaluation(model: ModelSpec, deflections, pressure: float,
                      settings)
     body = {k: v for k, v in dataclasses.asdict(task).items() if k != "settings"}
     key = content_hash({"kind": "calibration-curve", "solver": solver,
-                        "outputs": OUTPUTS_VERSION, **body})
+                        "mesh": mesh_key(model), "outputs": OUTPUTS_VERSION, **body})
     return Evaluation(key, curve, task, "calibrate-curve")

@@ -10,7 +10,8 @@ arrays (cached by :class:`jobs.loops.cache.EvaluationCache`):
 - :func:`prescribed`: vertical displacements prescribed on the unknown nodes; their
   reactions are the thickness-offset initial guess (§5.2/§6.2).
 
-A key hashes everything that changes a result: the model spec, the nodes, the forces
+A key hashes everything that changes a result: the model spec and its mesh's key
+(which covers the mesher's code, :mod:`farm.mesh.version`), the nodes, the forces
 (or displacements) rounded canonically, the contact-centre height, the solver version
 and the version of the outputs. The task solves the rounded values, so a cached result
 is exactly the result of its key.
@@ -26,6 +27,7 @@ import numpy as np
 from farm.experiment import run_load_path
 from farm.measure.measurement import measure
 from farm.mesh import mesh_for
+from farm.mesh.version import mesh_key
 from farm.solve.forces import solve_applied_forces, solve_prescribed_uz
 from farm.specs import LoadPath, ModelSpec, SolverSettings, content_hash
 from jobs.loops.guard import guarded
@@ -67,7 +69,8 @@ class PrescribedTask:
 
 def _key(kind: str, task, solver: str) -> str:
     body = {k: v for k, v in dataclasses.asdict(task).items() if k != "settings"}
-    return content_hash({"kind": kind, "solver": solver, "outputs": OUTPUTS_VERSION, **body})
+    return content_hash({"kind": kind, "solver": solver, "outputs": OUTPUTS_VERSION,
+                         "mesh": mesh_key(ModelSpec.from_dict(task.model)), **body})
 
 
 def reference_key(task: ReferenceTask, solver: str) -> str:

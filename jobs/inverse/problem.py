@@ -93,8 +93,8 @@ def build_problem(study: InverseStudy, evaluator: Evaluator, solver: str) -> Pro
     """Solve (or replay) the reference experiment and set up the unknowns."""
     arrays = evaluator.run([reference_evaluation(study, solver)])[0]
     if (message := failed(arrays)) is not None:
-        raise ReferenceFailedError(f"the reference experiment at {study.deflection:g} mm failed: "
-                              f"{message}")
+        raise ReferenceFailedError(
+            f"the reference experiment at {study.deflection:g} mm failed: {message}")
     mesh = mesh_for(study.model)
     fz = arrays["tread_force"][:, 2]
     index = np.flatnonzero(fz > 0)

@@ -149,3 +149,15 @@ def test_cli_refuses_bad_input_in_one_line(tmp_path, capsys, args, match):
     err = capsys.readouterr().err
     assert info.value.code != 0 and match in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "cal").exists()
+
+
+@pytest.mark.ccx
+@pytest.mark.slow
+@pytest.mark.parametrize("kind", ["reduced", "full"])
+def test_the_shipped_thesis_calibrated_preset_meets_the_thesis_points(kind):
+    """The preset's (rounded) values, default meshes: every thesis point within 10 %."""
+    spec = default_model(kind, materials="thesis-calibrated")
+    for point in thesis_points(kind):
+        result = run_load_path(spec, LoadPath((point.deflection,), point.pressure))
+        fz = result.measurements[0].total_force[2]
+        assert fz == pytest.approx(point.force, rel=0.10), point
