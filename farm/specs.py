@@ -201,8 +201,8 @@ class ModelSpec:
     displacements (reduced only) or frictionless exponential contact with a rigid plane.
     ``cut_faces`` says whether the sector's cut faces are clamped (reduced only). The
     thesis names only the clamped beads (§3.2), so they are free by default; with free
-    faces the reduced model at 30 mm touches the road along two lines with 14 nodes, as
-    the thesis reports (§3.3.1, §4.2).
+    faces the reduced model at 30 mm touches the road mostly along the two tread edges
+    (16 nodes on the default mesh; the thesis reports 14, §3.3.1, §4.2).
     """
 
     kind: ModelKind

@@ -1,7 +1,7 @@
 """The virtual inverse problem of a study: the reference experiment and its unknowns.
 
 Thesis §4.2: the unknowns are the vertical forces on the tread nodes in contact in the
-reference virtual experiment (14 in the thesis and, at 30 mm, in this model too);
+reference virtual experiment (14 in the thesis; 16 at 30 mm on the default mesh here);
 their true values are the reference's road forces on those nodes.
 """
 
