@@ -1,10 +1,13 @@
 """Worker-side guard around a solve: one retry with smaller increments, failures as data.
 
-Shared by every loop's worker tasks. Non-convergence is retried once with four times
-smaller increments (as sweeps do, :mod:`jobs.tasks`); what still fails
-deterministically is returned as ``{"error": message}`` so that the client caches it
-(the same input would fail again). Timeouts, crashes and cancellations raise: they are
-not properties of the input, so they are not cached.
+Shared by every loop's worker tasks. Non-convergence and a ccx crash are retried once
+with four times smaller increments (as sweeps retry non-convergence, :mod:`jobs.tasks`);
+what still fails is returned as ``{"error": message}`` so that the client caches it:
+the same input would fail again. A crash that repeats is such a failure - measured: one
+forward evaluation of the reproduction's inverse study crashed ccx's spooles solver
+(exit 255) every time, and while crashes were not cached every re-run solved it again.
+Timeouts and cancellations raise: they are not properties of the input, so they are
+not cached.
 """
 
 from __future__ import annotations
@@ -18,7 +21,8 @@ from farm.errors import FarmError, SolverError
 from farm.specs import SolverSettings
 
 NON_CONVERGED = {"too_many_cutbacks", "increment_below_minimum", "max_increments", "diverged"}
-TRANSIENT = {"timeout", "crash", "cancelled"}
+RETRIED = NON_CONVERGED | {"crash"}
+TRANSIENT = {"timeout", "cancelled"}
 
 
 def smaller_increments(settings: SolverSettings) -> SolverSettings:
@@ -36,7 +40,7 @@ def guarded(solve: Callable[[SolverSettings], dict[str, np.ndarray]],
         try:
             return solve(settings)
         except SolverError as e:
-            if e.outcome not in NON_CONVERGED:
+            if e.outcome not in RETRIED:
                 raise
             return solve(smaller_increments(settings))
     except SolverError as e:
