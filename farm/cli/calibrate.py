@@ -11,6 +11,7 @@ from rich.console import Console
 from rich.table import Table
 
 from farm.cli import app
+from farm.cli.options import SCHEDULER, WORKERS
 
 
 def _print(console: Console, title: str, frame) -> None:
@@ -60,10 +61,8 @@ def calibrate(
                                         "(one evaluation = one parameter set)."),
     prior_weight: float = typer.Option(1e-4, "--prior-weight", help="Weight of the pull "
                                        "towards the start values (per e-fold, squared)."),
-    scheduler: str = typer.Option(None, "--scheduler", help="Address of a running Dask "
-                                  "scheduler [default: an embedded LocalCluster]."),
-    workers: int = typer.Option(None, "--workers", help="Embedded cluster: worker processes "
-                                "[default: one per core]."),
+    scheduler: str = SCHEDULER,
+    workers: int = WORKERS,
     out: Path = typer.Option(Path("calibration"), "--out", help="Folder for the tables, the "
                              "figure and the fitted preset (JSON)."),
     cache: Path = typer.Option(None, "--cache", help="Evaluation cache [default: "

@@ -11,12 +11,9 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 
 from farm.cli import app
+from farm.cli.options import SCHEDULER, WORKERS
 
 STUDY = typer.Argument(..., help="Inverse study file (TOML), e.g. examples/inverse_thesis.toml.")
-SCHEDULER = typer.Option(None, "--scheduler", help="Address of a running Dask scheduler, "
-                         "e.g. tcp://host:8786 [default: an embedded LocalCluster].")
-WORKERS = typer.Option(None, "--workers", help="Embedded cluster: worker processes "
-                       "[default: one per core]. External: wait for this many workers.")
 OUT = typer.Option(None, "--out", help="Folder for the tables (CSV) and histograms (PNG) "
                    "[default: <store>-<group>-report next to the store].")
 REPEATS = typer.Option(None, "--repeats", help="Cap every condition's repeats (quick runs).")

@@ -17,16 +17,13 @@ from rich.progress import (
 from rich.table import Table
 
 from farm.cli import app
+from farm.cli.options import SCHEDULER, WORKERS
 
 sweep = typer.Typer(help="Sweeps of virtual experiments on Dask: submit, resume, status.",
                     no_args_is_help=True)
 app.add_typer(sweep, name="sweep")
 
 STUDY = typer.Argument(..., help="Study file (TOML), e.g. examples/thesis_ch5_dataset.toml.")
-SCHEDULER = typer.Option(None, "--scheduler", help="Address of a running Dask scheduler, "
-                         "e.g. tcp://host:8786 [default: an embedded LocalCluster].")
-WORKERS = typer.Option(None, "--workers", help="Embedded cluster: worker processes "
-                       "[default: one per core]. External: wait for this many workers.")
 RETRY = typer.Option(False, "--retry-failed", help="Run experiments that failed before again.")
 
 

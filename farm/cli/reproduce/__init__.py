@@ -9,6 +9,7 @@ import typer
 from rich.console import Console
 
 from farm.cli import app
+from farm.cli.options import SCHEDULER, WORKERS
 
 
 @app.command("reproduce")
@@ -17,9 +18,8 @@ def reproduce(
                                "conditions and noise draws (--full: all, 10 repeats)."),
     out: Path = typer.Option(Path("reproduction"), "--out", help="Report folder."),
     store: str = typer.Option(None, "--store", help="Zarr store [default: OUT/thesis.zarr]."),
-    scheduler: str = typer.Option(None, "--scheduler", help="Dask scheduler address "
-                                  "[default: an embedded LocalCluster]."),
-    workers: int = typer.Option(None, "--workers", help="Embedded cluster size."),
+    scheduler: str = SCHEDULER,
+    workers: int = WORKERS,
     coarse: bool = typer.Option(False, "--coarse", help="Test-sized coarse meshes (minutes, "
                                 "not for conclusions)."),
     materials: str = typer.Option("table-3.1", "--materials", help="Material preset."),
