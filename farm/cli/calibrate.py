@@ -8,19 +8,10 @@ from pathlib import Path
 
 import typer
 from rich.console import Console
-from rich.table import Table
 
 from farm.cli import app
+from farm.cli.frames import print_frame
 from farm.cli.options import SCHEDULER, WORKERS
-
-
-def _print(console: Console, title: str, frame) -> None:
-    table = Table(title=title)
-    for col in frame.columns:
-        table.add_column(str(col), justify="right")
-    for row in frame.itertuples(index=False):
-        table.add_row(*(f"{v:.4g}" if isinstance(v, float) else str(v) for v in row))
-    console.print(table)
 
 
 def _figure(curves, points, path: Path) -> None:
@@ -121,9 +112,10 @@ def _report(console: Console, report, params, points, out: Path) -> None:
     start = params.start()
     out.mkdir(parents=True, exist_ok=True)
     frames = {"parameters": parameter_table(result), "points": point_table(result)}
-    _print(console, f"fitted parameters ({result.status})", frames["parameters"])
-    _print(console, "reference points: force N, residual %",
-           frames["points"].drop(columns="source"))
+    print_frame(console, f"fitted parameters ({result.status})", frames["parameters"],
+                digits=4)
+    print_frame(console, "reference points: force N, residual %",
+                frames["points"].drop(columns="source"), digits=4)
     for name, frame in frames.items():
         frame.to_csv(out / f"{name}.csv", index=False)
     history = pd.DataFrame(np.exp(result.theta_history) * [start[n] for n in params.names],

@@ -8,9 +8,9 @@ from pathlib import Path
 import typer
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-from rich.table import Table
 
 from farm.cli import app
+from farm.cli.frames import print_frame
 from farm.cli.options import SCHEDULER, WORKERS
 
 STUDY = typer.Argument(..., help="Inverse study file (TOML), e.g. examples/inverse_thesis.toml.")
@@ -57,21 +57,6 @@ class RichLoops:
             self.bar.stop()
 
 
-def _print(console: Console, title: str, frame, digits: int = 3) -> None:
-    table = Table(title=title)
-    for col in frame.columns:
-        table.add_column(str(col), justify="right")
-    for row in frame.itertuples(index=False):
-        table.add_row(*(_cell(v, digits) for v in row))
-    console.print(table)
-
-
-def _cell(value, digits: int) -> str:
-    if value is None or (isinstance(value, float) and value != value):
-        return "-"
-    return f"{value:.{digits}g}" if isinstance(value, float) else str(value)
-
-
 def _default_out(study) -> Path:
     if "://" in study.store:
         return Path(f"{study.group}-report").resolve()
@@ -113,7 +98,7 @@ def invert(study_file: Path = STUDY, scheduler: str = SCHEDULER, workers: int = 
     for name, frame in frames.items():
         frame.to_csv(folder / f"{name}.csv", index=False)
     for name, frame in tables.views(report.results, report.problem).items():
-        _print(console, titles[name], frame)
+        print_frame(console, titles[name], frame)
     figures = tables.histograms(report.results, report.problem, folder)
     console.print(summary_line(report))
     console.print(f"results: {study.store} (group {study.group}); tables and "
