@@ -12,8 +12,8 @@ import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
-from analysis.cli import app
 from analysis.errors import EmptySelectionError, ParameterError, StoreError
+from cli.analyse import app
 
 PNG = b"\x89PNG\r\n\x1a\n"
 runner = CliRunner()
@@ -153,7 +153,7 @@ def test_analysis_never_imports_farm():
             )
             assert not any(n == "farm" or n.startswith("farm.") for n in names), path
     code = (
-        "import sys, analysis.cli, analysis.synthetic, analysis.studies.noise; "
+        "import sys, cli.analyse, analysis.synthetic, analysis.studies.noise; "
         "assert not [m for m in sys.modules if m == 'farm' or m.startswith('farm.')]"
     )
     subprocess.run([sys.executable, "-c", code], check=True)

@@ -7,7 +7,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from farm.cli import main
+from cli import main
 
 pytestmark = pytest.mark.ccx
 
@@ -54,8 +54,8 @@ def test_reproduce_writes_a_complete_report_and_is_idempotent(tmp_path):
     (False, False, {"least-squares", "nelder-mead"}, 10)])
 def test_the_chapter_4_study_has_the_thesis_conditions(tmp_path, quick, coarse, optimizers,
                                                        repeats):
-    from farm.cli.reproduce.inverse import study_text
-    from farm.cli.reproduce.stages import Options
+    from cli.reproduce.inverse import study_text
+    from cli.reproduce.stages import Options
     from jobs.inverse.study import parse_inverse_study
 
     opts = Options(out=tmp_path, store=str(tmp_path / "s.zarr"), quick=quick, coarse=coarse)

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from farm.cli import main
+from cli import main
 
 COARSE = ["--set", "mesh.tread=4", "--set", "mesh.sidewall=2", "--set", "mesh.bead=1",
           "--set", "mesh.circumferential=8"]

@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from farm.cli import main
+from cli import main
 from farm.experiment import run_load_path
 from farm.presets import default_model
 from farm.specs import LoadPath, Material, Materials, MeshDensity

@@ -17,7 +17,7 @@ import pytest
 from conftest import ccx_processes
 
 import storage
-from farm.cli import main
+from cli import main
 from jobs.study import load_study
 from jobs.sweep import run_sweep
 

@@ -18,7 +18,7 @@ import pytest
 import xarray as xr
 from conftest import ccx_processes, ccx_runs
 
-from farm.cli import main
+from cli import main
 from jobs.inverse.objective import Objective
 from jobs.inverse.run import run_inverse
 from jobs.inverse.study import load_inverse_study

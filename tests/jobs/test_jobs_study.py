@@ -7,7 +7,7 @@ from conftest import study_text
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
-from farm.cli import main
+from cli import main
 from jobs.errors import StudyError
 from jobs.study import load_study, parse_study
 

@@ -16,7 +16,7 @@ import pytest
 from conftest import ccx_processes, ccx_runs
 
 import storage
-from farm.cli import main
+from cli import main
 from jobs.study import load_study
 from jobs.sweep import run_sweep
 

@@ -1,4 +1,4 @@
-"""The ``farm`` command (typer): the only code that reaches across all packages.
+"""The ``farm`` command (typer): the top floor, the only code that reaches across packages.
 
 ``main`` is the console entry point. It runs the typer app and is the error boundary:
 any error of the farm's packages, and any usage error, becomes ONE line on stderr and a
@@ -12,7 +12,8 @@ import sys
 
 import typer
 
-from farm.cli.errors import USER_ERRORS, fail
+from cli import analyse, calibrate, export, invert, reproduce, run, sweep
+from cli.errors import USER_ERRORS, fail
 
 app = typer.Typer(
     name="farm",
@@ -31,15 +32,15 @@ def _root(
     """gmsh + CalculiX virtual experiments of the TM700 280/70R16 tyre."""
 
 
-def _register() -> None:
-    from analysis.cli import app as analyse
-    from farm.cli import calibrate, export, invert, reproduce, run, sweep  # noqa: F401
-
-    app.add_typer(analyse, name="analyse", help="Chapter-5 analyses of a store: "
-                  "cross-covariance PCA, PCR, PLSR, Monte Carlo noise.")
-
-
-_register()
+# The parent imports its children and mounts them: the children never import the parent.
+app.command("run")(run.run)
+app.add_typer(sweep.app, name="sweep")
+app.command("invert")(invert.invert)
+app.command("calibrate")(calibrate.calibrate)
+app.command("export")(export.export)
+app.command("reproduce")(reproduce.reproduce)
+app.add_typer(analyse.app, name="analyse", help="Chapter-5 analyses of a store: "
+              "cross-covariance PCA, PCR, PLSR, Monte Carlo noise.")
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -9,11 +9,9 @@ import numpy as np
 import typer
 from rich.console import Console
 
-from farm.cli import app
 from farm.errors import SpecError
 
 
-@app.command("export")
 def export(
     store: str = typer.Argument(..., help="Zarr store: directory or fsspec URL."),
     group: str = typer.Option(None, "--group", help="Group [default: the store's only one]."),

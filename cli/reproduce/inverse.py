@@ -17,7 +17,7 @@ import time
 import numpy as np
 import pandas as pd
 
-from farm.cli.reproduce.stages import COARSE_MESH, Options, StageResult
+from cli.reproduce.stages import COARSE_MESH, Options, StageResult
 
 MATERIALS = "thesis-calibrated"
 

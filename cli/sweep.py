@@ -16,12 +16,10 @@ from rich.progress import (
 )
 from rich.table import Table
 
-from farm.cli import app
-from farm.cli.options import SCHEDULER, WORKERS
+from cli.options import SCHEDULER, WORKERS
 
-sweep = typer.Typer(help="Sweeps of virtual experiments on Dask: submit, resume, status.",
+app = typer.Typer(help="Sweeps of virtual experiments on Dask: submit, resume, status.",
                     no_args_is_help=True)
-app.add_typer(sweep, name="sweep")
 
 STUDY = typer.Argument(..., help="Study file (TOML), e.g. examples/thesis_ch5_dataset.toml.")
 RETRY = typer.Option(False, "--retry-failed", help="Run experiments that failed before again.")
@@ -93,21 +91,21 @@ def _run(study_file: Path, scheduler, workers, retry_failed) -> None:
     raise typer.Exit(0 if report.ok else 1)
 
 
-@sweep.command("submit")
+@app.command("submit")
 def submit(study: Path = STUDY, scheduler: str = SCHEDULER, workers: int = WORKERS,
            retry_failed: bool = RETRY) -> None:
     """Run every experiment of a study that the store does not hold as done yet."""
     _run(study, scheduler, workers, retry_failed)
 
 
-@sweep.command("resume")
+@app.command("resume")
 def resume(study: Path = STUDY, scheduler: str = SCHEDULER, workers: int = WORKERS,
            retry_failed: bool = RETRY) -> None:
     """Finish an interrupted sweep (the same idempotent operation as submit)."""
     _run(study, scheduler, workers, retry_failed)
 
 
-@sweep.command("status")
+@app.command("status")
 def status(target: str = typer.Argument(..., help="A study file (.toml) or a store path/URL."),
            group: str = typer.Option(None, "--group", help="One group of the store.")) -> None:
     """Counts of pending, done and failed experiments, and why the failed ones failed."""

@@ -10,15 +10,13 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from cli.params import build_model, parse_range
 from farm.ccx.runner import find_ccx
-from farm.cli import app
-from farm.cli.params import build_model, parse_range
 from farm.experiment import PathResult, run_load_path
 from farm.mesh import mesh_for
 from farm.specs import LoadPath, SolverSettings
 
 
-@app.command("run")
 def run(
     model: str = typer.Option("full", "--model", "-m", help="Tyre model: full or reduced."),
     pressure: float = typer.Option(

@@ -14,8 +14,8 @@ from pathlib import Path
 import pandas as pd
 
 from analysis.report.markdown import table as md_table
-from farm.cli.reproduce import thesis
-from farm.cli.reproduce.stages import Options, StageResult
+from cli.reproduce import thesis
+from cli.reproduce.stages import Options, StageResult
 
 PACKAGES = ("tyre-farm", "numpy", "scipy", "gmsh", "zarr", "xarray", "dask", "distributed",
             "scikit-learn", "pandas", "matplotlib")

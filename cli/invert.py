@@ -9,9 +9,8 @@ import typer
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from farm.cli import app
-from farm.cli.frames import print_frame
-from farm.cli.options import SCHEDULER, WORKERS
+from cli.frames import print_frame
+from cli.options import SCHEDULER, WORKERS
 
 STUDY = typer.Argument(..., help="Inverse study file (TOML), e.g. examples/inverse_thesis.toml.")
 OUT = typer.Option(None, "--out", help="Folder for the tables (CSV) and histograms (PNG) "
@@ -63,7 +62,6 @@ def _default_out(study) -> Path:
     return Path(f"{study.store.rstrip('/')}-{study.group}-report")
 
 
-@app.command("invert")
 def invert(study_file: Path = STUDY, scheduler: str = SCHEDULER, workers: int = WORKERS,
            out: Path = OUT, repeats: int = REPEATS) -> None:
     """Identify tread forces from inner-surface measurements (thesis ch. 4), FEM in the loop.

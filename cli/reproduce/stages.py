@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from farm.cli.reproduce import thesis
+from cli.reproduce import thesis
 
 COARSE_MESH = {"full": "tread = 4\nsidewall = 2\nbead = 1\ncircumferential = 16",
                "reduced": "tread = 4\nsidewall = 2\nbead = 1\ncircumferential = 8"}

@@ -8,11 +8,9 @@ from pathlib import Path
 import typer
 from rich.console import Console
 
-from farm.cli import app
-from farm.cli.options import SCHEDULER, WORKERS
+from cli.options import SCHEDULER, WORKERS
 
 
-@app.command("reproduce")
 def reproduce(
     quick: bool = typer.Option(True, "--quick/--full", help="A reduced set of inverse "
                                "conditions and noise draws (--full: all, 10 repeats)."),
@@ -25,8 +23,8 @@ def reproduce(
     materials: str = typer.Option("table-3.1", "--materials", help="Material preset."),
 ) -> None:
     """Run the thesis study (chapters 3-5) on the farm and write OUT/report.md."""
+    from cli.reproduce import inverse, report, stages
     from farm.ccx.runner import ccx_version, find_ccx
-    from farm.cli.reproduce import inverse, report, stages
     from farm.errors import SpecError
     from farm.presets import MATERIAL_PRESETS
 

@@ -9,9 +9,8 @@ from pathlib import Path
 import typer
 from rich.console import Console
 
-from farm.cli import app
-from farm.cli.frames import print_frame
-from farm.cli.options import SCHEDULER, WORKERS
+from cli.frames import print_frame
+from cli.options import SCHEDULER, WORKERS
 
 
 def _figure(curves, points, path: Path) -> None:
@@ -33,7 +32,6 @@ def _figure(curves, points, path: Path) -> None:
     fig.savefig(path, dpi=120)
 
 
-@app.command("calibrate")
 def calibrate(
     model: str = typer.Option("reduced", "--model", "-m", help="Tyre model: full or reduced."),
     references: Path = typer.Option(
@@ -65,8 +63,8 @@ def calibrate(
     and 4476 N at 30 mm / 200 kPa. Prints the fitted values and each point's residual;
     writes tables, a force-deflection figure and fitted.json to --out.
     """
+    from cli.params import build_model
     from farm.ccx.runner import find_ccx
-    from farm.cli.params import build_model
     from farm.errors import SpecError
     from jobs.calibrate.fit import CalibrationSettings
     from jobs.calibrate.params import Parameters, default_parameters
