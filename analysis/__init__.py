@@ -25,8 +25,10 @@ _EXPORTS = {
     "SIMPLSRegression": "analysis.pls",
     "pctvar_from_scores": "analysis.pls",
     "select_n_components": "analysis.selection",
+    "cross_validate_simpls": "analysis.selection",
     "monte_carlo": "analysis.noise",
     "totals_operator": "analysis.noise",
+    "nodal_average_std": "analysis.noise",
     "NoiseResult": "analysis.noise",
     "AnalysisError": "analysis.errors",
 }

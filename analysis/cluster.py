@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Iterator
 from contextlib import contextmanager
 
-from analysis.errors import StoreError
+from analysis.errors import SchedulerError
 
 CONNECT_TIMEOUT = "10s"  # how long to try reaching the scheduler before giving up
 
@@ -27,6 +27,6 @@ def scheduler(address: str | None) -> Iterator[object | None]:
     try:
         client = Client(address, timeout=CONNECT_TIMEOUT)
     except OSError as exc:
-        raise StoreError(f"cannot reach the Dask scheduler at {address}: {exc}") from exc
+        raise SchedulerError(f"cannot reach the Dask scheduler at {address}: {exc}") from exc
     with client:
         yield client

@@ -1,8 +1,8 @@
 """Data assembly: from a store group to the matrices of thesis section 5.3.
 
 The store schema is in ``docs/schema.md``. This module is the only place in
-:mod:`analysis` that knows how a group is opened (:func:`open_group`, to be swapped for
-``storage.open_dataset`` once the storage package lands); everything else works on the
+:mod:`analysis` that opens a group, and it reads through :mod:`storage`'s readers
+(``open_dataset``, ``done``, ``select``, ``status_counts``); everything else works on the
 :class:`xarray.Dataset` that :func:`load` returns: done experiments only, optionally
 filtered by load case, with the per-experiment variables as dask arrays chunked along
 ``experiment`` so that a store larger than memory streams through the reductions.
@@ -17,13 +17,20 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
+import dask
 import dask.array as da
 import numpy as np
 import pandas as pd
 import xarray as xr
 
 import storage
-from analysis.errors import EmptySelectionError, MissingVariableError, StoreError
+from analysis.errors import (
+    AmbiguousGroupError,
+    EmptySelectionError,
+    MissingVariableError,
+    NoVarianceError,
+    TooFewExperimentsError,
+)
 
 #: direction name -> (store variable, component dimension, component label)
 DIRECTIONS: dict[str, tuple[str, str, str]] = {
@@ -46,7 +53,6 @@ INPUT_SETS: dict[str, tuple[str, ...]] = {
     "surface_strain": ("cst_exx", "cst_eyy", "cst_exy"),
 }
 
-DONE = 1  # status flag of a finished experiment (schema: 0 pending, 1 done, 2 failed)
 _CHUNK_BYTES = 32 * 2**20  # target size of one dask chunk along `experiment`
 
 
@@ -77,19 +83,17 @@ def expand_inputs(spec: str | Sequence[str]) -> tuple[str, ...]:
 
 
 def open_group(store: Any, group: str) -> xr.Dataset:
-    """Open one group lazily through :func:`storage.open_dataset` (the store's reader)."""
-    try:
-        return storage.open_dataset(store, group, chunks=None)
-    except storage.StoreError as exc:
-        raise StoreError(str(exc)) from exc
+    """Open one group lazily through :func:`storage.open_dataset` (the store's reader).
+
+    Storage's errors (:class:`storage.NotAStoreError`, :class:`storage.GroupNotFoundError`)
+    pass through unchanged: they already say what is missing and how to fix it.
+    """
+    return storage.open_dataset(store, group, chunks=None)
 
 
 def list_groups(store: Any) -> list[str]:
     """Names of the experiment groups of ``store`` (one per model)."""
-    try:
-        return storage.list_groups(store)
-    except storage.StoreError as exc:
-        raise StoreError(str(exc)) from exc
+    return storage.list_groups(store)
 
 
 def resolve_group(store: Any, group: str | None) -> str:
@@ -99,7 +103,9 @@ def resolve_group(store: Any, group: str | None) -> str:
     groups = list_groups(store)
     if len(groups) != 1:
         names = ", ".join(groups) or "none"
-        raise StoreError(f"store {store!s} has {len(groups)} groups ({names}); pass --group")
+        raise AmbiguousGroupError(
+            f"store {store!s} has {len(groups)} groups ({names}); pass --group"
+        )
     return groups[0]
 
 
@@ -111,6 +117,10 @@ def load(
     deflection: float | None = None,
 ) -> xr.Dataset:
     """Done experiments of one group, optionally at one pressure and/or deflection.
+
+    Reads through :mod:`storage` (:func:`storage.open_dataset`, :func:`storage.done`,
+    :func:`storage.select`), so "done" and "matches" mean what they mean for every
+    other reader of the store.
 
     Parameters
     ----------
@@ -125,42 +135,78 @@ def load(
     -------
     xarray.Dataset
         Variables with an ``experiment`` dimension are dask arrays chunked along it.
+        Attributes ``store``, ``group`` and ``filters`` describe the selection (for
+        error messages, see :func:`require_experiments`).
     """
     name = resolve_group(store, group)
     ds = open_group(store, name)
     if "status" not in ds:
         raise MissingVariableError(f"group {name!r} has no 'status' variable: not a farm store")
-    status = np.asarray(ds["status"].values)
-    keep = status == DONE
-    for var, value in (("pressure", pressure), ("deflection", deflection)):
-        if value is not None:
-            keep &= _matches(ds, var, value, name)
-    if not keep.any():
-        raise EmptySelectionError(_empty_message(ds, name, status, pressure, deflection))
-    sel = ds if keep.all() else ds.isel(experiment=np.flatnonzero(keep))
-    return _chunk(sel.assign_attrs(group=name))
+    asked = (("pressure", pressure), ("deflection", deflection))
+    filters = {k: v for k, v in asked if v is not None}
+    done = storage.done(ds)
+    sel = storage.select(done, **filters)
+    if sel.sizes["experiment"] == 0:
+        raise EmptySelectionError(_empty_message(store, name, done, filters))
+    attrs = {"store": str(store), "group": name, "filters": _filter_text(filters)}
+    return _chunk(sel.assign_attrs(attrs))
 
 
-def _matches(ds: xr.Dataset, var: str, value: float, group: str) -> np.ndarray:
-    if var not in ds:
-        raise MissingVariableError(f"group {group!r} has no {var!r} variable to filter on")
-    return np.isclose(np.asarray(ds[var].values, dtype=float), value, rtol=1e-9, atol=1e-9)
+def _filter_text(filters: dict[str, float]) -> str:
+    return ", ".join(f"{k}={v:g}" for k, v in filters.items())
 
 
-def _empty_message(ds, group, status, pressure, deflection) -> str:
-    flags = ("pending", "done", "failed")
-    parts = [f"{int((status == code).sum())} {flag}" for code, flag in enumerate(flags)]
-    filters = (("pressure", pressure), ("deflection", deflection))
-    asked = [f"{v}={x}" for v, x in filters if x is not None]
+def _empty_message(store, group: str, done: xr.Dataset, filters: dict[str, float]) -> str:
+    counts = storage.status_counts(store, group)
     msg = f"no done experiment in group {group!r}"
-    if asked:
-        msg += " with " + ", ".join(asked)
-        done = status == DONE
+    if filters:
+        msg += " with " + _filter_text(filters)
         for var in ("pressure", "deflection"):
-            if var in ds and done.any():
-                vals = np.unique(np.asarray(ds[var].values)[done])
+            if var in done and done.sizes["experiment"]:
+                vals = np.unique(np.asarray(done[var].values))
                 msg += f"; done {var} values: {', '.join(f'{v:g}' for v in vals)}"
-    return msg + f" (group holds {len(status)} experiments: {', '.join(parts)})"
+    parts = ", ".join(f"{n} {flag}" for flag, n in counts.items())
+    return msg + f" (group holds {sum(counts.values())} experiments: {parts})"
+
+
+def selection_text(ds: xr.Dataset) -> str:
+    """The selection in words: store, group and filters (from :func:`load`'s attributes)."""
+    parts = [f"store {ds.attrs.get('store', '?')}", f"group {ds.attrs.get('group', '?')!r}"]
+    if ds.attrs.get("filters"):
+        parts.append(ds.attrs["filters"])
+    return ", ".join(parts)
+
+
+def require_experiments(ds: xr.Dataset, needed: int, what: str, why: str) -> None:
+    """Raise :class:`TooFewExperimentsError` unless ``ds`` holds ``needed`` experiments.
+
+    ``what`` names the analysis ("PCR"), ``why`` says why it needs that many.
+    """
+    k = ds.sizes["experiment"]
+    if k >= needed:
+        return
+    raise TooFewExperimentsError(
+        f"{what} needs at least {needed} done experiments ({why}), but the selection "
+        f"({selection_text(ds)}) has {k} done experiment{'' if k == 1 else 's'}: widen it "
+        "(drop or change --pressure / --deflection) or run more load cases"
+    )
+
+
+def require_variance(Y, ds: xr.Dataset, component: str) -> None:
+    """Raise :class:`NoVarianceError` if the outputs ``Y`` (K, M; numpy or dask) are the
+    same in every experiment: every fraction of variance explained would be 0/0."""
+    lo, hi = Y.min(axis=0), Y.max(axis=0)
+    if isinstance(Y, da.Array):
+        lo, hi = dask.compute(lo, hi)
+    spread = float(np.max(hi - lo, initial=0.0))
+    if spread > 1e-12 * float(np.max(np.abs([lo, hi]), initial=0.0)):
+        return
+    raise NoVarianceError(
+        f"the tread forces (force component {component}) have no variance over the "
+        f"{Y.shape[0]} experiments of the selection ({selection_text(ds)}): variance "
+        "explained is 0/0 and there is nothing to model; choose another --force-component "
+        "or a selection whose loads differ"
+    )
 
 
 def _chunk(ds: xr.Dataset) -> xr.Dataset:

@@ -1,24 +1,62 @@
-"""Errors of the analysis layer.
+"""Errors (and the one warning) of the analysis layer.
 
 Each error is one line that says what was asked, what the store holds and how to fix
 it; the ``farm analyse`` CLI prints ``str(error)``. Errors caused by bad input also
 subclass :class:`ValueError`, so scikit-learn's own checks (which expect ``ValueError``)
 keep working on the estimators.
+
+Errors of the store itself (missing store or group, bad schema) are :mod:`storage`'s:
+analysis reads through :mod:`storage` and lets them through unchanged, so there is one
+:class:`StoreError` class, re-exported here for callers that only import analysis.
 """
 
 from __future__ import annotations
+
+from storage.errors import StoreError
+
+__all__ = [
+    "AmbiguousGroupError",
+    "AnalysisError",
+    "ComponentsError",
+    "EmptySelectionError",
+    "MissingVariableError",
+    "NoVarianceError",
+    "NonFiniteError",
+    "ParameterError",
+    "SchedulerError",
+    "SelectionError",
+    "StoreError",
+    "TooFewExperimentsError",
+    "UndefinedVarianceWarning",
+]
 
 
 class AnalysisError(Exception):
     """Base class of every error raised by :mod:`analysis`."""
 
 
-class StoreError(AnalysisError, ValueError):
-    """The store or group cannot be opened, or the group to use is ambiguous."""
+class AmbiguousGroupError(AnalysisError, StoreError, LookupError):
+    """The store has several groups (or none) and the analysis was not told which to use.
+
+    Both an :class:`AnalysisError` and a :class:`storage.StoreError`: it is about the
+    store's layout, found by the analysis.
+    """
 
 
-class EmptySelectionError(AnalysisError, ValueError):
+class SelectionError(AnalysisError, ValueError):
+    """The selected experiments cannot support the analysis asked for."""
+
+
+class EmptySelectionError(SelectionError):
     """No done experiment matches the selection (status, pressure, deflection)."""
+
+
+class TooFewExperimentsError(SelectionError):
+    """The selection holds fewer done experiments than the analysis needs."""
+
+
+class NoVarianceError(SelectionError):
+    """The outputs do not vary over the selection: variance explained is undefined."""
 
 
 class MissingVariableError(AnalysisError, ValueError):
@@ -35,3 +73,11 @@ class ComponentsError(AnalysisError, ValueError):
 
 class ParameterError(AnalysisError, ValueError):
     """A parameter of an estimator or analysis is out of its valid range."""
+
+
+class SchedulerError(AnalysisError, ConnectionError):
+    """The Dask scheduler given with ``--scheduler`` cannot be reached."""
+
+
+class UndefinedVarianceWarning(UserWarning):
+    """A fraction of variance explained is 0/0 (data without variance): reported as NaN."""

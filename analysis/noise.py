@@ -14,7 +14,10 @@ with B = coef_ᵀ (N x M) of rank A, so:
 - totals are linear too: Fz = Σ F_i, Mx = Σ y_i F_i, My = -Σ x_i F_i (the moments of
   vertical nodal forces about the contact centre, x and y from ``tread_xyz``, whose
   origin is on the wheel axis above the contact centre for the pure vertical load
-  cases of chapter 5).
+  cases of chapter 5);
+- the thesis' Table 5.1 puts the *nodal-average* standard deviation beside each total
+  (:func:`nodal_average_std`), not the standard deviation of the total itself; both are
+  reported.
 """
 
 from __future__ import annotations
@@ -187,6 +190,33 @@ def analytic_std(L: np.ndarray, R: np.ndarray, sigmas, totals: np.ndarray):
     RT = R @ totals
     tot = np.sqrt(np.einsum("ak,ab,bk->k", RT, G, RT))
     return sig[:, None] * node, sig[:, None] * tot
+
+
+def nodal_average_std(node_std: np.ndarray, totals: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """Thesis Table 5.1's ± for (Fz, Mx, My): nodal averages of standard deviations.
+
+    Thesis §5.6 reports, beside each predicted total, "the nodal averaged standard
+    deviation": the mean over the contact nodes of each node's standard deviation.
+    For Fz that is mean_i std(F_i); for a moment it is the std of each node's moment,
+    std(g_i F_i) = |g_i| std(F_i) with g_i = y_i (Mx) or -x_i (My). It is not the
+    standard deviation of the total, which vanishes for the moments whenever the
+    predicted forces are symmetric about the contact centre.
+
+    Parameters
+    ----------
+    node_std : ndarray of shape (M,) or (L, M)
+        Standard deviation of each tread node's force (per noise level).
+    totals : ndarray of shape (M, 3)
+        :func:`totals_operator` of the tread nodes.
+    mask : ndarray of bool, shape (M,)
+        The nodes to average over (:func:`contact_mask`).
+
+    Returns
+    -------
+    ndarray of shape (3,) or (L, 3), in the units of ``node_std @ totals``.
+    """
+    weights = np.abs(np.asarray(totals, dtype=float)[mask])  # (m, 3)
+    return np.asarray(node_std)[..., mask] @ weights / max(int(mask.sum()), 1)
 
 
 def contact_mask(y_ref: np.ndarray, rtol: float = 1e-6) -> np.ndarray:

@@ -11,11 +11,14 @@ wide data), so K_X (N x N) is never formed for the thesis-sized case.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 from sklearn.base import BaseEstimator, MultiOutputMixin, RegressorMixin
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from analysis._base import MomentsFitMixin, check_n_components, too_many_components
+from analysis.errors import UndefinedVarianceWarning
 from analysis.moments import Moments
 
 
@@ -43,6 +46,14 @@ class PCRegression(MomentsFitMixin, MultiOutputMixin, RegressorMixin, BaseEstima
     y_explained_variance_ratio_ : ndarray of shape (rank Ȳ,)
         Eigenvalues of ȲᵀȲ over their sum, all modes: "percent of variance in the
         output explained by each mode" (Fig. 5.7).
+
+        Data without variance (the same X, or Y, in every experiment) have one mode of
+        eigenvalue 0 and an undefined fraction 0/0: it is NaN, with an
+        :class:`~analysis.errors.UndefinedVarianceWarning`, as scikit-learn's PCA
+        reports it, never 100 %. The fit itself stays defined: constant outputs are
+        predicted as their mean, and constant inputs give a zero ``coef_``. The
+        ``farm analyse`` studies refuse such outputs with a
+        :class:`~analysis.errors.NoVarianceError` instead.
     coef_ : ndarray of shape (n_targets, n_features)
         Linear model, ``y = X @ coef_.T + intercept_``.
     intercept_ : ndarray of shape (n_targets,)
@@ -72,11 +83,14 @@ class PCRegression(MomentsFitMixin, MultiOutputMixin, RegressorMixin, BaseEstima
         ry = lam_y.size if self.n_components is None else min(r, lam_y.size)
         ex, ey = ex[:, :r], ey[:, :ry]
         # Z_XᵀZ_X = diag(λ_x): the normal equations of (5.7) are diagonal.
-        self.alpha_ = (ex.T @ moments.xy @ ey) / lam_x[:r, None]
+        lam_r = lam_x[:r, None]
+        self.alpha_ = np.divide(
+            ex.T @ moments.xy @ ey, lam_r, out=np.zeros((r, ey.shape[1])), where=lam_r > 0
+        )
         self.x_components_ = moments.x_full(ex)
         self.y_components_ = moments.y_full(ey)
-        self.x_explained_variance_ratio_ = lam_x / lam_x.sum()
-        self.y_explained_variance_ratio_ = lam_y / lam_y.sum()
+        self.x_explained_variance_ratio_ = _ratios(lam_x, "inputs")
+        self.y_explained_variance_ratio_ = _ratios(lam_y, "outputs")
         self.n_components_ = r
         self.x_mean_, self.y_mean_ = moments.x_mean, moments.y_mean
         self.coef_ = (self.x_components_ @ self.alpha_ @ self.y_components_.T).T
@@ -100,12 +114,26 @@ class PCRegression(MomentsFitMixin, MultiOutputMixin, RegressorMixin, BaseEstima
 
 
 def _eig_desc(gram: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Non-trivial eigenpairs of a symmetric PSD matrix, eigenvalues descending."""
+    """Non-trivial eigenpairs of a symmetric PSD matrix, eigenvalues descending.
+
+    Data without variance (gram == 0) keeps one mode with its true eigenvalue 0, so
+    that shapes stay valid; the callers divide by eigenvalues only where they are > 0.
+    """
     lam, vec = np.linalg.eigh(gram)
-    lam, vec = lam[::-1], vec[:, ::-1]
-    top = max(lam[0], 0.0)
-    keep = lam > top * gram.shape[0] * np.finfo(float).eps
-    if not keep.any():
-        keep[0] = True  # constant data: one zero mode keeps shapes valid
-        lam = np.where(keep, 1.0, lam)  # avoid 0/0; alpha is then 0 anyway
+    lam, vec = np.clip(lam[::-1], 0.0, None), vec[:, ::-1]
+    keep = lam > lam[0] * gram.shape[0] * np.finfo(float).eps
+    keep[0] = True
     return lam[keep], vec[:, keep]
+
+
+def _ratios(lam: np.ndarray, what: str) -> np.ndarray:
+    """Eigenvalues over their sum; NaN (and a warning) when there is no variance at all."""
+    total = lam.sum()
+    if total > 0:
+        return lam / total
+    warnings.warn(
+        f"the {what} have no variance: the fraction of variance explained is 0/0, reported as NaN",
+        UndefinedVarianceWarning,
+        stacklevel=3,
+    )
+    return np.full(lam.shape, np.nan)

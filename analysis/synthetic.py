@@ -223,8 +223,9 @@ def _skeleton(geo, d, p, status, forces, group, seed) -> xr.Dataset:
             "reaction_force": ((exp, "tread_node", "component"), forces, {"units": "N"}),
             "total_force": ((exp, "component"), forces.sum(axis=1), {"units": "N"}),
             "moment": ((exp, "component"), moment, {"units": "N mm"}),
-            "deflection": (exp, d, {"units": "mm"}),
-            "pressure": (exp, p, {"units": "MPa"}),
+            # role "parameter": what storage.select filters on (storage/schema.py)
+            "deflection": (exp, d, {"units": "mm", "role": "parameter"}),
+            "pressure": (exp, p, {"units": "MPa", "role": "parameter"}),
             "status": (
                 exp,
                 status,

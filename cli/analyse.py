@@ -1,8 +1,8 @@
 """``farm analyse pca|pcr|plsr|noise STORE``: one command per chapter-5 analysis.
 
-The lead's ``farm`` CLI mounts :data:`app` as ``farm analyse`` and turns
-:class:`~analysis.errors.AnalysisError` into one line on stderr; the commands here raise
-those errors and never exit themselves.
+The ``farm`` CLI (:mod:`cli`) mounts :data:`app` as ``farm analyse`` and turns
+:class:`~analysis.errors.AnalysisError` and :class:`storage.StoreError` into one line on
+stderr; the commands here raise those errors and never exit themselves.
 """
 
 from __future__ import annotations
@@ -172,7 +172,18 @@ def noise(
     deflection: Deflection = None,
     inputs: Inputs = None,
     components: Annotated[
-        int | None, typer.Option(help="PLS components (default: all the data support, at most 10).")
+        int | None,
+        typer.Option(
+            help="PLS components of each model (default: chosen per input set by "
+            "cross-validation over the experiments, see --cv; reported in models.csv)."
+        ),
+    ] = None,
+    cv: Annotated[
+        int | None,
+        typer.Option(
+            help="Folds of the cross-validation that chooses --components (default: "
+            "leave-one-out up to 10 experiments, else 10)."
+        ),
     ] = None,
     draws: Annotated[int, typer.Option(help="Monte Carlo draws per noise level.")] = 100,
     noise_levels: Annotated[
@@ -208,6 +219,7 @@ def noise(
                 reference_deflection=reference_deflection,
                 component=force_component,
                 sampling=sampling,
+                cv=cv,
             )
         )
 

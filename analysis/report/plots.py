@@ -172,19 +172,21 @@ def noise_sweep(sweep: pd.DataFrame, path: Path) -> Path:
     groups = list(sweep.groupby("inputs", sort=False))
     fig, axes = _figure(len(groups), 1, 7, 3.5 * len(groups))
     for ax, (inputs, part) in zip(axes[:, 0], groups, strict=True):
-        ax.plot(part["sigma"], part["nodal_avg_std"], "o-", color="tab:blue", label="Monte Carlo")
-        ax.plot(part["sigma"], part["nodal_avg_std_analytic"], "k:", label="analytic")
+        ax.plot(
+            part["sigma"], part["Fz_nodal_avg_std"], "o-", color="tab:blue", label="Monte Carlo"
+        )
+        ax.plot(part["sigma"], part["Fz_nodal_avg_std_analytic"], "k:", label="analytic")
         ax.set(xlabel=f"noise σ ({inputs})", ylabel="nodal average std [N]", title=inputs)
         ax.legend(loc="upper left", fontsize=8)
         twin = ax.twinx()
         twin.errorbar(
             part["sigma"],
             part["Fz_mean"],
-            yerr=part["Fz_std"],
+            yerr=part["Fz_total_std"],
             color="tab:orange",
             fmt="s-",
             ms=3,
             capsize=2,
         )
-        twin.set_ylabel("mean total Fz [N]", color="tab:orange")
+        twin.set_ylabel("mean total Fz ± std of the total [N]", color="tab:orange")
     return _save(fig, path)

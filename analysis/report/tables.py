@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 
 from analysis.data import family
-from analysis.noise import TOTALS, NoiseResult, contact_mask
+from analysis.noise import TOTALS, NoiseResult, contact_mask, nodal_average_std
 
 #: Values quoted in thesis chapter 5, cumulative % of output variance per mode.
 THESIS_CUMULATIVE_PCT = {
@@ -115,36 +115,86 @@ def predictions(
 
 
 def noise_totals(
-    inputs: str, result: NoiseResult, level: int, y_ref: np.ndarray, totals: np.ndarray
+    inputs: str,
+    result: NoiseResult,
+    level: int,
+    y_ref: np.ndarray,
+    totals: np.ndarray,
+    model: str = "",
 ) -> pd.DataFrame:
-    """Table 5.1 rows for one input set at noise level index ``level``."""
+    """Table 5.1 rows for one input set at noise level index ``level``.
+
+    Columns: case, inputs, model, sigma, the mean totals Fz (N), Mx, My (N m); then two
+    different spreads, each Monte Carlo and analytic:
+
+    - ``<T>_nodal_avg_std``: the thesis' ± (§5.6), the mean over the contact nodes of
+      each node's standard deviation (of its force for Fz, of its moment for Mx, My),
+      see :func:`analysis.noise.nodal_average_std`;
+    - ``<T>_total_std``: the standard deviation of the total itself (zero for the
+      moments of symmetric forces).
+    """
     mask = contact_mask(y_ref)
     conv = np.array([1.0, N_MM_TO_N_M, N_MM_TO_N_M])
     ref, free = (y_ref @ totals) * conv, (result.reference_prediction @ totals) * conv
     sigma = result.sigmas[level]
+    nodal = nodal_average_std(result.node_std[level], totals, mask) * conv
+    nodal_a = nodal_average_std(result.node_std_analytic[level], totals, mask) * conv
+    zero = np.zeros(12)
     rows = [
-        ("reference", 0.0, *ref, *np.zeros(3), *np.zeros(3), 0.0, 0.0),
-        (f"{inputs}", 0.0, *free, *np.zeros(3), *np.zeros(3), 0.0, 0.0),
+        ("reference", "", "virtual experiment", 0.0, *ref, *zero),
+        (f"{inputs}", inputs, model, 0.0, *free, *zero),
         (
             f"{inputs} + N(0, {sigma:g})",
+            inputs,
+            model,
             sigma,
             *(result.totals_mean[level] * conv),
+            *nodal,
             *(result.totals_std[level] * conv),
+            *nodal_a,
             *(result.totals_std_analytic[level] * conv),
-            result.node_std[level][mask].mean(),
-            result.node_std_analytic[level][mask].mean(),
         ),
     ]
-    cols = [
-        "case",
-        "sigma",
-        *TOTALS,
-        *(f"{t}_std" for t in TOTALS),
-        *(f"{t}_std_analytic" for t in TOTALS),
-        "nodal_avg_std",
-        "nodal_avg_std_analytic",
-    ]
-    return pd.DataFrame(rows, columns=cols)
+    return pd.DataFrame(rows, columns=NOISE_TOTALS_COLUMNS)
+
+
+NOISE_TOTALS_COLUMNS = [
+    "case",
+    "inputs",
+    "model",
+    "sigma",
+    *TOTALS,
+    *(f"{t}_nodal_avg_std" for t in TOTALS),
+    *(f"{t}_total_std" for t in TOTALS),
+    *(f"{t}_nodal_avg_std_analytic" for t in TOTALS),
+    *(f"{t}_total_std_analytic" for t in TOTALS),
+]
+TABLE_5_1_NOTE = (
+    "± is the thesis' measure (§5.6): the nodal-average standard deviation, the mean over "
+    "the contact nodes of each node's standard deviation - of its force for Fz, of its "
+    "moment (|y| or |x| times its force) for Mx and My. 'std of the total' is the "
+    "standard deviation of the total force or moment itself; for the moments it is zero "
+    "whenever the predicted forces are symmetric about the contact centre, as a model "
+    "trained on symmetric load cases predicts them. Monte Carlo values; the CSV adds "
+    "the exact (analytic) ones."
+)
+
+
+def table_5_1(totals: pd.DataFrame, digits: int = 2) -> pd.DataFrame:
+    """Thesis layout of :func:`noise_totals`: "mean ± nodal-average std" per total, then
+    the standard deviations of the totals, labelled as such (see ``TABLE_5_1_NOTE``)."""
+
+    def pm(row, t: str) -> str:
+        mean = f"{row[t]:.{digits}f}"
+        return mean if row["sigma"] == 0 else f"{mean} ± {row[f'{t}_nodal_avg_std']:.{digits}f}"
+
+    units = {"Fz": "N", "Mx": "N m", "My": "N m"}
+    out = pd.DataFrame({"case": totals["case"], "model": totals["model"]})
+    for t in TOTALS:
+        out[f"{t} {units[t]} (± nodal-average std)"] = [pm(r, t) for _, r in totals.iterrows()]
+    for t in TOTALS:
+        out[f"std of the total {t} {units[t]}"] = totals[f"{t}_total_std"].to_numpy()
+    return out
 
 
 def noise_nodes(
@@ -165,7 +215,8 @@ def noise_nodes(
 def noise_sweep(
     inputs: str, result: NoiseResult, multipliers: np.ndarray, y_ref: np.ndarray
 ) -> pd.DataFrame:
-    """Per level: mean total Fz, its std, and the nodal-average std (Fig. 5.12)."""
+    """Per level: mean total Fz, the std of the total, and the thesis' nodal-average std
+    (Fig. 5.12 plots the latter)."""
     mask = contact_mask(y_ref)
     return pd.DataFrame(
         {
@@ -173,10 +224,10 @@ def noise_sweep(
             "multiplier": multipliers,
             "sigma": result.sigmas,
             "Fz_mean": result.totals_mean[:, 0],
-            "Fz_std": result.totals_std[:, 0],
-            "Fz_std_analytic": result.totals_std_analytic[:, 0],
-            "nodal_avg_std": result.node_std[:, mask].mean(1),
-            "nodal_avg_std_analytic": result.node_std_analytic[:, mask].mean(1),
+            "Fz_total_std": result.totals_std[:, 0],
+            "Fz_total_std_analytic": result.totals_std_analytic[:, 0],
+            "Fz_nodal_avg_std": result.node_std[:, mask].mean(1),
+            "Fz_nodal_avg_std_analytic": result.node_std_analytic[:, mask].mean(1),
         }
     )
 

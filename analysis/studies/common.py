@@ -17,6 +17,8 @@ from analysis.pls import SIMPLSRegression
 
 #: the thesis' two "methods" (§5.4-5.6): displacement-based and strain-based models
 DEFAULT_MODEL_INPUTS = ("displacement", "strain")
+#: why every study needs two experiments
+CENTRING = "centring a single experiment leaves no variance to analyse"
 
 
 @dataclass
@@ -77,10 +79,30 @@ class Selection:
     reference: int  # position of the reference experiment
 
     @classmethod
-    def of(cls, ds: xr.Dataset, component: str = "z", reference_deflection=None):
+    def of(
+        cls,
+        ds: xr.Dataset,
+        component: str = "z",
+        reference_deflection=None,
+        *,
+        study: str = "this analysis",
+        needed: int = 2,
+        why: str = CENTRING,
+    ) -> Selection:
+        """The selection's response, checked before anything is written.
+
+        Raises
+        ------
+        TooFewExperimentsError
+            Fewer than ``needed`` experiments (``study`` and ``why`` go into the message).
+        NoVarianceError
+            The tread forces are the same in every experiment.
+        """
+        data.require_experiments(ds, needed, study, why)
         Y = data.outputs(ds, component)
         if Y.nbytes < 2**28:  # small: read once, not once per input set
             Y = da.from_array(Y.compute(), chunks=Y.chunks)
+        data.require_variance(Y, ds, component)
         return cls(ds, Y, data.tread_index(ds), data.reference_index(ds, reference_deflection))
 
     def X(self, input_set: str) -> da.Array:

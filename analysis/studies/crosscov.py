@@ -22,7 +22,7 @@ def run(
     ds: xr.Dataset, out: Path, *, inputs: str | None = None, n_modes: int = 3, component: str = "z"
 ) -> Report:
     """Fit one :class:`CrossCovariancePCA` per direction and write tables, maps, summary."""
-    sel = Selection.of(ds, component)
+    sel = Selection.of(ds, component, study="Cross-covariance PCA (thesis §5.3)")
     directions = data.expand_inputs(inputs) if inputs else default_directions(ds)
     fits = {d: CrossCovariancePCA().fit_moments(sel.moments(d)) for d in directions}
     importance = direction_importance({d: f.singular_values_[0] for d, f in fits.items()})

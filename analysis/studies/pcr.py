@@ -22,7 +22,7 @@ def run(
     component: str = "z",
 ) -> Report:
     """PCR with 1..max_modes modes per input set; predictions at the reference experiment."""
-    sel = Selection.of(ds, component, reference_deflection)
+    sel = Selection.of(ds, component, reference_deflection, study="PCR (thesis §5.4)")
     report = Report(Path(out))
     ratios, frames, figures = {}, [], []
     for name in model_inputs(ds, inputs):

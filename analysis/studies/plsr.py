@@ -29,7 +29,7 @@ def run(
     seed: int | None = None,
 ) -> Report:
     """SIMPLS with 1..max_modes components per input set, NIPALS beside it, optional CV."""
-    sel = Selection.of(ds, component, reference_deflection)
+    sel = Selection.of(ds, component, reference_deflection, study="PLSR (thesis §5.5)")
     report = Report(Path(out))
     pv, preds, agree, cvs, figures = {}, [], [], [], []
     pcr_ratio = None

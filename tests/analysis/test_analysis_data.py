@@ -8,6 +8,7 @@ import pytest
 import xarray as xr
 import zarr
 
+import storage
 from analysis import data
 from analysis.errors import (
     AnalysisError,
@@ -115,8 +116,28 @@ def test_missing_variable(two_pressure_store):
 
 
 def test_missing_store(tmp_path):
-    with pytest.raises(StoreError):
+    with pytest.raises(storage.NotAStoreError):
         data.load(tmp_path / "absent.zarr")
+
+
+def test_one_store_error_class(two_pressure_store):
+    """analysis reads through storage and re-exports its StoreError: one class, so one
+    ``except StoreError`` catches the store's errors whichever layer found them."""
+    assert StoreError is storage.StoreError
+    with pytest.raises(storage.GroupNotFoundError):
+        data.load(two_pressure_store, "nope")
+    with pytest.raises(storage.StoreError) as info:
+        data.load(two_pressure_store)
+    assert isinstance(info.value, AnalysisError)  # found by the analysis: both
+
+
+def test_load_selects_like_storage(two_pressure_store):
+    """`load` = storage's done + select (same tolerance, same done rule)."""
+    raw = storage.open_dataset(two_pressure_store, "mesh_a")
+    expected = storage.select(storage.done(raw), pressure=0.25, deflection=40.0)
+    ds = data.load(two_pressure_store, "mesh_a", pressure=0.25 * (1 + 1e-12), deflection=40.0)
+    assert list(ds["experiment"].values) == list(expected["experiment"].values)
+    assert ds.attrs["filters"] == "pressure=0.25, deflection=40"
 
 
 def test_non_finite_values_are_named(tmp_path):

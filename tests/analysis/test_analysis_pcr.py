@@ -81,3 +81,20 @@ def test_too_many_modes(random_xy):
     X, Y = random_xy(5, 20, 3)
     with pytest.raises(ComponentsError, match="rank of X̄"):
         PCRegression(5).fit(X, Y)
+
+
+def test_outputs_without_variance_have_undefined_variance_explained(random_xy):
+    """Constant Y: each mode's share of zero variance is 0/0, reported as NaN (as
+    scikit-learn's PCA does), with a warning; it used to be a confident 100 %. The fit
+    itself is still defined: it predicts the constant."""
+    X, Y = random_xy(9, 30, 5)
+    flat = np.full_like(Y, 3.0)
+    with pytest.warns(UserWarning, match="no variance"):
+        fit = PCRegression().fit(X, flat)
+    assert np.isnan(fit.y_explained_variance_ratio_).all()
+    assert fit.x_explained_variance_ratio_.sum() == pytest.approx(1.0)
+    np.testing.assert_allclose(fit.predict(X), 3.0)
+    with pytest.warns(UserWarning, match="no variance"):
+        fit = PCRegression(1).fit(np.ones_like(X), Y)  # constant inputs: nothing to regress on
+    assert np.isnan(fit.x_explained_variance_ratio_).all()
+    np.testing.assert_allclose(fit.predict(X), np.broadcast_to(Y.mean(0), Y.shape))
