@@ -48,15 +48,13 @@ Everything is validated here, once: a bad key or value is one
 
 from __future__ import annotations
 
-import math
-import tomllib
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from farm.specs import ModelSpec, SolverSettings, content_hash
-from jobs.errors import StudyError
-from jobs.study import GROUP_NAME, _fail, _model, _solver, _table
+from farm.errors import SpecError
+from farm.specs import LoadPath, ModelSpec, SolverSettings, content_hash
+from jobs import validate as v
 
 METHODS = ("displacement", "strain", "combined")
 OPTIMIZERS = ("nelder-mead", "least-squares")
@@ -164,164 +162,121 @@ def thesis_conditions(repeats: int = 10, optimizers: tuple[str, ...] = ("nelder-
     )
 
 
-def _number(t: dict, key: str, where: str, default: float, *, low: float = 0.0,
-            strict: bool = False) -> float:
-    v = t.get(key, default)
-    if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
-        raise _fail(f"{where}.{key}", f"must be a number, got {v!r}")
-    if v < low or (strict and v == low):
-        raise _fail(f"{where}.{key}", f"must be {'>' if strict else '>='} {low:g}, got {v!r}")
-    return float(v)
+def _positive(t: dict, key: str, where: str, default: float) -> float:
+    return v.number(t.get(key, default), f"{where}.{key}", low=0, strict=True)
 
 
-def _integer(t: dict, key: str, where: str, default: int, low: int = 1) -> int:
-    v = t.get(key, default)
-    if isinstance(v, bool) or not isinstance(v, int) or v < low:
-        raise _fail(f"{where}.{key}", f"must be an integer >= {low}, got {v!r}")
-    return v
-
-
-def _choice(t: dict, key: str, where: str, default: str, allowed: tuple[str, ...]) -> str:
-    v = t.get(key, default)
-    if v not in allowed:
-        raise _fail(f"{where}.{key}", f"must be one of {', '.join(allowed)}, got {v!r}")
-    return v
-
-
-def _choices(t: dict, key: str, where: str, default: tuple[str, ...],
-             allowed: tuple[str, ...]) -> tuple[str, ...]:
-    v = t.get(key, list(default))
-    if not isinstance(v, list) or not v:
-        raise _fail(f"{where}.{key}", f"must be a non-empty list, got {v!r}")
-    for item in v:
-        if item not in allowed:
-            raise _fail(f"{where}.{key}", f"must list {', '.join(allowed)}; got {item!r}")
-    return tuple(dict.fromkeys(v))
+def _count(t: dict, key: str, where: str, default: int, low: int = 1) -> int:
+    return v.integer(t.get(key, default), f"{where}.{key}", low=low)
 
 
 def _optimizer(name: str, data: Any) -> OptimizerSettings:
     where = f"optimizers.{name}"
     if name not in OPTIMIZERS:
-        raise _fail(where, f"unknown optimiser; choose {', '.join(OPTIMIZERS)}")
+        raise v.fail(where, f"unknown optimiser; choose {', '.join(OPTIMIZERS)}")
     lsq = name == "least-squares"
     keys = {"max_evaluations", "noise_draw"} | ({"fd_step_n", "regularisation", "weight",
                                                  "tolerance"} if lsq else {"xatol", "fatol"})
-    t = _table(data, where, keys)
-    draw = _choice(t, "noise_draw", where, "per_solve" if lsq else "per_evaluation",
-                   NOISE_DRAWS)
+    t = v.table(data, where, keys)
+    draw = v.choice(t.get("noise_draw", "per_solve" if lsq else "per_evaluation"),
+                    f"{where}.noise_draw", NOISE_DRAWS)
     if lsq and draw != "per_solve":
-        raise _fail(f"{where}.noise_draw", "least squares needs 'per_solve': a finite-"
-                    "difference Jacobian of a target redrawn between columns is noise")
+        raise v.fail(f"{where}.noise_draw", "least squares needs 'per_solve': a finite-"
+                     "difference Jacobian of a target redrawn between columns is noise")
     common = {"name": name, "noise_draw": draw,
-              "max_evaluations": _integer(t, "max_evaluations", where, 200 if lsq else 600, 2)}
+              "max_evaluations": _count(t, "max_evaluations", where, 200 if lsq else 600, 2)}
     if not lsq:
-        return OptimizerSettings(**common, xatol=_number(t, "xatol", where, 1e-3, strict=True),
-                                 fatol=_number(t, "fatol", where, 1e-7, strict=True))
-    reg = _choice(t, "regularisation", where, "none", REGULARISATIONS)
-    weight = _number(t, "weight", where, 0.0)
+        return OptimizerSettings(**common, xatol=_positive(t, "xatol", where, 1e-3),
+                                 fatol=_positive(t, "fatol", where, 1e-7))
+    reg = v.choice(t.get("regularisation", "none"), f"{where}.regularisation", REGULARISATIONS)
+    weight = v.number(t.get("weight", 0.0), f"{where}.weight", low=0)
     if reg != "none" and weight == 0:
-        raise _fail(f"{where}.weight", f"give a weight > 0 for {reg} regularisation")
-    return OptimizerSettings(**common, fd_step=_number(t, "fd_step_n", where, 0.25, strict=True),
+        raise v.fail(f"{where}.weight", f"give a weight > 0 for {reg} regularisation")
+    return OptimizerSettings(**common, fd_step=_positive(t, "fd_step_n", where, 0.25),
                              regularisation=reg, weight=weight,
-                             tolerance=_number(t, "tolerance", where, 1e-8, strict=True))
+                             tolerance=_positive(t, "tolerance", where, 1e-8))
 
 
 def _condition(data: Any, k: int, optimizers: tuple[str, ...]) -> Condition:
     where = f"conditions[{k}]"
-    t = _table(data, where, {"name", "methods", "optimizers", "noise", "initial", "scale",
-                             "guess_sigma_n", "repeats"}, {"name"})
-    name = t["name"]
-    if not (isinstance(name, str) and GROUP_NAME.fullmatch(name)):
-        raise _fail(f"{where}.name", f"must be letters, digits, '_', '.', '-', got {name!r}")
-    noise = t.get("noise", True)
-    if not isinstance(noise, bool):
-        raise _fail(f"{where}.noise", f"must be true or false, got {noise!r}")
-    opts = _choices(t, "optimizers", where, optimizers, optimizers)
+    t = v.table(data, where, {"name", "methods", "optimizers", "noise", "initial", "scale",
+                              "guess_sigma_n", "repeats"}, {"name"})
     return Condition(
-        name=name, methods=_choices(t, "methods", where, ("displacement", "strain"), METHODS),
-        optimizers=opts, noise=noise, initial=_choice(t, "initial", where, "scaled", INITIALS),
-        scale=_number(t, "scale", where, 0.9, strict=True),
-        guess_sigma=_number(t, "guess_sigma_n", where, 0.0),
-        repeats=_integer(t, "repeats", where, 1))
+        name=v.identifier(t["name"], f"{where}.name"),
+        methods=v.choices(t.get("methods", ["displacement", "strain"]), f"{where}.methods",
+                          METHODS),
+        optimizers=v.choices(t.get("optimizers", list(optimizers)), f"{where}.optimizers",
+                             optimizers),
+        noise=v.boolean(t.get("noise", True), f"{where}.noise"),
+        initial=v.choice(t.get("initial", "scaled"), f"{where}.initial", INITIALS),
+        scale=_positive(t, "scale", where, 0.9),
+        guess_sigma=v.number(t.get("guess_sigma_n", 0.0), f"{where}.guess_sigma_n", low=0),
+        repeats=_count(t, "repeats", where, 1))
 
 
 def _mask(data: Any, base: Path) -> MaskSpec:
-    t = _table(data, "mask", {"eigen_vectors", "keep", "mode"}, {"eigen_vectors"})
-    path = t["eigen_vectors"]
-    if not isinstance(path, str):
-        raise _fail("mask.eigen_vectors", f"must be a path, got {path!r}")
-    keep = _number(t, "keep", "mask", 0.5, strict=True)
-    if keep > 1:
-        raise _fail("mask.keep", f"must be a fraction in (0, 1], got {keep!r}")
+    t = v.table(data, "mask", {"eigen_vectors", "keep", "mode"}, {"eigen_vectors"})
+    path = v.string(t["eigen_vectors"], "mask.eigen_vectors", "a path")
+    keep = v.number(t.get("keep", 0.5), "mask.keep", low=0, high=1, strict=True)
     return MaskSpec(str((base / path).expanduser().resolve()) if not Path(path).is_absolute()
-                    else path, keep, _integer(t, "mode", "mask", 1))
+                    else path, keep, _count(t, "mode", "mask", 1))
 
 
 def parse_inverse_study(text: str, source: str = "<study>", base: Path | None = None
                         ) -> InverseStudy:
     """Validate the TOML text of an inverse study (raises :class:`StudyError`)."""
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as e:
-        raise StudyError(f"{source} is not valid TOML: {e}") from e
-    try:
+    data = v.parse_toml(text, source)
+    with v.located(source):
         return _parse(data, source, base or Path.cwd())
-    except StudyError as e:
-        raise StudyError(f"{source}: {e}") from e.__cause__
 
 
-def _parse(data: dict, source: str, base: Path) -> InverseStudy:
-    _table(data, "study file", {"study", "model", "reference", "noise", "optimizers", "mask",
-                                "conditions", "solver"}, {"study", "model"})
-    head = _table(data["study"], "study", {"name", "store", "group", "cache", "seed"},
-                  {"store"})
-    store = head["store"]
-    if not isinstance(store, str) or not store.strip():
-        raise _fail("study.store", f"must be a path or URL string, got {store!r}")
-    name = head.get("name", Path(source).stem)
-    if not (isinstance(name, str) and GROUP_NAME.fullmatch(name)):
-        raise _fail("study.name", f"must be letters, digits, '_', '.', '-', got {name!r}")
-    group = head.get("group", f"inverse-{name}")
-    if not (isinstance(group, str) and GROUP_NAME.fullmatch(group)):
-        raise _fail("study.group", f"must be letters, digits, '_', '.', '-', got {group!r}")
+def _paths(head: dict, base: Path) -> tuple[str, str]:
+    """The store and the evaluation cache, relative paths taken from ``base``."""
+    store = v.string(head["store"], "study.store", "a path or URL string", blank=False)
     if "://" not in store:
         store = str((base / store).expanduser().resolve())
     cache = head.get("cache")
     if cache is None:
         if "://" in store:
-            raise _fail("study.cache", "give a local cache directory for a URL store")
-        cache = store.rstrip("/") + ".evaluations"
-    elif not isinstance(cache, str):
-        raise _fail("study.cache", f"must be a directory path, got {cache!r}")
-    else:
-        cache = str((base / cache).expanduser().resolve())
-    model = _model(data["model"])
+            raise v.fail("study.cache", "give a local cache directory for a URL store")
+        return store, store.rstrip("/") + ".evaluations"
+    cache = v.string(cache, "study.cache", "a directory path")
+    return store, str((base / cache).expanduser().resolve())
+
+
+def _parse(data: dict, source: str, base: Path) -> InverseStudy:
+    v.table(data, "study file", {"study", "model", "reference", "noise", "optimizers", "mask",
+                                 "conditions", "solver"}, {"study", "model"})
+    head = v.table(data["study"], "study", {"name", "store", "group", "cache", "seed"},
+                   {"store"})
+    name = v.identifier(head.get("name", Path(source).stem), "study.name")
+    group = v.identifier(head.get("group", f"inverse-{name}"), "study.group")
+    store, cache = _paths(head, base)
+    model = v.model(data["model"])
     if model.kind != "reduced" or model.road != "iterative":
-        raise _fail("model", "the inverse problem uses the reduced model with the iterative "
-                    f"road (thesis §4.1); got kind={model.kind!r}, road={model.road!r}")
-    ref = _table(data.get("reference", {}), "reference", {"deflection_mm"})
-    deflection = _number(ref, "deflection_mm", "reference", 30.0, strict=True)
-    noise_t = _table(data.get("noise", {}), "noise", {"displacement_mm", "strain"})
-    noise = NoiseSettings(_number(noise_t, "displacement_mm", "noise", 1.0, strict=True),
-                          _number(noise_t, "strain", "noise", 4e-4, strict=True))
-    opt_t = _table(data.get("optimizers", {"nelder-mead": {}}), "optimizers", set(OPTIMIZERS))
+        raise v.fail("model", "the inverse problem uses the reduced model with the iterative "
+                     f"road (thesis §4.1); got kind={model.kind!r}, road={model.road!r}")
+    ref = v.table(data.get("reference", {}), "reference", {"deflection_mm"})
+    deflection = _positive(ref, "deflection_mm", "reference", 30.0)
+    noise_t = v.table(data.get("noise", {}), "noise", {"displacement_mm", "strain"})
+    noise = NoiseSettings(_positive(noise_t, "displacement_mm", "noise", 1.0),
+                          _positive(noise_t, "strain", "noise", 4e-4))
+    opt_t = v.table(data.get("optimizers", {"nelder-mead": {}}), "optimizers", set(OPTIMIZERS))
     if not opt_t:
-        raise _fail("optimizers", "name at least one optimiser")
-    optimizers = tuple(_optimizer(k, v) for k, v in opt_t.items())
+        raise v.fail("optimizers", "name at least one optimiser")
+    optimizers = tuple(_optimizer(k, x) for k, x in opt_t.items())
     names = tuple(o.name for o in optimizers)
     conds = data.get("conditions")
     if conds is None:
         conditions = thesis_conditions(optimizers=names)
     elif not isinstance(conds, list) or not conds:
-        raise _fail("conditions", "must be a non-empty array of tables ([[conditions]])")
+        raise v.fail("conditions", "must be a non-empty array of tables ([[conditions]])")
     else:
         conditions = tuple(_condition(c, k, names) for k, c in enumerate(conds))
     if len({c.name for c in conditions}) != len(conditions):
-        raise _fail("conditions", "condition names must be distinct")
-    settings, _, _ = _solver(data.get("solver", {}))
-    seed = head.get("seed", 0)
-    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        raise _fail("study.seed", f"must be an integer >= 0, got {seed!r}")
+        raise v.fail("conditions", "condition names must be distinct")
+    settings = v.solver(data.get("solver", {})).settings
+    seed = v.integer(head.get("seed", 0), "study.seed", low=0)
     mask = _mask(data["mask"], base) if "mask" in data else None
     study = InverseStudy(name, store, group, cache, seed, model, deflection, noise, optimizers,
                          conditions, mask, settings, source)
@@ -330,24 +285,17 @@ def _parse(data: dict, source: str, base: Path) -> InverseStudy:
 
 
 def _check_deflection(study: InverseStudy) -> None:
-    from farm.errors import SpecError
-    from farm.specs import LoadPath
-
     try:
         LoadPath((study.deflection,)).check_against(study.model)
     except SpecError as e:
-        raise _fail("reference.deflection_mm", str(e)) from e
+        raise v.fail("reference.deflection_mm", str(e)) from e
 
 
 def load_inverse_study(path: str | Path) -> InverseStudy:
     """Read and validate an inverse study file; relative paths are taken from the
     current directory, like any path on the command line."""
     path = Path(path)
-    try:
-        text = path.read_text()
-    except OSError as e:
-        raise StudyError(f"cannot read study file {path}: {e.strerror or e}") from e
-    return parse_inverse_study(text, str(path))
+    return parse_inverse_study(v.read_text(path), str(path))
 
 
 def with_repeats(study: InverseStudy, repeats: int) -> InverseStudy:

@@ -118,7 +118,7 @@ def test_malformed_study_is_one_line_and_touches_nothing(text, tmp_path_factory,
     def no_cluster(*args, **kwargs):
         raise AssertionError("a cluster was started for an invalid study")
 
-    monkeypatch.setattr("jobs.sweep.connect", no_cluster)
+    monkeypatch.setattr("jobs.driver.connect", no_cluster)
     with pytest.raises(SystemExit) as info:
         main(["sweep", "submit", str(path)])
     err = capsys.readouterr().err
