@@ -71,7 +71,6 @@ def invert(study_file: Path = STUDY, scheduler: str = SCHEDULER, workers: int = 
     Running it again replays every evaluation from the cache (no ccx): resuming.
     """
     from farm.ccx.runner import find_ccx
-    from jobs.inverse import tables
     from jobs.inverse.run import run_inverse, summary_line
     from jobs.inverse.study import load_inverse_study, with_repeats
 
@@ -86,21 +85,32 @@ def invert(study_file: Path = STUDY, scheduler: str = SCHEDULER, workers: int = 
     report = run_inverse(study, scheduler=scheduler, workers=workers,
                          progress=RichLoops(console))
     folder = (out or _default_out(study)).expanduser()
-    folder.mkdir(parents=True, exist_ok=True)
-    frames = {name: getattr(tables, name)(report.results, report.problem)
-              for name in ("forces", "rmse", "nodal_errors", "cost", "per_solve")}
-    titles = {"forces": "Forces and moments, mean ± std over repeats (thesis Tables 4.1/4.3)",
-              "rmse": "RMSE: U mm, strain microstrain (thesis Tables 4.2/4.4)",
-              "nodal_errors": "Nodal force errors [N] (thesis Figs. 4.2/4.3)",
-              "cost": "Cost per solve (means)"}
-    for name, frame in frames.items():
-        frame.to_csv(folder / f"{name}.csv", index=False)
-    for name, frame in tables.views(report.results, report.problem).items():
-        print_frame(console, titles[name], frame)
-    figures = tables.histograms(report.results, report.problem, folder)
+    figures = _report(console, study.store, study.group, folder) if report.results else []
     console.print(summary_line(report))
     console.print(f"results: {study.store} (group {study.group}); tables and "
-                  f"{len(figures)} histograms in {folder}")
+                  f"{len(figures)} histograms in {folder}" if report.results else
+                  "no solve finished: nothing stored, no tables")
     for label, error in report.errors.items():
         console.print(f"[red]{label}: {error}")
     raise typer.Exit(0 if report.ok else 1)
+
+
+TITLES = {"forces": "Forces and moments, mean ± std over repeats (thesis Tables 4.1/4.3)",
+          "rmse": "RMSE: U mm, strain microstrain (thesis Tables 4.2/4.4)",
+          "nodal_errors": "Nodal force errors [N] (thesis Figs. 4.2/4.3)",
+          "cost": "Cost per solve (means)"}
+
+
+def _report(console: Console, store: str, group: str, folder: Path) -> list[Path]:
+    """Tables (CSV, printed) and histograms (PNG) from the group as stored: the report
+    shows what the store holds, and nothing the store lacks."""
+    from analysis.report import ch4
+    from storage.solves import open_solves
+
+    ds = open_solves(store, group)
+    folder.mkdir(parents=True, exist_ok=True)
+    for name, frame in ch4.tables(ds).items():
+        frame.to_csv(folder / f"{name}.csv", index=False)
+    for name, frame in ch4.views(ds).items():
+        print_frame(console, TITLES[name], frame)
+    return ch4.histograms(ds, folder)

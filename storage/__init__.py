@@ -20,6 +20,11 @@ Analysis::
 
     ds = done(open_dataset(store, group))
     select(ds, pressure=0.2, deflection=slice(10, 40))
+
+Inverse studies (one group each, client-written; ``storage.solves``)::
+
+    write_solves(store, group, Unknowns(...), [SolveRecord(...), ...], SolvesAttrs(...))
+    ds = open_solves(store, group)
 """
 
 from storage.errors import (
@@ -38,6 +43,7 @@ from storage.paths import StoreLike, open_store
 from storage.read import done, open_dataset, parameters, select, status_counts, statuses
 from storage.reserve import reserve
 from storage.schema import DONE, FAILED, PENDING, SCHEMA_VERSION
+from storage.solves import SolveRecord, SolvesAttrs, Unknowns, open_solves, write_solves
 from storage.write import write_experiment, write_failure
 
 __all__ = [
@@ -54,12 +60,16 @@ __all__ = [
     "NotReservedError",
     "ParameterConflictError",
     "SchemaError",
+    "SolveRecord",
+    "SolvesAttrs",
     "StoreError",
     "StoreLike",
+    "Unknowns",
     "create_group",
     "done",
     "list_groups",
     "open_dataset",
+    "open_solves",
     "open_store",
     "package_versions",
     "parameters",
@@ -69,4 +79,5 @@ __all__ = [
     "statuses",
     "write_experiment",
     "write_failure",
+    "write_solves",
 ]

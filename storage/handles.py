@@ -17,11 +17,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from zarr import AsyncArray
 from zarr.abc.store import Store
-from zarr.core.sync import sync
 from zarr.storage import FsspecStore, LocalStore
 
+from storage._zarr import AsyncArray, async_arrays, read_item
 from storage.errors import NotReservedError
 from storage.paths import describe, open_group
 from storage.reserve import read_ids
@@ -70,7 +69,7 @@ def _load(store: Store, group: str) -> Handle:
     g = open_group(store, group)
     names = [EXPERIMENT.name, *(v.name for v in WORKER_VARIABLES)]
     return Handle(
-        arrays={name: g[name].async_array for name in names},
+        arrays=async_arrays(g, names),
         index={e: i for i, e in enumerate(read_ids(g))},
         inner_node=g["inner_node"][...],
         tread_node=g["tread_node"][...],
@@ -80,7 +79,7 @@ def _load(store: Store, group: str) -> Handle:
 
 def _verified(h: Handle, experiment_id: str, i: int) -> bool:
     ids = h.arrays[EXPERIMENT.name]
-    return i < ids.shape[0] and str(sync(ids.getitem(i))) == experiment_id
+    return i < ids.shape[0] and str(read_item(ids, i)) == experiment_id
 
 
 def locate(store: Store, group: str, experiment_id: str) -> tuple[Handle, int]:

@@ -14,16 +14,15 @@ readers (``xarray.open_zarr``) and is refreshed by :func:`publish` after every c
 from __future__ import annotations
 
 import os
-import warnings
 from pathlib import Path
 from typing import Any, TypeAlias
 
 import zarr
 import zarr.errors
 from zarr.abc.store import Store
-from zarr.core.sync import sync
 from zarr.storage import FsspecStore, LocalStore
 
+from storage._zarr import consolidate, key_exists
 from storage.errors import GroupNotFoundError, NotAStoreError, SchemaError, StoreError
 from storage.schema import GROUP_NAME, SCHEMA_VERSION
 
@@ -88,10 +87,6 @@ def describe(store: Store) -> str:
     return repr(store)
 
 
-def _exists(store: Store, key: str) -> bool:
-    return bool(sync(store.exists(key)))
-
-
 def _check_local_dir(store: LocalStore, create: bool) -> None:
     root = Path(store.root)
     if root.is_file():
@@ -120,7 +115,7 @@ def root_group(store: Store, *, create: bool = False) -> zarr.Group:
     """
     if isinstance(store, LocalStore):
         _check_local_dir(store, create)
-    elif not create and not _exists(store, "zarr.json"):
+    elif not create and not key_exists(store, "zarr.json"):
         raise NotAStoreError(
             f"no Zarr v3 store at {describe(store)} (no zarr.json): check the URL, or "
             "create the store with storage.create_group(...)"
@@ -150,6 +145,17 @@ def check_group_name(group: str) -> str:
 
 def open_group(store: Store, group: str) -> zarr.Group:
     """Open an existing experiment group (fresh metadata) and check its schema version."""
+    g = open_existing(store, group, "create it with storage.create_group(...)")
+    check_schema(g, group)
+    return g
+
+
+def open_existing(store: Store, group: str, hint: str) -> zarr.Group:
+    """Open an existing group of any kind (fresh metadata), read-only if the store is.
+
+    Raises :class:`GroupNotFoundError`, ending in ``hint`` (how to make the group), when
+    there is none of that name, and :class:`NotAStoreError` when there is no store.
+    """
     check_group_name(group)
     if isinstance(store, LocalStore):  # before zarr, which would make the directory
         _check_local_dir(store, create=False)
@@ -161,10 +167,8 @@ def open_group(store: Store, group: str) -> zarr.Group:
         # it raises NotAStoreError when there is no store at all.
         names = ", ".join(sorted(root_group(store).group_keys())) or "none"
         raise GroupNotFoundError(
-            f"no group {group!r} in the store at {describe(store)} (groups: {names}): create "
-            "it with storage.create_group(...)"
+            f"no group {group!r} in the store at {describe(store)} (groups: {names}): {hint}"
         ) from e
-    check_schema(g, group)
     return g
 
 
@@ -186,8 +190,4 @@ def publish(store: Store) -> None:
     xarray opens a store through the root's consolidated metadata, which also gives a
     reader one consistent snapshot of all shapes while the client resizes.
     """
-    with warnings.catch_warnings():
-        # Consolidated metadata is a zarr-python extension of v3 ("must_understand":
-        # false), which other readers ignore; nothing here depends on it.
-        warnings.filterwarnings("ignore", message="Consolidated metadata is currently not")
-        zarr.consolidate_metadata(store)
+    consolidate(store)

@@ -11,15 +11,14 @@ PUT) no chunk is ever torn. Readers must take only ``status == 1`` as done.
 
 from __future__ import annotations
 
-import asyncio
 import math
 import numbers
 from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
-from zarr.core.sync import sync
 
+from storage._zarr import read_item, write_in_order
 from storage.errors import AlreadyDoneError, MeshMismatchError, SchemaError, StoreError
 from storage.handles import Handle, locate
 from storage.paths import StoreLike, open_store
@@ -119,17 +118,14 @@ def check_info(info: Mapping[str, Any], *, complete: bool) -> dict[str, np.ndarr
     return out
 
 
-async def _write_slot(h: Handle, i: int, values: dict[str, np.ndarray], status: int) -> None:
+def _write(h: Handle, i: int, values: dict[str, np.ndarray], status: int, where: str) -> None:
     region = slice(i, i + 1)
     state = h.arrays["status"]
-    await state.setitem(region, np.array([PENDING], dtype=np.int8))
-    await asyncio.gather(*(h.arrays[name].setitem(region, v) for name, v in values.items()))
-    await state.setitem(region, np.array([status], dtype=np.int8))  # last: publishes
-
-
-def _write(h: Handle, i: int, values: dict[str, np.ndarray], status: int, where: str) -> None:
+    steps = [[(state, region, np.array([PENDING], dtype=np.int8))],
+             [(h.arrays[name], region, v) for name, v in values.items()],
+             [(state, region, np.array([status], dtype=np.int8))]]  # last: publishes
     try:
-        sync(_write_slot(h, i, values, status))
+        write_in_order(steps)
     except Exception as e:  # the store's I/O error, whatever its class
         raise StoreError(
             f"writing {where} failed ({type(e).__name__}: {e}); it is not done: retry the "
@@ -198,7 +194,7 @@ def write_failure(
     h, i = locate(zs, group, _check_id(experiment_id))
     _check_mesh_key(h, group, mesh_key)
     values = check_info(info, complete=False)
-    if int(sync(h.arrays["status"].getitem(i))) == DONE:
+    if int(read_item(h.arrays["status"], i)) == DONE:
         raise AlreadyDoneError(
             f"experiment {experiment_id!r} in group {group!r} is done; not recording the "
             f"failure {reason[:80]!r} over it (re-run it with write_experiment if needed)"

@@ -1,11 +1,12 @@
 """The thesis' Tables 4.1-4.4, verbatim, to print beside the farm's numbers.
 
-Keys are (condition, method) with the condition names of
-:func:`jobs.inverse.study.thesis_conditions`. Fz in N, moments in N m, displacement
-RMSE in mm, strain RMSE in microstrain; ``None`` where the thesis gives no spread.
-The reference experiment: Fz = 359.08 N, Mx = My = 0. Nodal-force error spreads
-(Figs. 4.2, 4.3, std in N) and the largest reference nodal force (35.5 N) are quoted
-from §4.4-4.5.
+Keys are (condition, method) with the condition names of the thesis' inverse study as
+the farm names them (``ideal``, ``noise``, ``guess-90``, ``guess-uniform``: the
+defaults of an inverse study file, ``docs/inverse.md``). Fz in N, moments in N m,
+displacement RMSE in mm, strain RMSE in microstrain; ``None`` where the thesis gives no
+spread. The reference experiment: Fz = 359.08 N, Mx = My = 0. Nodal-force error
+spreads (Figs. 4.2, 4.3, std in N) and the largest reference nodal force (35.5 N) are
+quoted from §4.4-4.5.
 """
 
 from __future__ import annotations

@@ -1,0 +1,89 @@
+"""Every use of zarr-python beyond its public API, in one place.
+
+Why these are needed (zarr-python 3.1; checked against 3.1.6):
+
+- zarr v3's public :class:`zarr.Array` API is synchronous and writes one array per
+  call. A worker writes a dozen arrays of one experiment, and doing them one after the
+  other costs several times writing them together; there is no public way to run
+  several arrays' reads or writes concurrently. So the worker keeps each array's
+  :class:`zarr.AsyncArray` (``Array.async_array``, undocumented) and drives its
+  coroutines (``getitem``/``setitem``) on zarr's own event loop with
+  ``zarr.core.sync.sync`` (internal).
+- :class:`zarr.abc.store.Store` exposes only coroutines (``exists``); the same
+  ``sync`` runs them from synchronous code.
+- :func:`zarr.consolidate_metadata` warns on every call that consolidated metadata is
+  not part of the v3 specification; the warning's text is matched to silence it.
+
+What to check on a zarr upgrade (``tests/storage`` exercises every function here; the
+concurrency and crash tests depend on the write order of :func:`write_in_order`):
+
+- ``zarr.core.sync.sync`` still exists and runs a coroutine on zarr's loop;
+- ``zarr.Array.async_array`` still returns the array's ``AsyncArray``, whose
+  ``getitem(selection)`` and ``setitem(selection, value)`` are coroutines;
+- the consolidated-metadata warning still starts with ``Consolidated metadata is
+  currently not`` (otherwise it merely shows again: harmless).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import warnings
+from collections.abc import Coroutine, Iterable, Sequence
+from typing import Any, TypeVar
+
+import numpy as np
+import zarr
+from zarr import AsyncArray
+from zarr.abc.store import Store
+from zarr.core.sync import sync as _sync
+
+T = TypeVar("T")
+
+#: One write: an array, the selection along its first axis, the values.
+Write = tuple[AsyncArray, slice, np.ndarray]
+
+__all__ = ["AsyncArray", "Write", "async_arrays", "consolidate", "key_exists", "read_item",
+           "run", "write_in_order"]
+
+
+def run(coroutine: Coroutine[Any, Any, T]) -> T:
+    """Run a zarr coroutine to its end from synchronous code (on zarr's event loop)."""
+    return _sync(coroutine)
+
+
+def key_exists(store: Store, key: str) -> bool:
+    """Whether ``key`` (e.g. ``"zarr.json"``) exists in ``store``."""
+    return bool(run(store.exists(key)))
+
+
+def async_arrays(group: zarr.Group, names: Iterable[str]) -> dict[str, AsyncArray]:
+    """The asynchronous views of arrays of ``group``, by name."""
+    return {name: group[name].async_array for name in names}
+
+
+def read_item(array: AsyncArray, index: int) -> Any:
+    """One element of a one-dimensional array."""
+    return run(array.getitem(index))
+
+
+def write_in_order(steps: Sequence[Sequence[Write]]) -> None:
+    """Run ``steps`` one after the other; the writes of one step run concurrently.
+
+    A step ends only when all of its writes have, so whatever a later step writes (a
+    status flag) is never stored before what an earlier step wrote (the data it marks).
+    """
+    run(_write_steps(steps))
+
+
+async def _write_steps(steps: Sequence[Sequence[Write]]) -> None:
+    for step in steps:
+        await asyncio.gather(*(array.setitem(region, values) for array, region, values in step))
+
+
+def consolidate(store: Store) -> None:
+    """Refresh the consolidated metadata at the root of ``store``."""
+    with warnings.catch_warnings():
+        # Consolidated metadata is a zarr-python extension of v3 ("must_understand":
+        # false), which other readers ignore; nothing in storage/ depends on it.
+        warnings.filterwarnings("ignore", message="Consolidated metadata is currently not")
+        zarr.consolidate_metadata(store)
