@@ -48,20 +48,3 @@ def test_reproduce_writes_a_complete_report_and_is_idempotent(tmp_path):
     second = _run(out)
     assert sum(stage["ccx_runs"] for stage in second.values()) == 0
 
-
-@pytest.mark.parametrize(("quick", "coarse", "optimizers", "repeats"), [
-    (True, True, {"least-squares"}, 1), (True, False, {"least-squares"}, 2),
-    (False, False, {"least-squares", "nelder-mead"}, 10)])
-def test_the_chapter_4_study_has_the_thesis_conditions(tmp_path, quick, coarse, optimizers,
-                                                       repeats):
-    from cli.reproduce.inverse import study_text
-    from cli.reproduce.stages import Options
-    from jobs.inverse.study import parse_inverse_study
-
-    opts = Options(out=tmp_path, store=str(tmp_path / "s.zarr"), quick=quick, coarse=coarse)
-    study = parse_inverse_study(study_text(opts), "ch4.toml", tmp_path)
-    assert [c.name for c in study.conditions] == ["ideal", "noise", "guess-90", "guess-uniform"]
-    assert {o.name for o in study.optimizers} == optimizers
-    assert [c.repeats for c in study.conditions] == [1, repeats, repeats, repeats]
-    assert study.model.materials.tread.youngs_modulus < 10  # the 359 N reference (§4.1)
-    assert study.deflection == 30 and study.noise.displacement == 1.0

@@ -1,5 +1,7 @@
-"""The reproduction report: one Markdown page with PNG figures, every table beside the
-thesis' values, run times and solver counts, and the provenance of the numbers."""
+"""The reproduction report (``farm reproduce``): one Markdown page with PNG figures, every
+table beside the thesis' values, run times and solver counts, and the provenance of the
+numbers. Stages hand in a :class:`StageResult` each; this module only writes.
+"""
 
 from __future__ import annotations
 
@@ -8,14 +10,14 @@ import os
 import platform
 import re
 import time
+from dataclasses import dataclass, field
 from importlib import metadata
 from pathlib import Path
 
 import pandas as pd
 
+from analysis.report import thesis
 from analysis.report.markdown import table as md_table
-from cli.reproduce import thesis
-from cli.reproduce.stages import Options, StageResult
 
 PACKAGES = ("tyre-farm", "numpy", "scipy", "gmsh", "zarr", "xarray", "dask", "distributed",
             "scikit-learn", "pandas", "matplotlib")
@@ -44,11 +46,27 @@ CH5_FIGURES = [
 ]
 
 
-def provenance(opts: Options, solver: str) -> pd.DataFrame:
+@dataclass
+class StageResult:
+    """Tables, figures and notes of one stage, with what it cost."""
+
+    name: str
+    tables: dict[str, pd.DataFrame] = field(default_factory=dict)
+    figures: dict[str, Path] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+    wall_seconds: float = 0.0
+    ccx_runs: int = 0
+    solver_seconds: float = 0.0
+    studies: dict[str, str] = field(default_factory=dict)
+
+
+def provenance(*, solver: str, store: str, quick: bool, meshes: str, materials: str,
+               scheduler: str | None = None, workers: int | None = None) -> pd.DataFrame:
+    """Where the numbers come from: date, solver, store, mode, cluster, machine, versions."""
     rows = [("date", time.strftime("%Y-%m-%d %H:%M:%S %Z")), ("solver", solver),
-            ("store", opts.store), ("mode", "quick" if opts.quick else "full"),
-            ("meshes", opts.mesh_tag()), ("materials", opts.materials),
-            ("cluster", opts.scheduler or f"embedded LocalCluster, {opts.workers or 'all'} "
+            ("store", store), ("mode", "quick" if quick else "full"),
+            ("meshes", meshes), ("materials", materials),
+            ("cluster", scheduler or f"embedded LocalCluster, {workers or 'all'} "
              "workers"), ("machine", f"{platform.machine()}, {os.cpu_count()} cores, "
                           f"Python {platform.python_version()}")]
     for name in PACKAGES:
@@ -67,15 +85,19 @@ def _slug(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9]+", "_", text).strip("_").lower()[:60]
 
 
-def write(opts: Options, stages: list[StageResult], solver: str) -> Path:
-    """Write ``report.md`` (and every table as CSV in ``tables/``); return its path."""
-    out = opts.out
+def write(out: Path, stages: list[StageResult], provenance: pd.DataFrame,
+          quick: bool) -> Path:
+    """Write ``out/report.md`` (every table as CSV in ``tables/``, every study file in
+    ``studies/``, the costs in ``report.json``); return its path.
+
+    ``provenance`` is the table of :func:`provenance`.
+    """
     (out / "tables").mkdir(parents=True, exist_ok=True)
     (out / "studies").mkdir(parents=True, exist_ok=True)
-    lines = [f"# Reproduction of the thesis study ({'quick' if opts.quick else 'full'})", "",
+    lines = [f"# Reproduction of the thesis study ({'quick' if quick else 'full'})", "",
              "Every number below was computed by this run (or by an earlier run whose "
              "experiments the store already held); thesis values are quoted beside them.", "",
-             "## Provenance", "", md_table(provenance(opts, solver)), "",
+             "## Provenance", "", md_table(provenance), "",
              "## Run", "", md_table(_costs(stages)), ""]
     by_name = {s.name: s for s in stages}
     if "validation" in by_name:

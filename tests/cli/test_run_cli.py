@@ -26,7 +26,7 @@ def _run(argv, capsys):
         (["run", "--deflection", "ten"], "cannot read deflection"),
         (["run", "--model", "reduced", "--pressure", "100"], "not inflated"),
         (["run", "--road", "sideways"], "road must be one of"),
-        (["run", "--set", "mesh.circ=3"], "unknown setting 'mesh.circ'"),
+        (["run", "--set", "mesh.circ=3"], "model.mesh.circ: unknown key; allowed: bead, circ"),
         (["run", "--pressur", "3"], "No such option"),
     ],
 )

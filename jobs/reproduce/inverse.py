@@ -1,12 +1,12 @@
-"""Chapter 4 of ``farm reproduce``: the virtual inverse problems (Tables 4.1-4.4).
+"""Chapter 4 of the reproduction: the virtual inverse problems (thesis Tables 4.1-4.4).
 
 The reference is the reduced model at 30 mm on the iterative road with the
 "thesis-calibrated" materials, whose 359 N is the thesis' own reference force (§4.1),
-so that forces and moments compare directly. ``--quick`` solves the thesis' four
+so that forces and moments compare directly. ``quick`` solves the thesis' four
 conditions with the parallel-Jacobian least squares (§5.2/§6.2's recommendation: a few
 dozen sequential rounds instead of hundreds of serial evaluations) and two repeats of
-each random condition (one on the test-sized ``--coarse`` meshes); ``--full`` adds the
-thesis' own Nelder-Mead and ten repeats.
+each random condition (one on the test-sized ``coarse`` meshes); ``quick=False`` adds
+the thesis' own Nelder-Mead and ten repeats.
 Evaluations are cached next to the store, so a second run solves nothing.
 """
 
@@ -14,10 +14,8 @@ from __future__ import annotations
 
 import time
 
-import numpy as np
-import pandas as pd
-
-from cli.reproduce.stages import COARSE_MESH, Options, StageResult
+from jobs.reproduce.options import COARSE_MESH, Options
+from jobs.reproduce.stage import Log, StageRun, logger
 
 MATERIALS = "thesis-calibrated"
 
@@ -52,56 +50,34 @@ def study_text(opts: Options) -> str:
     return "\n".join(lines)
 
 
-def inverse(opts: Options) -> StageResult:
-    """Run the chapter-4 study on the farm and tabulate it beside the thesis."""
-    from jobs.inverse import tables
+def run(opts: Options, log: Log | None = None) -> StageRun:
+    """Run the chapter-4 study on the farm; its report is ``reports["ch4"]``."""
     from jobs.inverse.run import run_inverse, summary_line
     from jobs.inverse.study import parse_inverse_study
 
-    start, stage = time.perf_counter(), StageResult("inverse")
+    log = logger(log)
+    start, stage = time.perf_counter(), StageRun("inverse")
     text = study_text(opts)
     study = parse_inverse_study(text, "ch4.toml", opts.out)
-    stage.studies["ch4"] = text
+    stage.texts["ch4"], stage.studies["ch4"] = text, study
     report = run_inverse(study, scheduler=opts.scheduler, workers=opts.workers)
-    print(f"ch4: {summary_line(report)}")
+    stage.reports["ch4"] = report
+    log(f"ch4: {summary_line(report)}")
     stage.ccx_runs, stage.solver_seconds = report.totals.solved, report.totals.solver_seconds
-    stage.notes += _notes(report)
-    if report.results:
-        stage.tables.update(_tables(tables, report))
-        folder = opts.out / "ch4"
-        for path in tables.histograms(report.results, report.problem, folder):
-            stage.figures[f"Nodal force errors, {path.stem.removeprefix('nodal_errors_')} "
-                          "(thesis Figs. 4.2/4.3)"] = path
+    stage.notes += notes(report)
     stage.wall_seconds = time.perf_counter() - start
     return stage
 
 
-def _notes(report) -> list[str]:
+def notes(report) -> list[str]:
+    """What the inverse run solved (reference, counts) and which loops failed, as text."""
     problem, t = report.problem, report.totals
-    notes = [f"reference: reduced model ({MATERIALS} materials) at {report.study.deflection:g}"
-             f" mm on the iterative road, Fz = {problem.reference['total_force'][2]:.1f} N "
+    lines = [f"reference: reduced model ({MATERIALS} materials) at {report.study.deflection:g}"
+             f" mm on the iterative road, Fz = {problem.reference.total_force[2]:.1f} N "
              f"(thesis 359.08 N); {problem.n} unknown nodal forces (thesis 14)",
              f"{len(report.results)} solves, {t.evaluations} evaluations, {t.solved} solved by "
              f"ccx this run, {t.cached} from the evaluation cache, {t.shared} shared between "
              "loops; noise is drawn once per solve for least squares, at every evaluation "
              "for Nelder-Mead (as the thesis, §4.4)"]
-    notes += [f"{label}: {error}" for label, error in report.errors.items()]
-    return notes
-
-
-def _tables(tables, report) -> dict[str, pd.DataFrame]:
-    results, problem = report.results, report.problem
-    views = tables.views(results, problem)
-    nodal = tables.nodal_errors(results, problem)
-    for col in ("thesis_std", "thesis_std_over_max_force"):
-        nodal[col] = [_text(v) for v in nodal[col]]
-    cost = tables.cost(results, problem)
-    return {"Forces and moments, ours and the thesis' (Tables 4.1/4.3)": views["forces"],
-            "RMSE of the inner-surface fields: ours (thesis), mm and microstrain "
-            "(Tables 4.2/4.4)": views["rmse"],
-            "Nodal force errors x - x_true, N (Figs. 4.2/4.3)": nodal,
-            "Solver cost per solve (means over repeats)": cost}
-
-
-def _text(value) -> str:
-    return "-" if value is None or not np.isfinite(value) else f"{value:.3g}"
+    lines += [f"{label}: {error}" for label, error in report.errors.items()]
+    return lines

@@ -1,0 +1,121 @@
+"""``farm reproduce``: the thesis study end to end - validation, dataset, analyses,
+inverse problems - with a report that puts every number beside the thesis' own.
+
+The simulations are ``jobs.reproduce``'s, the tables, figures and the report
+``analysis.report``'s; this module runs them stage by stage. Every stage is idempotent:
+sweeps skip what the store holds as done and inverse loops replay their cached
+evaluations, so a second run solves nothing and only redraws tables and figures.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import typer
+from rich.console import Console
+
+from cli.options import SCHEDULER, WORKERS
+
+
+def reproduce(
+    quick: bool = typer.Option(True, "--quick/--full", help="A reduced set of inverse "
+                               "conditions and noise draws (--full: all, 10 repeats)."),
+    out: Path = typer.Option(Path("reproduction"), "--out", help="Report folder."),
+    store: str = typer.Option(None, "--store", help="Zarr store [default: OUT/thesis.zarr]."),
+    scheduler: str = SCHEDULER,
+    workers: int = WORKERS,
+    coarse: bool = typer.Option(False, "--coarse", help="Test-sized coarse meshes (minutes, "
+                                "not for conclusions)."),
+    materials: str = typer.Option("table-3.1", "--materials", help="Material preset."),
+) -> None:
+    """Run the thesis study (chapters 3-5) on the farm and write OUT/report.md."""
+    from analysis.report import reproduction
+    from farm.ccx.runner import ccx_version, find_ccx
+    from farm.errors import SpecError
+    from farm.presets import MATERIAL_PRESETS
+    from jobs.reproduce import Options
+
+    if materials not in MATERIAL_PRESETS:
+        raise SpecError(f"unknown material preset {materials!r}: choose one of "
+                        f"{', '.join(MATERIAL_PRESETS)}")
+    find_ccx()
+    out = out.resolve()
+    opts = Options(out=out, store=store or str(out / "thesis.zarr"), quick=quick,
+                   coarse=coarse, materials=materials, scheduler=scheduler, workers=workers)
+    console = Console()
+    done = []
+    for name, stage in (("chapter 3: validation", _validation),
+                        ("chapter 5: dataset analyses", _dataset),
+                        ("chapter 4: inverse problems", _inverse)):
+        console.rule(name)
+        done.append(stage(opts))
+    provenance = reproduction.provenance(
+        solver=f"CalculiX {ccx_version()}", store=opts.store, quick=opts.quick,
+        meshes=opts.mesh_tag(), materials=opts.materials, scheduler=opts.scheduler,
+        workers=opts.workers)
+    path = reproduction.write(opts.out, done, provenance, opts.quick)
+    console.print(f"report: {path}")
+
+
+def _validation(opts):
+    """Chapter 3: the force-deflection sweeps, then their tables and figure from the store."""
+    from analysis.report import ch3
+    from jobs.reproduce import validation
+
+    start = time.perf_counter()
+    run = validation.run(opts, log=print)
+    stage = ch3.validation(opts.store, run.studies["ch3-full"].group_name,
+                           run.studies["ch3-reduced"].group_name, opts.out / "figures")
+    stage.notes += run.notes
+    stage.ccx_runs, stage.solver_seconds = run.ccx_runs, run.solver_seconds
+    stage.studies.update(run.texts)
+    stage.wall_seconds = time.perf_counter() - start
+    return stage
+
+
+def _dataset(opts):
+    """Chapter 5: the analyses of the validation's 200 kPa experiments (nothing solved)."""
+    from analysis.report import ch5
+
+    return ch5.dataset(opts.store, opts.group("full"), opts.out, quick=opts.quick)
+
+
+def _inverse(opts):
+    """Chapter 4: the inverse study, then Tables 4.1-4.4 and Figs. 4.2/4.3 beside the thesis."""
+    from analysis.report.reproduction import StageResult
+    from jobs.inverse import tables
+    from jobs.reproduce import inverse
+
+    start = time.perf_counter()
+    run = inverse.run(opts, log=print)
+    stage = StageResult("inverse", notes=list(run.notes), ccx_runs=run.ccx_runs,
+                        solver_seconds=run.solver_seconds, studies=dict(run.texts))
+    report = run.reports["ch4"]
+    if report.results:
+        stage.tables.update(_ch4_tables(tables, report))
+        for path in tables.histograms(report.results, report.problem, opts.out / "ch4"):
+            stage.figures[f"Nodal force errors, {path.stem.removeprefix('nodal_errors_')} "
+                          "(thesis Figs. 4.2/4.3)"] = path
+    stage.wall_seconds = time.perf_counter() - start
+    return stage
+
+
+def _ch4_tables(tables, report) -> dict:
+    # jobs.inverse.tables for now; analysis.report.ch4 will draw these from the store
+    import numpy as np
+
+    def text(value) -> str:
+        return "-" if value is None or not np.isfinite(value) else f"{value:.3g}"
+
+    results, problem = report.results, report.problem
+    views = tables.views(results, problem)
+    nodal = tables.nodal_errors(results, problem)
+    for col in ("thesis_std", "thesis_std_over_max_force"):
+        nodal[col] = [text(v) for v in nodal[col]]
+    cost = tables.cost(results, problem)
+    return {"Forces and moments, ours and the thesis' (Tables 4.1/4.3)": views["forces"],
+            "RMSE of the inner-surface fields: ours (thesis), mm and microstrain "
+            "(Tables 4.2/4.4)": views["rmse"],
+            "Nodal force errors x - x_true, N (Figs. 4.2/4.3)": nodal,
+            "Solver cost per solve (means over repeats)": cost}
