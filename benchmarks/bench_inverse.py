@@ -33,12 +33,12 @@ import time
 import numpy as np
 
 from jobs.cluster import connect
+from jobs.driver import solver_version
 from jobs.inverse.loop import LoopState, expand_loops, run_loop
 from jobs.inverse.problem import build_problem
 from jobs.inverse.study import parse_inverse_study
 from jobs.loops.cache import EvaluationCache
 from jobs.loops.evaluator import Evaluator
-from jobs.sweep import solver_version
 
 FZ_TOLERANCE = 0.005
 NODAL_LEVEL = 2.0 / 35.5  # thesis: 2.0 N error std, 35.5 N largest nodal force

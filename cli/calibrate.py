@@ -13,23 +13,25 @@ from cli.frames import print_frame
 from cli.options import SCHEDULER, WORKERS
 
 
-def _figure(curves, points, path: Path) -> None:
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
+class CalibrationLines:
+    """Progress of a calibration (:class:`jobs.driver.Progress`): one line per new
+    parameter set - budget, rounds, best cost, worst point."""
 
-    fig = Figure(figsize=(6.5, 4.5), layout="constrained")
-    FigureCanvasAgg(fig)
-    ax = fig.subplots()
-    for (label, kpa), part in curves.groupby(["model", "pressure_kpa"], sort=False):
-        ax.plot(part["deflection_mm"], part["fz_n"], "--" if label == "start" else "-",
-                marker="o", ms=3, label=f"{label}, {kpa:g} kPa")
-    ax.plot([p.deflection for p in points], [p.force for p in points], "k*", ms=12,
-            label="reference points")
-    ax.set_xlabel("deflection [mm]")
-    ax.set_ylabel("Fz [N]")
-    ax.legend(fontsize=8)
-    ax.set_title("Force-deflection: start vs calibrated model")
-    fig.savefig(path, dpi=120)
+    def __init__(self, console: Console) -> None:
+        self.console, self.last = console, -1
+
+    def started(self, session, state) -> None:
+        self.console.print(f"dashboard: {session.dashboard}   workers: {session.workers}")
+
+    def finished(self, report) -> None: ...
+
+    def advanced(self, state) -> None:
+        if state.parameter_sets != self.last:
+            self.last = state.parameter_sets
+            self.console.print(
+                f"parameter sets {state.parameter_sets}/{state.budget}  load paths "
+                f"{state.stats.evaluations}  rounds {state.stats.rounds}  best cost "
+                f"{state.best:.4g}  worst point {100 * state.worst_point:.2f} %")
 
 
 def calibrate(
@@ -83,18 +85,9 @@ def calibrate(
     if scheduler is None:
         find_ccx()
     console = Console(width=None if sys.stdout.isatty() else 160)
-    last = [-1]
-
-    def progress(state) -> None:
-        if state.parameter_sets != last[0]:
-            last[0] = state.parameter_sets
-            console.print(f"parameter sets {state.parameter_sets}/{state.budget}  load paths "
-                          f"{state.stats.evaluations}  rounds {state.stats.rounds}  best cost "
-                          f"{state.best:.4g}  worst point {100 * state.worst_point:.2f} %")
-
     report = run_calibration(
         params, points, str(cache or out / "evaluations"), scheduler=scheduler,
-        workers=workers, progress=progress,
+        workers=workers, progress=CalibrationLines(console),
         cal=CalibrationSettings(max_evaluations=max_evaluations, prior_weight=prior_weight))
     _report(console, report, params, points, out)
     raise typer.Exit(0 if report.ok else 1)
@@ -104,6 +97,7 @@ def _report(console: Console, report, params, points, out: Path) -> None:
     import numpy as np
     import pandas as pd
 
+    from analysis.report.calibration import force_deflection
     from jobs.calibrate.run import parameter_table, point_table
 
     result = report.result
@@ -121,7 +115,8 @@ def _report(console: Console, report, params, points, out: Path) -> None:
     history.to_csv(out / "history.csv", index_label="parameter_set")
     if not report.curves.empty:
         report.curves.to_csv(out / "curves.csv", index=False)
-        _figure(report.curves, points, out / "force_deflection.png")
+        force_deflection(report.curves, [(p.deflection, p.force) for p in points],
+                         out / "force_deflection.png")
         failed = report.curves[report.curves["fz_n"].isna()]
         for (label, kpa), _ in failed.groupby(["model", "pressure_kpa"]):
             console.print(f"[yellow]warning: the {label} model did not converge along the "

@@ -24,9 +24,11 @@ class RichLoops:
 
     def __init__(self, console: Console) -> None:
         self.console, self.bar, self.tasks = console, None, []
+        self.reported: set[str] = set()
 
-    def started(self, dashboard: str, workers: int, loops) -> None:
-        self.console.print(f"dashboard: {dashboard}   workers: {workers}   loops: {len(loops)}")
+    def started(self, session, loops) -> None:
+        self.console.print(f"dashboard: {session.dashboard}   workers: {session.workers}   "
+                           f"loops: {len(loops)}")
         self.bar = Progress(TextColumn("{task.description}", style="bold"), BarColumn(),
                             MofNCompleteColumn(), TextColumn("best {task.fields[best]}"),
                             TextColumn("{task.fields[status]}"), TimeElapsedColumn(),
@@ -41,10 +43,14 @@ class RichLoops:
         for task, s in zip(self.tasks, loops, strict=True):
             self.bar.update(task, completed=min(s.stats.evaluations, s.budget),
                             best=f"{s.best:.3g}", status=s.status)
+            if (s.result is not None or s.error) and s.label not in self.reported:
+                self.reported.add(s.label)
+                self._ended(s)
 
-    def loop_finished(self, state, result, error: str) -> None:
+    def _ended(self, state) -> None:
+        result = state.result
         if result is None:
-            self.console.print(f"[red]{state.label}: failed: {error}")
+            self.console.print(f"[red]{state.label}: failed: {state.error}")
             return
         self.console.print(f"{state.label}: {result.status}, Fz {result.x.sum():.1f} N, "
                            f"objective {result.objective:.3g}, {len(result.f_history)} "
@@ -71,7 +77,7 @@ def invert(study_file: Path = STUDY, scheduler: str = SCHEDULER, workers: int = 
     Running it again replays every evaluation from the cache (no ccx): resuming.
     """
     from farm.ccx.runner import find_ccx
-    from jobs.inverse.run import run_inverse, summary_line
+    from jobs.inverse.run import run_inverse
     from jobs.inverse.study import load_inverse_study, with_repeats
 
     study = load_inverse_study(study_file)  # everything is validated before anything runs
@@ -86,7 +92,7 @@ def invert(study_file: Path = STUDY, scheduler: str = SCHEDULER, workers: int = 
                          progress=RichLoops(console))
     folder = (out or _default_out(study)).expanduser()
     figures = _report(console, study.store, study.group, folder) if report.results else []
-    console.print(summary_line(report))
+    console.print(report.summary())
     console.print(f"results: {study.store} (group {study.group}); tables and "
                   f"{len(figures)} histograms in {folder}" if report.results else
                   "no solve finished: nothing stored, no tables")

@@ -31,9 +31,9 @@ class RichProgress:
     def __init__(self, console: Console) -> None:
         self.console, self.bar, self.task = console, None, None
 
-    def started(self, dashboard: str, workers: int, total: int, skipped: int) -> None:
-        self.console.print(f"dashboard: {dashboard}   workers: {workers}   experiments: "
-                           f"{total} ({skipped} already done)")
+    def started(self, session, state) -> None:
+        self.console.print(f"dashboard: {session.dashboard}   workers: {session.workers}   "
+                           f"experiments: {state.total} ({state.skipped} already done)")
         self.bar = Progress(
             TextColumn("[bold]sweep"), BarColumn(), MofNCompleteColumn(),
             TextColumn("done {task.fields[done]}  failed {task.fields[failed]}  "
@@ -41,14 +41,13 @@ class RichProgress:
             TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
             console=self.console, transient=False)
         self.bar.start()
-        self.skipped = skipped
-        self.task = self.bar.add_task("sweep", total=total, completed=skipped,
+        self.task = self.bar.add_task("sweep", total=state.total, completed=state.skipped,
                                       done=0, failed=0, running=0)
 
-    def advanced(self, done: int, failed: int, running: int) -> None:
+    def advanced(self, state) -> None:
         if self.bar is not None:
-            self.bar.update(self.task, completed=self.skipped + done + failed, done=done,
-                            failed=failed, running=running)
+            self.bar.update(self.task, completed=state.skipped + state.done + state.failed,
+                            done=state.done, failed=state.failed, running=state.running)
 
     def finished(self, report) -> None:
         if self.bar is not None:

@@ -1,8 +1,8 @@
 """Expand a study into experiments and load-path tasks, with content-hash identities.
 
-An experiment is one (model, load case) pair; its id is the SHA-256 of the canonical
-JSON of model spec + load case + solver version (DESIGN.md, "Identity"): the same inputs
-give the same id, any change gives a new one. Cases with the same model and pressure
+An experiment is one (model, load case) pair; its id comes from :mod:`jobs.identity`
+(model spec, mesh key, solver version and load case): the same inputs give the same id,
+any change gives a new one. Cases with the same model and pressure
 form one load path - one ccx run for all its deflections, the big saving measured on the
 physics layer - optionally split into pieces of ``max_path_length`` deflections to spread
 a long path over several workers. A path's task key derives from its experiments' ids,
@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import qmc
 
-from farm.specs import ModelSpec, content_hash
+from jobs.identity import experiment_id, legacy_experiment_id, path_key, resolve_ids
 from jobs.study import Study
 
 
@@ -43,16 +43,6 @@ class PathPlan:
         return tuple(e.deflection for e in self.experiments)
 
 
-def experiment_id(model: ModelSpec, deflection: float, pressure: float, solver: str) -> str:
-    """Content hash of model spec + load case + solver version."""
-    return content_hash({
-        "model": model.to_dict(),
-        "load": {"deflection_mm": round(float(deflection), 9),
-                 "pressure_mpa": round(float(pressure), 12)},
-        "solver": solver,
-    })
-
-
 def load_cases(study: Study) -> list[tuple[float, float]]:
     """(deflection mm, pressure MPa) of every case: the grid, or the sampled design."""
     if study.sampling is None:
@@ -74,20 +64,27 @@ def load_cases(study: Study) -> list[tuple[float, float]]:
     return cases
 
 
-def plan(study: Study, solver: str) -> list[PathPlan]:
-    """Load paths of the study, each with its experiments sorted by deflection."""
+def plan(study: Study, solver: str, held: frozenset[str] = frozenset()) -> list[PathPlan]:
+    """Load paths of the study, each with its experiments sorted by deflection.
+
+    ``held``: the ids the study's group already holds; an experiment stored under its
+    recipe-1 id keeps it (:func:`jobs.identity.resolve_ids`).
+    """
     by_pressure: dict[float, set[float]] = {}
     for d, p in load_cases(study):
         by_pressure.setdefault(p, set()).add(d)
     paths = []
     for p in sorted(by_pressure):
-        experiments = [Experiment(experiment_id(study.model, d, p, solver), d, p)
-                       for d in sorted(by_pressure[p])]
+        cases = sorted(by_pressure[p])
+        ids = [experiment_id(study.model, d, p, solver) for d in cases]
+        if held:
+            ids = resolve_ids(ids, [legacy_experiment_id(study.model, d, p, solver)
+                                    for d in cases], held)
+        experiments = [Experiment(i, d, p) for i, d in zip(ids, cases, strict=True)]
         size = study.max_path_length or len(experiments)
         for k in range(0, len(experiments), size):
             piece = tuple(experiments[k:k + size])
-            key = "path-" + content_hash([e.id for e in piece])[:24]
-            paths.append(PathPlan(key, p, piece))
+            paths.append(PathPlan(path_key(e.id for e in piece), p, piece))
     return paths
 
 

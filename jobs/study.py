@@ -40,9 +40,10 @@ from pathlib import Path
 from typing import Any
 
 from farm.errors import SpecError
-from farm.specs import LoadPath, ModelSpec, SolverSettings, content_hash
+from farm.specs import LoadPath, ModelSpec, SolverSettings
 from jobs import validate as v
 from jobs.errors import StudyError
+from jobs.identity import model_hash
 
 SAMPLING_METHODS = ("lhs", "sobol")
 LOAD_KEYS = {"pressure_kpa", "deflection_mm", "sample"}
@@ -83,7 +84,7 @@ class Study:
         return self.group or f"{self.model.kind}-{self.model_hash()[:10]}"
 
     def model_hash(self) -> str:
-        return content_hash(self.model.to_dict())
+        return model_hash(self.model)
 
 
 def _sampling(data: Any, where: str) -> Sampling:

@@ -1,11 +1,12 @@
 """Submit a study to Dask and follow it to the end: ``farm sweep submit|resume``.
 
-Submission and resumption are one idempotent operation: the study is expanded, the
-client creates the group and reserves room for every experiment (the store's only
-metadata writer), experiments the store holds as done are skipped, and one task per
-remaining load path goes to the cluster. Workers write their own experiments; a task
-that raises (a bug, a store outage) has its experiments recorded as failed by the
-client, so a sweep always ends with every experiment done or failed with a reason.
+Submission and resumption are one idempotent operation on the one driver
+(:mod:`jobs.driver`): the study is expanded, the client creates the group and reserves
+room for every experiment (the store's only metadata writer), experiments the store
+holds as done are skipped, and one task per remaining load path goes to the cluster.
+Workers write their own experiments; a task that raises (a bug, a store outage) has its
+experiments recorded as failed by the client, so a sweep always ends with every
+experiment done or failed with a reason.
 """
 
 from __future__ import annotations
@@ -15,20 +16,17 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import storage
-from farm.ccx.runner import ccx_version
-from jobs.cluster import connect, dashboard_link
-from jobs.errors import ClusterError
+from jobs.driver import Progress, RunReport, Session, Strategy, drive
 from jobs.expand import Experiment, PathPlan, experiments, parameters, plan
 from jobs.storeio import ensure_group
 from jobs.study import Study
 from jobs.tasks import PathOutcome, PathTask, run_path
 
-POLL_SECONDS = 0.25
 TASK_RETRIES = 2  # for exceptions raised by a task; lost workers are Dask's allowed-failures
 
 
 @dataclass
-class SweepReport:
+class SweepReport(RunReport):
     """How a sweep ended. ``ok`` only if every experiment of the study is done."""
 
     study: Study
@@ -37,35 +35,29 @@ class SweepReport:
     done: list[str] = field(default_factory=list)
     failed: dict[str, str] = field(default_factory=dict)
     experiments: dict[str, Experiment] = field(default_factory=dict)
-    wall_seconds: float = 0.0
     solve_seconds: float = 0.0
     ccx_runs: int = 0
-    dashboard: str = ""
 
     @property
     def ok(self) -> bool:
         return self.skipped + len(self.done) == self.total and not self.failed
 
-
-class Progress:
-    """Callbacks a front end implements to show a sweep (all optional)."""
-
-    def started(self, dashboard: str, workers: int, total: int, skipped: int) -> None: ...
-    def advanced(self, done: int, failed: int, running: int) -> None: ...
-    def finished(self, report: SweepReport) -> None: ...
+    def summary(self) -> str:
+        """One line: experiments, solver runs and time."""
+        return (f"{self.total} experiments ({self.skipped} already done, {len(self.done)} "
+                f"done now, {len(self.failed)} failed), {self.ccx_runs} ccx runs, "
+                f"{self.wall_seconds:.1f} s")
 
 
-def solver_version(client, embedded: bool) -> str:
-    """``CalculiX <version>`` of the workers (part of every experiment id)."""
-    if embedded:
-        return f"CalculiX {ccx_version()}"
-    if not client.scheduler_info().get("workers"):
-        try:
-            client.wait_for_workers(1, timeout=60)
-        except TimeoutError as e:
-            raise ClusterError("the scheduler has no workers: start some with "
-                               "`dask worker <scheduler address>`") from e
-    return f"CalculiX {client.submit(ccx_version, pure=False).result()}"
+@dataclass(frozen=True)
+class SweepState:
+    """What a progress display shows of a sweep."""
+
+    total: int
+    skipped: int
+    done: int
+    failed: int
+    running: int
 
 
 def _todo(paths: list[PathPlan], status: dict[str, int], retry_failed: bool) -> list[PathPlan]:
@@ -74,95 +66,108 @@ def _todo(paths: list[PathPlan], status: dict[str, int], retry_failed: bool) -> 
                                     for e in p.experiments)]
 
 
+def _held(study: Study) -> frozenset[str]:
+    """Ids the study's group holds already (none for a new group)."""
+    return frozenset(storage.statuses(study.store, study.group_name))
+
+
+class Sweep(Strategy):
+    """The sweep strategy: one Dask task per load path still to do."""
+
+    poll_seconds = 0.25
+
+    def __init__(self, study: Study, retry_failed: bool = False) -> None:
+        self.study, self.retry_failed = study, retry_failed
+        self.report: SweepReport | None = None
+        self._pending: dict = {}
+        self._before: set[str] = set()
+        self._client = None
+        self._running, self._last = 0, 0.0
+
+    def start(self, session: Session) -> None:
+        study, self._client = self.study, session.client
+        ensure_group(study, session.solver)
+        paths = plan(study, session.solver, _held(study))
+        exps = experiments(paths)
+        storage.reserve(study.store, study.group_name, [e.id for e in exps], parameters(exps))
+        status = storage.statuses(study.store, study.group_name, [e.id for e in exps])
+        self.report = SweepReport(study, len(exps), experiments={e.id: e for e in exps})
+        self._before = {i for i, s in status.items() if s == storage.DONE}
+        self.report.skipped = len(self._before)
+        todo = _todo(paths, status, self.retry_failed)
+        for p in paths:
+            if p not in todo:
+                self.report.failed.update({e.id: "failed before (use --retry-failed)"
+                                           for e in p.experiments
+                                           if status[e.id] == storage.FAILED})
+        self._pending = {self._submit(p): p for p in todo}
+
+    def _submit(self, path: PathPlan):
+        s = self.study
+        task = PathTask(path, s.model, s.settings, s.store, s.group_name,
+                        s.retry_smaller_increments)
+        return self._client.submit(run_path, task, key=path.key, pure=False,
+                                   retries=TASK_RETRIES)
+
+    def poll(self) -> bool:
+        for fut in [f for f in self._pending if f.status in ("finished", "error", "cancelled")]:
+            path = self._pending.pop(fut)
+            if fut.status == "finished":
+                self._record(fut.result())
+            else:
+                self._task_failed(path, fut)
+            fut.release()
+        now = time.monotonic()
+        if now - self._last > 1.0:  # the scheduler's view, once a second is plenty
+            self._last = now
+            self._running = sum(len(v) for v in self._client.processing().values())
+        if not self._pending:
+            self._running = 0
+        return not self._pending
+
+    def state(self) -> SweepState:
+        r = self.report
+        return SweepState(r.total, r.skipped, len(r.done), len(r.failed), self._running)
+
+    def cancel(self) -> None:
+        if self._pending:
+            self._client.cancel(list(self._pending))  # workers' checks kill their ccx
+
+    def finish(self, session: Session) -> SweepReport:
+        return self.report
+
+    def _record(self, outcome: PathOutcome) -> None:
+        # a task skips what is done: either before this sweep (counted in report.skipped) or
+        # by an earlier attempt of the same task on a worker that was lost (done now)
+        report = self.report
+        fresh = [i for i in (*outcome.done, *outcome.skipped) if i not in self._before]
+        report.done += [i for i in fresh if i not in report.done]
+        report.failed.update(dict(outcome.failed))
+        for i in fresh:
+            report.failed.pop(i, None)
+        report.solve_seconds += outcome.solve_seconds
+        report.ccx_runs += outcome.ccx_runs
+
+    def _task_failed(self, path: PathPlan, fut) -> None:
+        """A task raised (after its retries) or was cancelled: record its experiments."""
+        try:
+            exc = fut.exception()
+            reason = f"task error: {type(exc).__name__}: {exc}"
+        except Exception as e:  # cancelled futures raise here
+            reason = f"task {fut.status}: {type(e).__name__}"
+        s = self.study
+        status = storage.statuses(s.store, s.group_name, [e.id for e in path.experiments])
+        for e in path.experiments:
+            if status.get(e.id) == storage.DONE:
+                self.report.done.append(e.id)
+                continue
+            storage.write_failure(s.store, s.group_name, e.id, reason, {})
+            self.report.failed[e.id] = reason
+
+
 def run_sweep(study: Study, *, scheduler: str | None = None, workers: int | None = None,
               retry_failed: bool = False, progress: Progress | None = None,
               on_client: Callable[[object], None] | None = None) -> SweepReport:
     """Run every experiment of ``study`` that is not done yet; return the report."""
-    progress = progress or Progress()
-    start = time.perf_counter()
-    with connect(scheduler, workers) as client:
-        if on_client is not None:
-            on_client(client)
-        solver = solver_version(client, scheduler is None)
-        paths = plan(study, solver)
-        exps = experiments(paths)
-        ensure_group(study, solver)
-        storage.reserve(study.store, study.group_name, [e.id for e in exps], parameters(exps))
-        status = storage.statuses(study.store, study.group_name, [e.id for e in exps])
-        report = SweepReport(study, len(exps), experiments={e.id: e for e in exps},
-                             dashboard=dashboard_link(client))
-        before = {i for i, s in status.items() if s == storage.DONE}
-        report.skipped = len(before)
-        todo = _todo(paths, status, retry_failed)
-        for p in paths:
-            if p not in todo:
-                report.failed.update({e.id: "failed before (use --retry-failed)"
-                                      for e in p.experiments if status[e.id] == storage.FAILED})
-        progress.started(report.dashboard, len(client.scheduler_info()["workers"]), report.total,
-                         report.skipped)
-        _follow(client, study, todo, report, progress, before)
-    report.wall_seconds = time.perf_counter() - start
-    progress.finished(report)
-    return report
-
-
-def _submit(client, study: Study, path: PathPlan):
-    task = PathTask(path, study.model.to_dict(), study.settings, study.store, study.group_name,
-                    study.retry_smaller_increments)
-    return client.submit(run_path, task, key=path.key, pure=False, retries=TASK_RETRIES)
-
-
-def _record(report: SweepReport, outcome: PathOutcome, before: set[str]) -> None:
-    # a task skips what is done: either before this sweep (counted in report.skipped) or
-    # by an earlier attempt of the same task on a worker that was lost (done now)
-    fresh = [i for i in (*outcome.done, *outcome.skipped) if i not in before]
-    report.done += [i for i in fresh if i not in report.done]
-    report.failed.update(dict(outcome.failed))
-    for i in fresh:
-        report.failed.pop(i, None)
-    report.solve_seconds += outcome.solve_seconds
-    report.ccx_runs += outcome.ccx_runs
-
-
-def _follow(client, study: Study, todo: list[PathPlan], report: SweepReport,
-            progress: Progress, before: set[str]) -> None:
-    """Wait for the tasks, recording outcomes; on interruption cancel them (kills ccx)."""
-    futures = {_submit(client, study, p): p for p in todo}
-    pending = dict(futures)
-    last_running = 0.0
-    try:
-        while pending:
-            for fut in [f for f in pending if f.status in ("finished", "error", "cancelled")]:
-                path = pending.pop(fut)
-                if fut.status == "finished":
-                    _record(report, fut.result(), before)
-                else:
-                    _task_failed(study, report, path, fut)
-                fut.release()
-            now = time.monotonic()
-            if now - last_running > 1.0:
-                last_running = now
-                running = sum(len(v) for v in client.processing().values())
-                progress.advanced(len(report.done), len(report.failed), running)
-            if pending:
-                time.sleep(POLL_SECONDS)
-        progress.advanced(len(report.done), len(report.failed), 0)
-    except BaseException:
-        client.cancel(list(pending))  # the workers' cancellation checks kill their ccx
-        raise
-
-
-def _task_failed(study: Study, report: SweepReport, path: PathPlan, fut) -> None:
-    """A task raised (after its retries) or was cancelled: record its experiments."""
-    try:
-        exc = fut.exception()
-        reason = f"task error: {type(exc).__name__}: {exc}"
-    except Exception as e:  # cancelled futures raise here
-        reason = f"task {fut.status}: {type(e).__name__}"
-    status = storage.statuses(study.store, study.group_name, [e.id for e in path.experiments])
-    for e in path.experiments:
-        if status.get(e.id) == storage.DONE:
-            report.done.append(e.id)
-            continue
-        storage.write_failure(study.store, study.group_name, e.id, reason, {})
-        report.failed[e.id] = reason
+    return drive(Sweep(study, retry_failed), scheduler=scheduler, workers=workers,
+                 progress=progress, on_client=on_client)

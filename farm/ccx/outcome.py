@@ -12,7 +12,19 @@ from enum import StrEnum
 
 
 class Outcome(StrEnum):
-    """How a ccx run ended. Everything but ``CONVERGED`` is a failure."""
+    """How a ccx run ended. Everything but ``CONVERGED`` is a failure.
+
+    The outcome owns the failure policy every job applies (sweeps and loops alike):
+
+    - :attr:`retry_smaller`: worth ONE more run with four times smaller increments.
+      Non-convergence often gets through a difficult touch-down that way, and a crash is
+      retried too: one forward evaluation of the reproduction crashed spooles (exit 255)
+      every time at its first increment size and converged with smaller ones.
+    - :attr:`transient`: says nothing about the input (a timeout on a busy machine, a
+      cancellation): never cached, never recorded as a property of the experiment's input.
+    - everything else that still fails after the retry is deterministic: the same input
+      fails the same way, so it is recorded (sweeps) or cached (loops) as data.
+    """
 
     CONVERGED = "converged"
     TOO_MANY_CUTBACKS = "too_many_cutbacks"
@@ -26,9 +38,18 @@ class Outcome(StrEnum):
     CRASH = "crash"
 
     @property
-    def deterministic(self) -> bool:
-        """True when re-running the same deck would fail the same way."""
-        return self not in (Outcome.TIMEOUT, Outcome.CANCELLED, Outcome.CRASH)
+    def retry_smaller(self) -> bool:
+        """True when one retry with smaller increments may succeed."""
+        return self in _RETRY_SMALLER
+
+    @property
+    def transient(self) -> bool:
+        """True when the failure is not a property of the input (not cached, not final)."""
+        return self in (Outcome.TIMEOUT, Outcome.CANCELLED)
+
+
+_RETRY_SMALLER = frozenset({Outcome.TOO_MANY_CUTBACKS, Outcome.INCREMENT_BELOW_MINIMUM,
+                            Outcome.MAX_INCREMENTS, Outcome.DIVERGED, Outcome.CRASH})
 
 
 # First match wins; patterns are ccx 2.20's own messages (strings in the binary).

@@ -2,49 +2,45 @@
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 
-import numpy as np
-
 from farm.experiment import run_load_path
-from farm.mesh.version import mesh_key
-from farm.specs import LoadPath, ModelSpec, SolverSettings, content_hash
+from farm.specs import LoadPath, ModelSpec, SolverSettings
+from jobs.guard import Result, Solved, cancellation_check, guarded
+from jobs.identity import evaluation_key
 from jobs.loops.evaluator import Evaluation
-from jobs.loops.guard import guarded
-from jobs.tasks import cancellation_check
 
-OUTPUTS_VERSION = 1
+OUTPUTS_VERSION = 2  # 2: typed results, every measurement of the path
 
 
 @dataclass(frozen=True)
 class CurveTask:
-    """A load path (pressure in MPa, deflections in mm) of the model ``model`` (a dict)."""
+    """A load path (pressure in MPa, deflections in mm) of ``model``."""
 
-    model: dict
+    model: ModelSpec
     deflections: tuple[float, ...]
     pressure: float
     settings: SolverSettings
 
 
-def curve(task: CurveTask) -> dict[str, np.ndarray]:
-    """Fz (N) at each deflection of the path; deterministic failures as data."""
+def curve(task: CurveTask) -> Result:
+    """The measurements at each deflection of the path; deterministic failures as data."""
     def solve(settings):
-        spec = ModelSpec.from_dict(task.model)
-        result = run_load_path(spec, LoadPath(task.deflections, task.pressure), settings,
-                               should_stop=cancellation_check())
-        return {"fz": np.array([m.total_force[2] for m in result.measurements]),
-                "seconds": np.array(result.solve_seconds),
-                "ccx_runs": np.array(result.ccx_runs)}
+        r = run_load_path(task.model, LoadPath(task.deflections, task.pressure), settings,
+                          should_stop=cancellation_check())
+        return Solved(r.measurements, r.solve_seconds, r.ccx_runs, r.increments)
 
     return guarded(solve, task.settings)
 
 
 def curve_evaluation(model: ModelSpec, deflections, pressure: float,
                      settings: SolverSettings, solver: str) -> Evaluation:
-    task = CurveTask(model.to_dict(), tuple(float(d) for d in deflections), float(pressure),
-                     settings)
-    body = {k: v for k, v in dataclasses.asdict(task).items() if k != "settings"}
-    key = content_hash({"kind": "calibration-curve", "solver": solver,
-                        "mesh": mesh_key(model), "outputs": OUTPUTS_VERSION, **body})
+    task = CurveTask(model, tuple(float(d) for d in deflections), float(pressure), settings)
+    key = evaluation_key("calibration-curve", model, solver, OUTPUTS_VERSION,
+                         {"deflections": task.deflections, "pressure": task.pressure})
     return Evaluation(key, curve, task, "calibrate-curve")
+
+
+def fz(result: Solved):
+    """Fz (N) at each deflection of a solved curve."""
+    return [m.total_force[2] for m in result.measurements]

@@ -23,11 +23,12 @@ import numpy as np
 
 from farm.errors import SpecError
 from farm.specs import SolverSettings
-from jobs.calibrate.evaluate import curve_evaluation
+from jobs.calibrate.evaluate import curve_evaluation, fz
 from jobs.calibrate.params import Parameters
 from jobs.calibrate.references import ReferencePoint
+from jobs.guard import Failed
 from jobs.loops import optimizers
-from jobs.loops.evaluator import Evaluator, LoopStats, failed
+from jobs.loops.evaluator import Evaluator, LoopStats
 
 PENALTY = 10.0  # relative residual of a parameter set that cannot be solved
 
@@ -117,10 +118,10 @@ class _Forces:
         out: list[np.ndarray | None] = []
         for i, spec in enumerate(specs):
             got = {p: results[j] for k, p, j in where if k == i}
-            if spec is None or any(failed(r) is not None for r in got.values()):
+            if spec is None or any(isinstance(r, Failed) for r in got.values()):
                 out.append(None)
                 continue
-            out.append(np.array([got[p.pressure]["fz"][self.paths[p.pressure].index(p.deflection)]
+            out.append(np.array([fz(got[p.pressure])[self.paths[p.pressure].index(p.deflection)]
                                  for p in self.points]))
         return out
 

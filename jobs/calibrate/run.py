@@ -1,16 +1,15 @@
 """Run a calibration on Dask (``farm calibrate``) and report what it fitted.
 
-The client drives the least-squares loop; evaluations run on the workers (embedded
-LocalCluster or ``--scheduler``), cached by content hash in ``cache`` so that a second
-run, or a run resumed after the client died, replays them without ccx. After the fit,
-the start and fitted models' force-deflection curves are solved side by side for the
-report (one load path per pressure of the references).
+A strategy of the one driver (:mod:`jobs.driver`): the client drives the least-squares
+loop in a thread; evaluations run on the workers (embedded LocalCluster or
+``--scheduler``), cached by content hash in ``cache`` so that a second run, or a run
+resumed after the client died, replays them without ccx. After the fit, the start and
+fitted models' force-deflection curves are solved side by side for the report (one load
+path per pressure of the references).
 """
 
 from __future__ import annotations
 
-import threading
-import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
@@ -19,78 +18,68 @@ import pandas as pd
 
 from farm.specs import SolverSettings
 from jobs.calibrate.evaluate import curve_evaluation
+from jobs.calibrate.evaluate import fz as curve_fz
 from jobs.calibrate.fit import CalibrationResult, CalibrationSettings, CalibrationState, calibrate
 from jobs.calibrate.params import Parameters
 from jobs.calibrate.references import ReferencePoint
-from jobs.cluster import connect, dashboard_link
-from jobs.loops.cache import EvaluationCache
-from jobs.loops.evaluator import Evaluator, failed
-from jobs.sweep import solver_version
+from jobs.driver import LoopThreads, Progress, RunReport, Session, drive
+from jobs.guard import Failed
+from jobs.loops.evaluator import Evaluator
 
-POLL_SECONDS = 0.5
 CURVE_DEFLECTIONS = (5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 35.0, 40.0)
 
 
 @dataclass
-class CalibrationReport:
+class CalibrationReport(RunReport):
     result: CalibrationResult
     curves: pd.DataFrame = field(default_factory=pd.DataFrame)
-    dashboard: str = ""
-    wall_seconds: float = 0.0
 
     @property
     def ok(self) -> bool:
         return self.result.status != "failed"
 
 
+class Calibration(LoopThreads):
+    """The calibration strategy: one least-squares loop; the progress state is its
+    :class:`CalibrationState`."""
+
+    def __init__(self, params: Parameters, points: Sequence[ReferencePoint], cache: str | None,
+                 settings: SolverSettings, cal: CalibrationSettings, curves: bool) -> None:
+        super().__init__(cache)
+        self.params, self.points, self.settings, self.cal = params, points, settings, cal
+        self.curves = curves
+        self.progress_state = CalibrationState(cal.max_evaluations)
+        self.result: CalibrationResult | None = None
+        self.error: BaseException | None = None
+
+    def loops(self, session: Session) -> list[Callable[[], CalibrationResult]]:
+        return [lambda: calibrate(self.params, self.points, self.evaluator, session.solver,
+                                  self.settings, self.cal, self.progress_state)]
+
+    def collected(self, index: int, result, error) -> None:
+        self.result, self.error = result, error
+
+    def state(self) -> CalibrationState:
+        return self.progress_state
+
+    def finish(self, session: Session) -> CalibrationReport:
+        if self.error is not None:
+            raise self.error
+        table = (_curves(self.params, self.result, self.points, self.evaluator, session.solver,
+                         self.settings) if self.curves else pd.DataFrame())
+        return CalibrationReport(self.result, table)
+
+
 def run_calibration(params: Parameters, points: Sequence[ReferencePoint], cache: str | None,
                     *, settings: SolverSettings | None = None,
                     cal: CalibrationSettings | None = None,
                     scheduler: str | None = None, workers: int | None = None,
-                    curves: bool = True,
-                    progress: Callable[[CalibrationState], None] | None = None
+                    curves: bool = True, progress: Progress | None = None
                     ) -> CalibrationReport:
     """Fit ``params`` to ``points`` on a cluster; return the fit and (optionally) curves."""
-    start = time.perf_counter()
-    settings = settings or SolverSettings()
-    cal = cal or CalibrationSettings()
-    with connect(scheduler, workers) as client:
-        solver = solver_version(client, scheduler is None)
-        evaluator = Evaluator(client, EvaluationCache(cache))
-        state = CalibrationState(cal.max_evaluations)
-        result = _in_thread(lambda: calibrate(params, points, evaluator, solver, settings,
-                                              cal, state), state, progress, evaluator)
-        table = _curves(params, result, points, evaluator, solver, settings) if curves \
-            else pd.DataFrame()
-        report = CalibrationReport(result, table, dashboard_link(client))
-    report.wall_seconds = time.perf_counter() - start
-    return report
-
-
-def _in_thread(fn, state: CalibrationState, progress, evaluator: Evaluator):
-    """Run the loop in a thread while this one reports progress (and catches Ctrl-C)."""
-    box: dict = {}
-
-    def target():
-        try:
-            box["result"] = fn()
-        except BaseException as e:
-            box["error"] = e
-
-    thread = threading.Thread(target=target, name="calibration", daemon=True)
-    thread.start()
-    try:
-        while thread.is_alive():
-            thread.join(POLL_SECONDS)
-            if progress is not None:
-                progress(state)
-    except BaseException:
-        evaluator.close()
-        thread.join()
-        raise
-    if "error" in box:
-        raise box["error"]
-    return box["result"]
+    strategy = Calibration(params, points, cache, settings or SolverSettings(),
+                           cal or CalibrationSettings(), curves)
+    return drive(strategy, scheduler=scheduler, workers=workers, progress=progress)
 
 
 def _curves(params: Parameters, result: CalibrationResult, points, evaluator: Evaluator,
@@ -105,8 +94,8 @@ def _curves(params: Parameters, result: CalibrationResult, points, evaluator: Ev
              for label, spec in labels for p in pressures]
     out = evaluator.run([e for _, _, e in batch])
     rows = []
-    for (label, p, _), arrays in zip(batch, out, strict=True):
-        fz = np.full(len(defl), np.nan) if failed(arrays) else arrays["fz"]
+    for (label, p, _), result in zip(batch, out, strict=True):
+        fz = np.full(len(defl), np.nan) if isinstance(result, Failed) else curve_fz(result)
         rows += [{"model": label, "pressure_kpa": 1000 * p, "deflection_mm": d, "fz_n": f}
                  for d, f in zip(defl, fz, strict=True)]
     return pd.DataFrame(rows)

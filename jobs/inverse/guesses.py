@@ -21,10 +21,11 @@ import numpy as np
 
 from farm.solve.forces import offset_outer_uz
 from jobs.errors import JobError
+from jobs.guard import Failed
 from jobs.inverse.objective import Objective
 from jobs.inverse.problem import Problem
 from jobs.inverse.study import Condition
-from jobs.loops.evaluator import Evaluator, LoopStats, failed
+from jobs.loops.evaluator import Evaluator, LoopStats
 
 
 class GuessError(JobError, RuntimeError):
@@ -43,7 +44,7 @@ def initial_guess(problem: Problem, condition: Condition, seed: Sequence[int],
     if condition.initial == "scaled":
         base = condition.scale * problem.x_true
     elif condition.initial == "uniform":
-        total = float(problem.reference["total_force"][2])
+        total = float(problem.reference.total_force[2])
         base = np.full(problem.n, condition.scale * total / problem.n)
     else:
         base = offset_guess(problem, objective, evaluator, stats)
@@ -55,8 +56,9 @@ def offset_guess(problem: Problem, objective: Objective, evaluator: Evaluator,
     """Reaction forces of the unknowns with the offset inner surface prescribed."""
     measured_u, _ = objective.measured(0)
     uz = offset_outer_uz(problem.mesh, measured_u, problem.nodes)
-    arrays = evaluator.run([problem.prescribed_evaluation(uz)], stats)[0]
-    if (message := failed(arrays)) is not None:
-        raise GuessError(f"the thickness-offset guess failed: {message}")
+    result = evaluator.run([problem.prescribed_evaluation(uz)], stats)[0]
+    if isinstance(result, Failed):
+        raise GuessError(f"the thickness-offset guess failed: {result.reason}")
     where = {int(n): k for k, n in enumerate(problem.mesh.tread_nodes)}
-    return np.array([arrays["tread_force"][where[int(n)], 2] for n in problem.nodes])
+    force = result.measurement.reaction_force
+    return np.array([force[where[int(n)], 2] for n in problem.nodes])

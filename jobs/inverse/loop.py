@@ -14,13 +14,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from farm.measure.measurement import Measurement
 from farm.specs import content_hash
+from jobs.guard import Failed
+from jobs.identity import value_key
 from jobs.inverse.guesses import initial_guess
 from jobs.inverse.objective import Objective, field_rmse
 from jobs.inverse.problem import Problem
 from jobs.inverse.study import Condition, InverseStudy, OptimizerSettings
 from jobs.loops import optimizers
-from jobs.loops.evaluator import Evaluator, Interrupted, LoopStats, failed
+from jobs.loops.evaluator import Evaluator, Interrupted, LoopStats
 
 
 @dataclass(frozen=True)
@@ -51,9 +54,9 @@ def loop_seed(study: InverseStudy, spec: LoopSpec) -> list[int]:
 
 def loop_id(study: InverseStudy, spec: LoopSpec) -> str:
     """Content hash of a loop: the problem and everything about this solve."""
-    return content_hash({"problem": study.problem_hash(), "seed": loop_seed(study, spec),
-                         "condition": vars(spec.condition) | {"repeats": None},
-                         "method": spec.method, "optimizer": vars(spec.optimizer)})
+    return value_key({"problem": study.problem_hash(), "seed": loop_seed(study, spec),
+                      "condition": vars(spec.condition) | {"repeats": None},
+                      "method": spec.method, "optimizer": vars(spec.optimizer)})
 
 
 @dataclass
@@ -65,6 +68,8 @@ class LoopState:
     status: str = "queued"
     best: float = float("nan")
     stats: LoopStats = field(default_factory=LoopStats)
+    result: LoopResult | None = None  # once the loop ended
+    error: str = ""  # once the loop failed
 
 
 @dataclass(frozen=True, eq=False)
@@ -73,8 +78,8 @@ class LoopResult:
 
     ``x_history`` (k, n) and ``f_history`` (k,) hold every evaluation in order, the
     objective as the optimiser saw it (noisy when the condition has noise);
-    ``final`` the forward evaluation at ``x`` and ``rmse`` its field errors against the
-    noise-free reference (mm, strain).
+    ``final`` the forward evaluation at ``x`` (None when it failed) and ``rmse`` its
+    field errors against the noise-free reference (mm, strain).
     """
 
     spec: LoopSpec
@@ -86,7 +91,7 @@ class LoopResult:
     message: str
     x_history: np.ndarray
     f_history: np.ndarray
-    final: dict
+    final: Measurement | None
     rmse: dict
     stats: LoopStats
     wall_seconds: float
@@ -116,8 +121,8 @@ def run_loop(study: InverseStudy, problem: Problem, spec: LoopSpec, evaluator: E
     def batch(points):
         results = evaluator.run([problem.forward_evaluation(p) for p in points], state.stats)
         out = []
-        for p, arrays in zip(points, results, strict=True):
-            r = objective.residuals(arrays, p, len(fs))
+        for p, result in zip(points, results, strict=True):
+            r = objective.residuals(result, p, len(fs))
             xs.append(np.array(p, dtype=float))
             fs.append(float(np.linalg.norm(r)))
             out.append(r)
@@ -125,13 +130,14 @@ def run_loop(study: InverseStudy, problem: Problem, spec: LoopSpec, evaluator: E
         return out
 
     outcome = _optimise(spec.optimizer, batch, x0, stop)
-    final = evaluator.run([problem.forward_evaluation(outcome.x)], state.stats)[0]
-    status = outcome.status if failed(final) is None else "failed"
-    message = outcome.message if failed(final) is None else failed(final)
+    last = evaluator.run([problem.forward_evaluation(outcome.x)], state.stats)[0]
+    final = None if isinstance(last, Failed) else last.measurement
+    status = "failed" if final is None else outcome.status
+    message = last.reason if final is None else outcome.message
     state.status = status
     return LoopResult(spec, loop_id(study, spec), x0, outcome.x, outcome.objective, status,
                       message, np.array(xs).reshape(-1, problem.n), np.array(fs), final,
-                      {} if failed(final) else field_rmse(final, problem.reference),
+                      {} if final is None else field_rmse(final, problem.reference),
                       state.stats, time.perf_counter() - start)
 
 

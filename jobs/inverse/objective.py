@@ -28,9 +28,10 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from farm.measure.measurement import Measurement
+from jobs.guard import Failed, Result
 from jobs.inverse.problem import Problem
 from jobs.inverse.study import NoiseSettings
-from jobs.loops.evaluator import failed
 
 PENALTY = 1e3  # residual entry of a failed evaluation: far above any real one
 
@@ -57,7 +58,7 @@ class Objective:
                  regularisation: tuple[str, float, float] = ("none", 0.0, 1.0)) -> None:
         self.problem, self.method, self.noise, self.draw = problem, method, noise, draw
         self.seed = [int(s) for s in seed]
-        n_inner = problem.reference["displacement"].shape[0]
+        n_inner = problem.reference.displacement.shape[0]
         self.mask = np.ones(n_inner, bool) if mask is None else np.asarray(mask, bool)
         self.n_nodes = int(self.mask.sum())
         self.sigma = NoiseSettings() if noise is None else noise
@@ -67,19 +68,19 @@ class Objective:
 
     def measured(self, index: int) -> tuple[np.ndarray, np.ndarray]:
         """The (noisy) reference displacement and strain seen at evaluation ``index``."""
-        u, e = self.problem.reference["displacement"], self.problem.reference["strain"]
+        u, e = self.problem.reference.displacement, self.problem.reference.strain
         if self.noise is None:
             return u, e
         rng = np.random.default_rng(noise_stream(self.seed, self.draw, index))
         return (u + rng.normal(0.0, self.noise.displacement, u.shape),
                 e + rng.normal(0.0, self.noise.strain, e.shape))
 
-    def data_residuals(self, arrays: dict, index: int) -> np.ndarray:
+    def data_residuals(self, m: Measurement, index: int) -> np.ndarray:
         """The data part of the residuals (the thesis' objective is its 2-norm)."""
         u, e = self.measured(index)
-        m = self.mask
-        du = (arrays["displacement"][m] - u[m]).ravel() / np.sqrt(self.n_nodes)
-        de = (arrays["strain"][m] - e[m]).ravel() / np.sqrt(self.n_nodes)
+        k = self.mask
+        du = (m.displacement[k] - u[k]).ravel() / np.sqrt(self.n_nodes)
+        de = (m.strain[k] - e[k]).ravel() / np.sqrt(self.n_nodes)
         if self.method == "displacement":
             return du
         if self.method == "strain":
@@ -90,11 +91,11 @@ class Objective:
         per = 3 * self.n_nodes
         return (2 * per if self.method == "combined" else per) + self.reg.shape[0]
 
-    def residuals(self, arrays: dict, x: np.ndarray, index: int) -> np.ndarray:
+    def residuals(self, result: Result, x: np.ndarray, index: int) -> np.ndarray:
         """All residuals of evaluation ``index`` at ``x`` (penalty if it failed)."""
-        if failed(arrays) is not None:
+        if isinstance(result, Failed):
             return np.full(self.size(), PENALTY)
-        return np.concatenate([self.data_residuals(arrays, index), self.reg @ x])
+        return np.concatenate([self.data_residuals(result.measurement, index), self.reg @ x])
 
 
 def noise_stream(seed: Sequence[int], draw: str, index: int) -> list[int]:
@@ -117,14 +118,14 @@ def _operator(problem: Problem, kind: str) -> np.ndarray:
     return np.array(rows).reshape(-1, problem.n)
 
 
-def field_rmse(arrays: dict, reference: dict) -> dict[str, float]:
+def field_rmse(m: Measurement, reference: Measurement) -> dict[str, float]:
     """RMSE of each direction against the noise-free reference (Tables 4.2/4.4).
 
     Displacements in mm, strains dimensionless (tables print microstrain).
     """
     out = {}
     for var, names in (("displacement", ("Ux", "Uy", "Uz")), ("strain", ("exx", "eyy", "exy"))):
-        diff = arrays[var] - reference[var]
+        diff = getattr(m, var) - getattr(reference, var)
         for k, name in enumerate(names):
             out[name] = float(np.sqrt(np.mean(diff[:, k] ** 2)))
     return out

@@ -11,23 +11,23 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from farm.measure.measurement import Measurement
 from farm.mesh import TyreMesh, mesh_for
 from farm.specs import ModelSpec, SolverSettings
 from jobs.errors import JobError
+from jobs.guard import Failed
+from jobs.identity import canonical
 from jobs.inverse.evaluate import (
     ForwardTask,
     PrescribedTask,
     ReferenceTask,
-    canonical,
     forward,
-    forward_key,
     prescribed,
-    prescribed_key,
     reference,
-    reference_key,
+    task_key,
 )
 from jobs.inverse.study import InverseStudy
-from jobs.loops.evaluator import Evaluation, Evaluator, failed
+from jobs.loops.evaluator import Evaluation, Evaluator
 
 
 class ReferenceFailedError(JobError, RuntimeError):
@@ -48,11 +48,12 @@ class Problem:
         (row, column) of each unknown on the tread grid.
     xyz : ndarray, shape (n, 3)
         Reference coordinates of the unknowns, mm.
-    reference : dict of arrays
-        The virtual experiment's measurements: ``displacement`` and ``strain``
-        (n_inner, 3), ``total_force`` and ``moment`` (3,), ``tread_force`` (n_tread, 3).
+    reference : Measurement
+        The virtual experiment's measurements (displacement, strain, tread forces...).
     road_z : float
         Height of the road (the contact centre), mm.
+    reference_ccx_runs : int
+        ccx runs the iterative road took for the reference.
     """
 
     model: ModelSpec
@@ -65,38 +66,42 @@ class Problem:
     x_true: np.ndarray
     grid: np.ndarray
     xyz: np.ndarray
-    reference: dict
+    reference: Measurement
+    reference_ccx_runs: int = 0
 
     @property
     def n(self) -> int:
         return self.nodes.size
 
     def forward_evaluation(self, x: np.ndarray) -> Evaluation:
-        task = ForwardTask(self.model.to_dict(), tuple(int(v) for v in self.nodes),
+        task = ForwardTask(self.model, tuple(int(v) for v in self.nodes),
                            canonical(x), float(self.road_z), self.settings)
-        return Evaluation(forward_key(task, self.solver), forward, task, "inverse-forward")
+        return Evaluation(task_key("inverse-forward", task, self.solver), forward, task,
+                          "inverse-forward")
 
     def prescribed_evaluation(self, uz: dict[int, float]) -> Evaluation:
         nodes = tuple(int(v) for v in self.nodes)
-        task = PrescribedTask(self.model.to_dict(), nodes, canonical([uz[n] for n in nodes]),
+        task = PrescribedTask(self.model, nodes, canonical([uz[n] for n in nodes]),
                               float(self.road_z), self.settings)
-        return Evaluation(prescribed_key(task, self.solver), prescribed, task,
+        return Evaluation(task_key("inverse-prescribed", task, self.solver), prescribed, task,
                           "inverse-prescribed")
 
 
 def reference_evaluation(study: InverseStudy, solver: str) -> Evaluation:
-    task = ReferenceTask(study.model.to_dict(), float(study.deflection), study.settings)
-    return Evaluation(reference_key(task, solver), reference, task, "inverse-reference")
+    task = ReferenceTask(study.model, float(study.deflection), study.settings)
+    return Evaluation(task_key("inverse-reference", task, solver), reference, task,
+                      "inverse-reference")
 
 
 def build_problem(study: InverseStudy, evaluator: Evaluator, solver: str) -> Problem:
     """Solve (or replay) the reference experiment and set up the unknowns."""
-    arrays = evaluator.run([reference_evaluation(study, solver)])[0]
-    if (message := failed(arrays)) is not None:
+    result = evaluator.run([reference_evaluation(study, solver)])[0]
+    if isinstance(result, Failed):
         raise ReferenceFailedError(
-            f"the reference experiment at {study.deflection:g} mm failed: {message}")
+            f"the reference experiment at {study.deflection:g} mm failed: {result.reason}")
+    ref = result.measurement
     mesh = mesh_for(study.model)
-    fz = arrays["tread_force"][:, 2]
+    fz = ref.reaction_force[:, 2]
     index = np.flatnonzero(fz > 0)
     if index.size == 0:
         raise ReferenceFailedError(f"no tread node touches the road at {study.deflection:g} mm")
@@ -106,4 +111,4 @@ def build_problem(study: InverseStudy, evaluator: Evaluator, solver: str) -> Pro
     grid = np.array([np.argwhere(tread == n)[0] for n in nodes])
     return Problem(study.model, mesh, solver, study.settings, study.deflection,
                    mesh.bottom_z + study.deflection, nodes, fz[index].copy(), grid,
-                   mesh.xyz(nodes), dict(arrays))
+                   mesh.xyz(nodes), ref, result.ccx_runs)

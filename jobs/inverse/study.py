@@ -53,8 +53,9 @@ from pathlib import Path
 from typing import Any
 
 from farm.errors import SpecError
-from farm.specs import LoadPath, ModelSpec, SolverSettings, content_hash
+from farm.specs import LoadPath, ModelSpec, SolverSettings
 from jobs import validate as v
+from jobs.identity import value_key
 
 METHODS = ("displacement", "strain", "combined")
 OPTIMIZERS = ("nelder-mead", "least-squares")
@@ -141,10 +142,10 @@ class InverseStudy:
 
     def problem_hash(self) -> str:
         """What every loop of the study shares: model, reference load, noise, mask."""
-        return content_hash({"model": self.model.to_dict(), "deflection": self.deflection,
-                             "noise": [self.noise.displacement, self.noise.strain],
-                             "mask": None if self.mask is None else
-                             [self.mask.eigen_vectors, self.mask.keep, self.mask.mode]})
+        return value_key({"model": self.model.to_dict(), "deflection": self.deflection,
+                          "noise": [self.noise.displacement, self.noise.strain],
+                          "mask": None if self.mask is None else
+                          [self.mask.eigen_vectors, self.mask.keep, self.mask.mode]})
 
 
 def thesis_conditions(repeats: int = 10, optimizers: tuple[str, ...] = ("nelder-mead",)

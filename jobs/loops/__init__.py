@@ -10,5 +10,5 @@ share however few workers, nothing deadlocks (DESIGN.md, "Jobs on Dask").
 - :mod:`jobs.loops.evaluator` deduplicates, submits and counts evaluations.
 - :mod:`jobs.loops.optimizers`: Nelder-Mead, and least squares with a finite-difference
   Jacobian whose columns are solved side by side on the workers.
-- :mod:`jobs.loops.guard` is the worker-side retry policy; failures become data.
+- the worker side (retry policy, typed results) is :mod:`jobs.guard`, shared with sweeps.
 """

@@ -1,5 +1,11 @@
 """A persistent cache of solver evaluations, one ``.npz`` file per content hash.
 
+What is cached is a typed result of :mod:`jobs.guard`: a :class:`~jobs.guard.Solved`
+(its measurements, field by field) or a deterministic :class:`~jobs.guard.Failed`
+(its reason). :func:`encode` and :func:`decode` are the only places that know the
+file's layout; an entry in another layout (an older version of the farm) reads as
+absent, so it is solved again rather than misread.
+
 The client is the only writer (it writes what its futures return), so a cache needs no
 locking; every file is written to a temporary name and renamed into place, so a client
 killed mid-write leaves no torn entry. Arrays round-trip exactly (float64), which is
@@ -9,6 +15,7 @@ deterministic, so replaying their evaluations through the cache IS resuming them
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import re
 import uuid
@@ -17,9 +24,42 @@ from pathlib import Path
 
 import numpy as np
 
+from farm.measure.measurement import Measurement
 from jobs.errors import JobError
+from jobs.guard import Failed, Result, Solved
 
 KEY = re.compile(r"[0-9a-f]{64}")
+LAYOUT = 2  # of the .npz files: 2 = typed results (1 = loose arrays, before 2026-11)
+_FIELDS = tuple(f.name for f in dataclasses.fields(Measurement))
+
+
+def encode(result: Result) -> dict[str, np.ndarray]:
+    """The arrays of a result's cache file."""
+    if isinstance(result, Failed):
+        return {"layout": np.array(LAYOUT), "failed": np.array(result.reason),
+                "outcome": np.array(result.outcome)}
+    out = {"layout": np.array(LAYOUT), "solve_seconds": np.array(result.solve_seconds),
+           "ccx_runs": np.array(result.ccx_runs), "increments": np.array(result.increments),
+           "states": np.array(len(result.measurements))}
+    for k, m in enumerate(result.measurements):
+        out |= {f"m{k}.{name}": np.asarray(getattr(m, name)) for name in _FIELDS}
+    return out
+
+
+def decode(arrays: Mapping[str, np.ndarray]) -> Result | None:
+    """The result a cache file holds; None for a file of another layout."""
+    if "layout" not in arrays or int(arrays["layout"]) != LAYOUT:
+        return None
+    if "failed" in arrays:
+        return Failed(str(arrays["failed"]), str(arrays["outcome"]))
+    ms = tuple(Measurement(**{name: _scalar(arrays[f"m{k}.{name}"]) for name in _FIELDS})
+               for k in range(int(arrays["states"])))
+    return Solved(ms, float(arrays["solve_seconds"]), int(arrays["ccx_runs"]),
+                  int(arrays["increments"]))
+
+
+def _scalar(a: np.ndarray):
+    return a.item() if a.ndim == 0 else a
 
 
 class CacheError(JobError, OSError):
@@ -38,7 +78,7 @@ class EvaluationCache:
 
     def __init__(self, directory: str | os.PathLike[str] | None) -> None:
         self.directory = None if directory is None else Path(directory).expanduser()
-        self._memory: dict[str, dict[str, np.ndarray]] = {}
+        self._memory: dict[str, Result] = {}
 
     def _path(self, key: str) -> Path:
         if not KEY.fullmatch(key):
@@ -46,8 +86,8 @@ class EvaluationCache:
         assert self.directory is not None
         return self.directory / key[:2] / f"{key}.npz"
 
-    def get(self, key: str) -> dict[str, np.ndarray] | None:
-        """The arrays stored under ``key``, or None."""
+    def get(self, key: str) -> Result | None:
+        """The result stored under ``key``, or None."""
         if key in self._memory:
             return self._memory[key]
         if self.directory is None:
@@ -55,18 +95,19 @@ class EvaluationCache:
         path = self._path(key)
         try:
             with np.load(path, allow_pickle=False) as z:
-                arrays = {k: z[k] for k in z.files}
-        except (OSError, ValueError, KeyError):  # absent, or unreadable: solve again
+                result = decode({k: z[k] for k in z.files})
+        except (OSError, ValueError, KeyError, TypeError):  # absent or unreadable: solve again
             return None
-        self._memory[key] = arrays
-        return arrays
+        if result is not None:
+            self._memory[key] = result
+        return result
 
-    def put(self, key: str, arrays: Mapping[str, np.ndarray]) -> None:
-        """Store ``arrays`` under ``key`` (atomically; the last write wins)."""
-        arrays = {k: np.asarray(v) for k, v in arrays.items()}
-        self._memory[key] = arrays
+    def put(self, key: str, result: Result) -> None:
+        """Store ``result`` under ``key`` (atomically; the last write wins)."""
+        self._memory[key] = result
         if self.directory is None:
             return
+        arrays = encode(result)
         path = self._path(key)
         try:
             path.parent.mkdir(parents=True, exist_ok=True)

@@ -8,11 +8,11 @@ tasks never wait on tasks, any number of loops can share any number of workers w
 deadlock. A worker lost mid-task costs that task only: the scheduler re-runs it
 elsewhere (``allowed-failures``, :mod:`jobs.cluster`).
 
-Worker functions return a dict of numpy arrays. A deterministic failure (the solver did
-not converge for this input) is returned as data, ``{"error": <message>}``, and cached
-like a result: re-solving it would fail the same way. An exception (a timeout, a bug, a
-lost task after its retries) is not cached: the loop sees a failed evaluation, and a
-later run tries again.
+Worker functions return a typed result of :mod:`jobs.guard`: :class:`~jobs.guard.Solved`
+or :class:`~jobs.guard.Failed`. A deterministic failure (the solver did not converge for
+this input) is cached like a result: re-solving it would fail the same way. A transient
+one (a timeout) and an exception (a bug, a lost task after its retries) are not cached:
+the loop sees a failed evaluation, and a later run tries again.
 """
 
 from __future__ import annotations
@@ -23,8 +23,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-import numpy as np
-
+from jobs.guard import Failed, Result
 from jobs.loops.cache import EvaluationCache
 
 TASK_RETRIES = 2
@@ -35,7 +34,7 @@ class Evaluation:
     """One solver evaluation: its content hash, the worker function and its argument."""
 
     key: str
-    function: Callable[[Any], dict[str, np.ndarray]]
+    function: Callable[[Any], Result]
     argument: Any
     prefix: str = "eval"
 
@@ -63,12 +62,6 @@ class LoopStats:
     solver_seconds: float = 0.0
     wait_seconds: float = 0.0
     lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
-
-
-def failed(arrays: dict[str, np.ndarray]) -> str | None:
-    """The failure message of an evaluation's arrays, or None when it succeeded."""
-    error = arrays.get("error")
-    return None if error is None else str(error)
 
 
 class Interrupted(Exception):
@@ -102,7 +95,7 @@ class Evaluator:
             self.client.cancel([f for f in pending if not isinstance(f, _Done)])
 
     def run(self, batch: Sequence[Evaluation], stats: LoopStats | None = None
-            ) -> list[dict[str, np.ndarray]]:
+            ) -> list[Result]:
         """Results of ``batch``, in order; blocks until all are back (one round).
 
         Raises :class:`Interrupted` once :meth:`close` was called.
@@ -143,22 +136,22 @@ class Evaluator:
         return self.client.submit(e.function, e.argument, key=e.task_key, pure=False,
                                   retries=TASK_RETRIES)
 
-    def _result(self, e: Evaluation, future, source: str) -> dict[str, np.ndarray]:
+    def _result(self, e: Evaluation, future, source: str) -> Result:
         if source == "cached":
             hit = self.cache.get(e.key)
             if hit is not None:
                 return hit
         try:
-            arrays = future.result()
+            result = future.result()
         except Exception as exc:  # a task error or a lost task: not cached, reported
-            arrays = {"error": np.array(f"task error: {type(exc).__name__}: {exc}"),
-                      "transient": np.array(True)}
+            result = Failed(f"task error: {type(exc).__name__}: {exc}", type(exc).__name__,
+                            transient=True)
         with self._lock:
             if source == "solved":
-                if "transient" not in arrays:
-                    self.cache.put(e.key, arrays)
+                if not (isinstance(result, Failed) and result.transient):
+                    self.cache.put(e.key, result)
                 self._inflight.pop(e.key, None)
-        return arrays
+        return result
 
     @staticmethod
     def _count(s: LoopStats, batch, sources, results, waited: float) -> None:
@@ -173,10 +166,10 @@ class Evaluator:
                 seen.add(e.key)
                 kind = sources[e.key]
                 setattr(s, kind, getattr(s, kind) + 1)
-                if failed(r) is not None:
+                if isinstance(r, Failed):
                     s.failed += 1
-                if kind == "solved":
-                    s.solver_seconds += float(r.get("seconds", 0.0))
+                elif kind == "solved":
+                    s.solver_seconds += r.solve_seconds
 
 
 class _Done:

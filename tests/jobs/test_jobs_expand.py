@@ -8,7 +8,8 @@ import pytest
 from conftest import study_text
 
 from farm.specs import MeshDensity
-from jobs.expand import experiment_id, experiments, load_cases, plan
+from jobs.expand import experiments, load_cases, plan
+from jobs.identity import experiment_id
 from jobs.study import parse_study
 
 SOLVER = "CalculiX 2.20"

@@ -1,12 +1,12 @@
-"""The worker-side guard of loop evaluations: what is retried, what becomes cached data,
-and what is raised (so that it is not cached)."""
+"""The one worker-side guard of every job: what is retried, what becomes data (recorded
+or cached), what is transient, and what is raised."""
 
-import numpy as np
 import pytest
 
-from farm.errors import SolverError
+from farm.ccx.outcome import Outcome
+from farm.errors import MeshError, SolverError
 from farm.specs import SolverSettings
-from jobs.loops.guard import guarded
+from jobs.guard import Failed, Solved, guarded
 
 
 def _solver(*outcomes):
@@ -17,28 +17,65 @@ def _solver(*outcomes):
         calls.append(settings)
         if len(calls) <= len(outcomes):
             raise SolverError(outcomes[len(calls) - 1], ["ccx", "-i", "job"], 255, "tail")
-        return {"value": np.array(1.0)}
+        return Solved((), 1.0)
 
     return solve, calls
 
 
-@pytest.mark.parametrize("outcome", ["too_many_cutbacks", "crash"])
+@pytest.mark.parametrize("outcome", [o for o in Outcome if o.retry_smaller])
 def test_one_failure_is_retried_with_smaller_increments(outcome):
     solve, calls = _solver(outcome)
-    assert guarded(solve, SolverSettings())["value"] == 1.0
+    assert isinstance(guarded(solve, SolverSettings()), Solved)
     assert calls[1].initial_increment == calls[0].initial_increment / 4
 
 
-@pytest.mark.parametrize("outcome", ["too_many_cutbacks", "crash", "input_error"])
-def test_a_repeated_failure_is_data_for_the_cache(outcome):
+@pytest.mark.parametrize("outcome", ["too_many_cutbacks", "crash"])
+def test_no_retry_when_asked(outcome):
+    solve, calls = _solver(outcome)
+    result = guarded(solve, SolverSettings(), retry=False)
+    assert isinstance(result, Failed) and len(calls) == 1 and result.retry_smaller
+
+
+@pytest.mark.parametrize("outcome", ["too_many_cutbacks", "crash", "input_error",
+                                     "nonpositive_jacobian"])
+def test_a_repeated_failure_is_deterministic_data(outcome):
     solve, calls = _solver(outcome, outcome)
     result = guarded(solve, SolverSettings())
-    assert outcome in str(result["error"]) and len(calls) == (1 if outcome == "input_error"
-                                                             else 2)
+    assert isinstance(result, Failed) and not result.transient
+    assert result.outcome == outcome and outcome in result.reason
+    assert len(calls) == (2 if Outcome(outcome).retry_smaller else 1)
 
 
-@pytest.mark.parametrize("outcomes", [("timeout",), ("crash", "timeout"), ("cancelled",)])
-def test_timeouts_and_cancellations_raise_and_are_never_cached(outcomes):
+@pytest.mark.parametrize("outcomes", [("timeout",), ("crash", "timeout")])
+def test_timeouts_are_transient_data(outcomes):
+    solve, _ = _solver(*outcomes)
+    result = guarded(solve, SolverSettings())
+    assert isinstance(result, Failed) and result.transient and result.outcome == "timeout"
+
+
+@pytest.mark.parametrize("outcomes", [("cancelled",), ("crash", "cancelled")])
+def test_cancellations_raise(outcomes):
     solve, _ = _solver(*outcomes)
     with pytest.raises(SolverError):
         guarded(solve, SolverSettings())
+
+
+def test_physics_errors_are_data_and_bugs_raise():
+    def mesh_fails(settings):
+        raise MeshError("gmsh said no")
+
+    result = guarded(mesh_fails, SolverSettings())
+    assert isinstance(result, Failed) and result.outcome == "MeshError"
+    assert not result.retry_smaller and not result.transient
+
+    def bug(settings):
+        raise KeyError("bug")
+
+    with pytest.raises(KeyError):
+        guarded(bug, SolverSettings())
+
+
+def test_outcome_owns_the_policy():
+    assert {o for o in Outcome if o.transient} == {Outcome.TIMEOUT, Outcome.CANCELLED}
+    assert not Outcome.CONVERGED.retry_smaller and Outcome.CRASH.retry_smaller
+    assert not any(o.retry_smaller and o.transient for o in Outcome)

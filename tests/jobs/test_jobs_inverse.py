@@ -1,6 +1,7 @@
 """Inverse loops without the solver: study files, objectives, noise, optimisers, cache,
 evaluator. (The loops on the farm, with ccx, are in test_jobs_inverse_farm.py.)"""
 
+import dataclasses
 import textwrap
 import threading
 import time
@@ -8,7 +9,9 @@ import time
 import numpy as np
 import pytest
 
+from farm.measure.measurement import Measurement
 from jobs.errors import StudyError
+from jobs.guard import Failed, Solved
 from jobs.inverse.objective import Objective, field_rmse
 from jobs.inverse.problem import Problem
 from jobs.inverse.study import NoiseSettings, parse_inverse_study, thesis_conditions
@@ -71,11 +74,20 @@ def test_the_full_model_is_refused():
 # ---------------------------------------------------------------- objectives and noise
 
 
+def measurement(u, e, fz=100.0) -> Measurement:
+    z = np.zeros_like(u)
+    return Measurement(30.0, 0.0, u, e, z, np.zeros((4, 3)), np.array([0, 0, fz]), np.zeros(3),
+                       np.array([0, 0, fz]), 4, 1.0)
+
+
+def changed(m: Measurement, **fields) -> Solved:
+    """A forward evaluation: ``m`` with some fields replaced."""
+    return Solved((dataclasses.replace(m, **fields),), 1.0)
+
+
 def fake_problem(n_inner=40, n=4, seed=0) -> Problem:
     rng = np.random.default_rng(seed)
-    ref = {"displacement": rng.normal(0, 5, (n_inner, 3)),
-           "strain": rng.normal(0, 1e-2, (n_inner, 3)),
-           "total_force": np.array([0, 0, 100.0]), "moment": np.zeros(3)}
+    ref = measurement(rng.normal(0, 5, (n_inner, 3)), rng.normal(0, 1e-2, (n_inner, 3)))
     grid = np.array([[0, 1], [0, 2], [2, 1], [2, 3]])[:n]
     return Problem(None, None, "test", None, 30.0, 0.0, np.arange(1, n + 1),
                    np.linspace(10, 40, n), grid, np.zeros((n, 3)), ref)
@@ -85,12 +97,12 @@ def fake_problem(n_inner=40, n=4, seed=0) -> Problem:
 def test_objective_is_zero_at_the_truth_without_noise(method):
     p = fake_problem()
     obj = Objective(p, method, None, "per_evaluation", [0])
-    assert np.linalg.norm(obj.residuals(p.reference, p.x_true, 0)) == 0.0
+    assert np.linalg.norm(obj.residuals(changed(p.reference), p.x_true, 0)) == 0.0
 
 
 def test_displacement_objective_is_eq_4_1():
     p = fake_problem()
-    arrays = dict(p.reference, displacement=p.reference["displacement"] + 0.5)
+    arrays = changed(p.reference, displacement=p.reference.displacement + 0.5)
     obj = Objective(p, "displacement", None, "per_evaluation", [0])
     # sqrt((sum dUx^2 + sum dUy^2 + sum dUz^2) / N) with dU = 0.5 everywhere
     assert np.linalg.norm(obj.residuals(arrays, p.x_true, 0)) == pytest.approx(
@@ -108,17 +120,17 @@ def test_noise_draws_are_seeded_and_documented(draw, same_across_evaluations):
                          [7, 1, 0]).measured(0)
     np.testing.assert_array_equal(u0, again)  # replayable on resume
     assert np.array_equal(u0, u1) is same_across_evaluations
-    assert np.std(u0 - p.reference["displacement"]) == pytest.approx(1.0, rel=0.25)
-    assert np.std(e0 - p.reference["strain"]) == pytest.approx(4e-4, rel=0.25)
+    assert np.std(u0 - p.reference.displacement) == pytest.approx(1.0, rel=0.25)
+    assert np.std(e0 - p.reference.strain) == pytest.approx(4e-4, rel=0.25)
 
 
 def test_masked_nodes_do_not_count():
     p = fake_problem()
     mask = np.zeros(40, bool)
     mask[:10] = True
-    arrays = dict(p.reference)
-    arrays["displacement"] = p.reference["displacement"].copy()
-    arrays["displacement"][10:] += 100.0  # only outside the mask
+    u = p.reference.displacement.copy()
+    u[10:] += 100.0  # only outside the mask
+    arrays = changed(p.reference, displacement=u)
     obj = Objective(p, "displacement", None, "per_solve", [0], mask=mask)
     assert np.linalg.norm(obj.residuals(arrays, p.x_true, 0)) == 0.0
 
@@ -128,7 +140,7 @@ def test_regularisation_rows(kind, rows):
     p = fake_problem()
     obj = Objective(p, "displacement", None, "per_solve", [0],
                     regularisation=(kind, 4.0, 2.0))
-    r = obj.residuals(p.reference, p.x_true, 0)
+    r = obj.residuals(changed(p.reference), p.x_true, 0)
     assert r.size == 3 * 40 + rows
     reg = r[-rows:]
     if kind == "tikhonov":
@@ -140,14 +152,15 @@ def test_regularisation_rows(kind, rows):
 def test_failed_evaluations_get_a_penalty_far_above_any_real_objective():
     p = fake_problem()
     obj = Objective(p, "strain", None, "per_solve", [0])
-    r = obj.residuals({"error": np.array("diverged")}, p.x_true, 0)
+    r = obj.residuals(Failed("ccx failed (diverged)", "diverged"), p.x_true, 0)
     assert r.size == obj.size() and np.linalg.norm(r) > 1e3
 
 
 def test_field_rmse_per_direction():
     p = fake_problem()
-    arrays = dict(p.reference, displacement=p.reference["displacement"] + [0, 0, 2.0])
-    got = field_rmse(arrays, p.reference)
+    moved = dataclasses.replace(p.reference,
+                                displacement=np.add(p.reference.displacement, [0, 0, 2.0]))
+    got = field_rmse(moved, p.reference)
     assert got["Uz"] == pytest.approx(2.0) and got["Ux"] == 0 and got["exx"] == 0
 
 
@@ -203,20 +216,45 @@ def test_a_stop_condition_ends_the_loop(optimizer):
 
 def test_cache_round_trips_exactly_and_leaves_no_temporary_files(tmp_path):
     cache = EvaluationCache(tmp_path / "c")
-    key = "a" * 64
-    arrays = {"u": np.random.default_rng(0).normal(size=(7, 3)), "error": np.array("x")}
-    cache.put(key, arrays)
+    key, bad = "a" * 64, "d" * 64
+    rng = np.random.default_rng(0)
+    m = measurement(rng.normal(size=(7, 3)), rng.normal(size=(7, 3)), fz=12.5)
+    cache.put(key, Solved((m, dataclasses.replace(m, deflection=40.0)), 2.5, 3, 17))
+    cache.put(bad, Failed("ccx failed (diverged)", "diverged"))
     again = EvaluationCache(tmp_path / "c").get(key)  # a new process: from disk
-    np.testing.assert_array_equal(again["u"], arrays["u"])
-    assert str(again["error"]) == "x" and len(EvaluationCache(tmp_path / "c")) == 1
+    assert (again.solve_seconds, again.ccx_runs, again.increments) == (2.5, 3, 17)
+    for a, b in zip(again.measurements, (m, dataclasses.replace(m, deflection=40.0)),
+                    strict=True):
+        for f in dataclasses.fields(Measurement):
+            np.testing.assert_array_equal(getattr(a, f.name), getattr(b, f.name))
+            assert type(getattr(a, f.name)) is type(getattr(b, f.name))
+    assert EvaluationCache(tmp_path / "c").get(bad) == Failed("ccx failed (diverged)",
+                                                              "diverged")
+    assert len(EvaluationCache(tmp_path / "c")) == 2
     assert not list((tmp_path / "c").rglob("*.tmp*"))
     assert EvaluationCache(tmp_path / "c").get("b" * 64) is None
     with pytest.raises(ValueError):
         cache.get("../../etc/passwd")
 
 
+def test_a_cache_file_of_another_layout_reads_as_absent(tmp_path):
+    (tmp_path / "aa").mkdir()
+    np.savez(tmp_path / "aa" / f"{'a' * 64}.npz", displacement=np.zeros(3))  # layout 1
+    assert EvaluationCache(tmp_path).get("a" * 64) is None
+
+
+def _timeout(x):
+    return Failed("ccx failed (timeout)", "timeout", transient=True)
+
+
+def test_transient_failures_are_not_cached(tmp_path):
+    ev = Evaluator(None, EvaluationCache(tmp_path))
+    out = ev.run([Evaluation("e" * 64, _timeout, 1, "test")])
+    assert out[0].transient and "e" * 64 not in EvaluationCache(tmp_path)
+
+
 def _square(x):
-    return {"y": np.array(x * x), "seconds": np.array(0.0)}
+    return Solved((measurement(np.zeros((2, 3)), np.zeros((2, 3)), fz=x * x),), 0.0)
 
 
 def _evaluation(x) -> Evaluation:
@@ -227,7 +265,7 @@ def test_evaluator_dedups_within_a_batch_and_answers_from_the_cache(tmp_path):
     ev = Evaluator(None, EvaluationCache(tmp_path))
     stats = LoopStats()
     out = ev.run([_evaluation(3), _evaluation(3), _evaluation(4)], stats)
-    assert [int(o["y"]) for o in out] == [9, 9, 16]
+    assert [o.measurement.total_force[2] for o in out] == [9, 9, 16]
     assert (stats.solved, stats.cached, stats.evaluations, stats.rounds) == (2, 0, 3, 1)
     ev.run([_evaluation(4)], stats)
     assert (stats.solved, stats.cached) == (2, 1)
@@ -253,3 +291,159 @@ def test_loops_share_an_evaluation_in_flight(tmp_path):
             t.join()
     assert ev.total.solved == 1  # one task for four loops
     assert sum(s.shared + s.cached for s in stats) == 3
+
+
+# ---------------------------------------------------------------- results in the store, tables
+# Loops' results go into the store (storage.solves) and Tables 4.1-4.4 come back out of it
+# (analysis.report.ch4). The expected numbers are worked out by hand below; they are also
+# what jobs/inverse/tables.py computed from the loops themselves before the tables moved.
+
+X_TRUE = np.array([10.0, 20.0, 30.0, 40.0])
+
+
+def _measured(force, moment) -> Measurement:
+    z = np.zeros((2, 3))
+    return Measurement(deflection=30.0, pressure=0.0, displacement=z, strain=z,
+                       surface_strain=z, reaction_force=np.zeros((4, 3)),
+                       total_force=np.array(force, float), moment=np.array(moment, float),
+                       road_reaction=np.array(force, float), contact_nodes=4, solve_seconds=1.0)
+
+
+def _loops():
+    """(problem, results): noise/displacement x3 (the last one's final evaluation fails) and
+    guess-90/strain x1, all with least squares."""
+    from jobs.inverse.loop import LoopResult, LoopSpec
+    from jobs.inverse.study import Condition, OptimizerSettings
+
+    problem = Problem(model=None, mesh=None, solver="test", settings=None, deflection=30.0,
+                      road_z=-369.2, nodes=np.arange(1, 5), x_true=X_TRUE,
+                      grid=np.zeros((4, 2), int), xyz=np.zeros((4, 3)),
+                      reference=_measured([0, 0, 71.5], [-500, 40, 0]))
+    lsq = OptimizerSettings("least-squares", 50, "per_solve")
+    noise = Condition("noise", ("displacement",), ("least-squares",), True, "scaled", 0.9, 0.0, 3)
+    guess = Condition("guess-90", ("strain",), ("least-squares",), True, "scaled", 0.9, 4.0, 1)
+    plan = [  # spec, error x - x_true, Fz, (Mx, My) N mm, rmse, evaluations, solved, rounds,
+        # solver s, wall s, objective, status
+        (LoopSpec(noise, "displacement", lsq, 0), [1, -1, 0, 2], 70, (-1000, 200),
+         [0.1, 0.2, 0.3, 1e-4, 2e-4, 3e-4], 5, 4, 2, 8, 20, 0.5, "converged"),
+        (LoopSpec(noise, "displacement", lsq, 1), [-1, 1, 2, 0], 74, (-3000, 0),
+         [0.3, 0.4, 0.5, 3e-4, 4e-4, 5e-4], 7, 6, 3, 12, 30, 0.25, "max_evaluations"),
+        (LoopSpec(noise, "displacement", lsq, 2), [0, 0, 0, 0], None, None, None, 3, 3, 1, 3,
+         9, 1.0, "failed"),
+        (LoopSpec(guess, "strain", lsq, 0), [4, 0, 0, -4], 71, (100, -100),
+         [1, 2, 3, 1e-3, 2e-3, 3e-3], 10, 10, 10, 50, 60, 2e-3, "converged"),
+    ]
+    results = []
+    for i, (spec, err, fz, m, rmse, k, solved, rounds, solver_s, wall, f, status) in \
+            enumerate(plan):
+        final = None if fz is None else _measured([0, 0, fz], [*m, 0])
+        results.append(LoopResult(
+            spec=spec, id=f"{i:064x}", x0=0.9 * X_TRUE, x=X_TRUE + np.array(err, float),
+            objective=f, status=status, message="", x_history=np.tile(X_TRUE, (k, 1)),
+            f_history=np.linspace(2.0, f, k), final=final,
+            rmse={} if final is None else dict(zip(("Ux", "Uy", "Uz", "exx", "eyy", "exy"),
+                                                   rmse, strict=True)),
+            stats=LoopStats(evaluations=k, rounds=rounds, solved=solved,
+                            solver_seconds=float(solver_s)), wall_seconds=float(wall)))
+    return problem, results
+
+
+@pytest.fixture
+def stored(tmp_path):
+    """The loops written by jobs.inverse.store and read back through storage."""
+    from jobs.inverse.store import write_results
+    from storage.solves import open_solves
+
+    study = parse_inverse_study(STUDY.replace("out/inverse.zarr", str(tmp_path / "s.zarr")),
+                                "study.toml")
+    problem, results = _loops()
+    write_results(study, problem, results)
+    return study, problem, results, open_solves(study.store, study.group)
+
+
+KEYS = {"condition": ["noise", "guess-90"], "method": ["displacement", "strain"],
+        "optimizer": ["least-squares", "least-squares"]}
+
+
+def _same(got, want: dict) -> None:
+    import pandas as pd
+
+    pd.testing.assert_frame_equal(got.reset_index(drop=True), pd.DataFrame(want),
+                                  check_dtype=False, rtol=1e-12)
+
+
+def test_forces_tables_4_1_and_4_3_from_the_store(stored):
+    from analysis.report import ch4
+
+    nan = np.nan
+    _same(ch4.forces(stored[3]), {
+        "condition": ["reference", "noise", "guess-90"], "method": ["", *KEYS["method"]],
+        "optimizer": ["", *KEYS["optimizer"]], "repeats": [1, 3, 1],
+        # noise: Fz 70 and 74 (the failed solve has none), Mx -1 and -3 N m, My 0.2 and 0
+        "Fz_mean": [71.5, 72.0, 71.0], "Fz_std": [0.0, np.sqrt(8), nan],
+        "Mx_mean": [-0.5, -2.0, 0.1], "Mx_std": [0.0, np.sqrt(2), nan],
+        "My_mean": [0.04, 0.1, -0.1], "My_std": [0.0, np.sqrt(0.02), nan],
+        "thesis_Fz": [359.08, 358.28, 356.6], "thesis_Fz_std": [0, 0.4, 5],
+        "thesis_Mx": [0, -0.84, -1.239], "thesis_Mx_std": [0, 0.1, 2],
+        "thesis_My": [0, -0.020, -0.1884], "thesis_My_std": [0, 0.05, 1]})
+
+
+def test_rmse_tables_4_2_and_4_4_from_the_store(stored):
+    from analysis.report import ch4
+
+    _same(ch4.rmse(stored[3]), {
+        **KEYS, "Ux": [0.2, 1.0], "Uy": [0.3, 2.0], "Uz": [0.4, 3.0],
+        "exx": [200.0, 1000.0], "eyy": [300.0, 2000.0], "exy": [400.0, 3000.0],
+        "thesis_Ux": [0.010, 0.05158], "thesis_Uy": [0.040, 0.4087],
+        "thesis_Uz": [0.070, 0.4987], "thesis_exx": [131.08, 911.0],
+        "thesis_eyy": [171.22, 1029.0], "thesis_exy": [147.54, 487.2]})
+
+
+def test_nodal_errors_and_cost_from_the_store(stored):
+    from analysis.report import ch4
+
+    # noise: errors 1 -1 0 2 -1 1 2 0 (two finished repeats): mean 0.5, mean square 1.5
+    _same(ch4.nodal_errors(stored[3]), {
+        **KEYS, "mean": [0.5, 0.0], "std": [np.sqrt(1.25), np.sqrt(8)],
+        "rms": [np.sqrt(1.5), np.sqrt(8)],
+        "std_over_max_force": [np.sqrt(1.25) / 40, np.sqrt(8) / 40],
+        "thesis_std": [2.0, 11.6], "thesis_std_over_max_force": [2.0 / 35.5, 11.6 / 35.5]})
+    _same(ch4.cost(stored[3]), {
+        **KEYS, "evaluations": [5.0, 10.0], "solved": [13 / 3, 10.0], "rounds": [2.0, 10.0],
+        "wall_s": [59 / 3, 60.0], "solver_s": [23 / 3, 50.0], "objective": [1.75 / 3, 2e-3],
+        "solves": [3, 1], "statuses": ["converged 1, max_evaluations 1, failed 1",
+                                       "converged 1"]})
+
+
+def test_the_deprecated_tables_module_gives_the_stored_tables(stored):
+    import pandas as pd
+
+    from analysis.report import ch4
+
+    with pytest.warns(DeprecationWarning):
+        import importlib
+
+        import jobs.inverse.tables as tables
+
+        importlib.reload(tables)
+    _, problem, results, ds = stored
+    for name in ch4.TABLES:
+        pd.testing.assert_frame_equal(getattr(tables, name)(results, problem),
+                                      getattr(ch4, name)(ds), check_exact=True)
+
+
+def test_farm_invert_reports_from_the_stored_group(stored, tmp_path):
+    import io
+
+    from rich.console import Console
+
+    from cli.invert import _report
+
+    study = stored[0]
+    out = io.StringIO()
+    figures = _report(Console(file=out, width=200), study.store, study.group, tmp_path / "r")
+    text = out.getvalue()
+    assert "Tables 4.1/4.3" in text and "72 ± 2.8" in text and "358.28 ± 0.4" in text
+    for name in ("forces", "rmse", "nodal_errors", "cost", "per_solve"):
+        assert (tmp_path / "r" / f"{name}.csv").stat().st_size > 0
+    assert [p.name for p in figures] == ["nodal_errors_noise.png", "nodal_errors_guess-90.png"]

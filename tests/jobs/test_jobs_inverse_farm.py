@@ -84,7 +84,7 @@ def test_a_small_solve_recovers_the_forces(solved):
     assert p.n == 6 and r.status in ("converged", "stopped")
     np.testing.assert_allclose(r.x, p.x_true, rtol=0.01, atol=0.01 * p.x_true.max())
     assert r.x.sum() == pytest.approx(p.x_true.sum(), rel=5e-3)
-    assert r.final["total_force"][2] == pytest.approx(p.reference["total_force"][2], rel=5e-3)
+    assert r.final.total_force[2] == pytest.approx(p.reference.total_force[2], rel=5e-3)
     assert r.f_history[0] > 100 * r.objective  # from 90 % of the truth to ~0
     assert r.stats.rounds < len(r.f_history) / 2  # Jacobian columns solved side by side
 
@@ -151,7 +151,7 @@ def test_a_killed_client_resumes_to_the_same_result(solved, tmp_path, counting_c
     _, clean = solved
     path = write(tmp_path, LSQ, cache="resume-cache")
     scratch = tmp_path / "scratch"  # to tell this test's solvers from any other's
-    client = subprocess.Popen([sys.executable, "-m", "farm", "invert", path, "--workers", "2"],
+    client = subprocess.Popen([sys.executable, "-m", "cli", "invert", path, "--workers", "2"],
                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                               env={**os.environ, "FARM_SCRATCH_DIR": str(scratch)})
     try:
@@ -245,7 +245,7 @@ def test_a_worker_lost_mid_loop_costs_at_most_its_evaluation(solved, tmp_path, c
     np.testing.assert_array_equal(report.results[0].x, clean.results[0].x)
     # every evaluation solved once, but the one the lost worker was running: the clean
     # run's ccx runs are the reference's iterations plus one per other evaluation
-    clean_runs = int(clean.problem.reference["ccx_runs"]) + clean.totals.solved - 1
+    clean_runs = clean.problem.reference_ccx_runs + clean.totals.solved - 1
     assert runs_at_kill > 0 and ccx_runs(counting_ccx) <= clean_runs + 1
 
 

@@ -67,7 +67,7 @@ def _wait_for_done(store, group, n, timeout=120):
 def test_killed_client_then_resume_solves_only_what_was_left(write_study, counting_ccx):
     path = write_study(deflections="{ start = 2, stop = 40, step = 2 }")
     study = load_study(path)
-    client = subprocess.Popen([sys.executable, "-m", "farm", "sweep", "submit", str(path),
+    client = subprocess.Popen([sys.executable, "-m", "cli", "sweep", "submit", str(path),
                                "--workers", "2"], stdout=subprocess.DEVNULL,
                               stderr=subprocess.DEVNULL, env=os.environ.copy())
     try:

@@ -1,0 +1,178 @@
+"""One driver for every study kind: connect, solver version, progress, polling,
+cancellation and the run's summary.
+
+A study kind is a :class:`Strategy`: what it submits when the cluster is there
+(:meth:`~Strategy.start`), how it collects what finished (:meth:`~Strategy.poll`), what
+a progress display sees (:meth:`~Strategy.state`), how it stops (:meth:`~Strategy.cancel`)
+and the report it ends with (:meth:`~Strategy.finish`). :func:`drive` does the rest, the
+same way for all of them:
+
+1. connect (embedded LocalCluster, or ``--scheduler``) and learn the workers' solver
+   version, which is part of every key (:mod:`jobs.identity`);
+2. start the strategy, then poll it until everything ended, telling the front end;
+3. on any interruption (Ctrl-C, an error of the client) cancel what is in flight - the
+   workers' cancellation checks kill their ccx - and re-raise;
+4. fill the summary every report shares (dashboard, workers, solver, wall time).
+
+Sweeps (:mod:`jobs.sweep`) submit one task per load path; optimisation loops
+(:class:`LoopThreads`: :mod:`jobs.inverse.run`, :mod:`jobs.calibrate.run`) run in client
+threads whose evaluations go to the workers through one shared evaluator.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from concurrent.futures import Future, ThreadPoolExecutor
+from dataclasses import dataclass
+from typing import Any
+
+from farm.ccx.runner import ccx_version
+from jobs.cluster import connect, dashboard_link
+from jobs.errors import ClusterError
+from jobs.loops.cache import EvaluationCache
+from jobs.loops.evaluator import Evaluator
+
+
+@dataclass(frozen=True)
+class Session:
+    """The cluster a run has: client, the workers' solver version, dashboard, workers."""
+
+    client: Any
+    solver: str
+    dashboard: str
+    workers: int
+
+
+@dataclass(kw_only=True)
+class RunReport:
+    """What every run reports beside its own results (filled in by :func:`drive`)."""
+
+    dashboard: str = ""
+    workers: int = 0
+    solver: str = ""
+    wall_seconds: float = 0.0
+
+    @property
+    def ok(self) -> bool:  # pragma: no cover - every report says what success is
+        raise NotImplementedError
+
+
+class Progress:
+    """Callbacks a front end implements to follow a run (all optional).
+
+    ``state`` is the strategy's live view (:meth:`Strategy.state`).
+    """
+
+    def started(self, session: Session, state: Any) -> None: ...
+    def advanced(self, state: Any) -> None: ...
+    def finished(self, report: RunReport) -> None: ...
+
+
+class Strategy:
+    """One study kind on the driver (see the module docstring)."""
+
+    poll_seconds = 0.5
+
+    def start(self, session: Session) -> None:
+        """Submit the work (may block, e.g. to solve a reference first)."""
+
+    def poll(self) -> bool:
+        """Collect what finished; True once nothing is left."""
+        raise NotImplementedError
+
+    def state(self) -> Any:
+        """What a progress display shows."""
+
+    def cancel(self) -> None:
+        """Stop everything in flight (called on interruption)."""
+
+    def finish(self, session: Session) -> RunReport:
+        """The report, once :meth:`poll` said everything ended (cluster still up)."""
+        raise NotImplementedError
+
+
+def solver_version(client, embedded: bool) -> str:
+    """``CalculiX <version>`` of the workers (part of every key)."""
+    if embedded:
+        return f"CalculiX {ccx_version()}"
+    if not client.scheduler_info().get("workers"):
+        try:
+            client.wait_for_workers(1, timeout=60)
+        except TimeoutError as e:
+            raise ClusterError("the scheduler has no workers: start some with "
+                               "`dask worker <scheduler address>`") from e
+    return f"CalculiX {client.submit(ccx_version, pure=False).result()}"
+
+
+def drive(strategy: Strategy, *, scheduler: str | None = None, workers: int | None = None,
+          progress: Progress | None = None,
+          on_client: Callable[[Any], None] | None = None) -> RunReport:
+    """Run ``strategy`` on a cluster to its end; return its report."""
+    progress = progress or Progress()
+    start = time.perf_counter()
+    with connect(scheduler, workers) as client:
+        if on_client is not None:
+            on_client(client)
+        session = Session(client, solver_version(client, scheduler is None),
+                          dashboard_link(client), len(client.scheduler_info()["workers"]))
+        try:
+            strategy.start(session)
+            progress.started(session, strategy.state())
+            while not strategy.poll():
+                progress.advanced(strategy.state())
+                time.sleep(strategy.poll_seconds)
+            progress.advanced(strategy.state())
+        except BaseException:
+            strategy.cancel()
+            raise
+        report = strategy.finish(session)
+    report.dashboard, report.workers, report.solver = (session.dashboard, session.workers,
+                                                       session.solver)
+    report.wall_seconds = time.perf_counter() - start
+    progress.finished(report)
+    return report
+
+
+class LoopThreads(Strategy):
+    """Optimisation loops in client threads, sharing one :class:`Evaluator`.
+
+    Tasks never wait on tasks: a loop blocks only its own client thread while its
+    evaluations run on the workers, so any number of loops share any number of workers
+    without deadlock (DESIGN.md, "Jobs on Dask"). Subclasses give the loops
+    (:meth:`loops`) and collect each one's end (:meth:`collected`).
+    """
+
+    def __init__(self, cache: str | None) -> None:
+        self.cache = cache
+        self.evaluator: Evaluator | None = None
+        self._pool: ThreadPoolExecutor | None = None
+        self._pending: dict[Future, int] = {}
+
+    def loops(self, session: Session) -> list[Callable[[], Any]]:
+        raise NotImplementedError
+
+    def collected(self, index: int, result: Any, error: BaseException | None) -> None:
+        raise NotImplementedError
+
+    def start(self, session: Session) -> None:
+        self.evaluator = Evaluator(session.client, EvaluationCache(self.cache))
+        loops = self.loops(session)
+        self._pool = ThreadPoolExecutor(max_workers=max(1, len(loops)),
+                                        thread_name_prefix="loop")
+        self._pending = {self._pool.submit(fn): k for k, fn in enumerate(loops)}
+
+    def poll(self) -> bool:
+        for fut in [f for f in self._pending if f.done()]:
+            k = self._pending.pop(fut)
+            error = fut.exception()
+            self.collected(k, None if error else fut.result(), error)
+        if not self._pending and self._pool is not None:
+            self._pool.shutdown(wait=True)
+        return not self._pending
+
+    def cancel(self) -> None:
+        if self.evaluator is not None:
+            self.evaluator.close()  # loops stop at their next evaluation; tasks cancelled
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)

@@ -1,0 +1,124 @@
+"""The worker side of every job: one guard around a solve, and its typed result.
+
+Sweeps (:mod:`jobs.tasks`) and optimisation loops (:mod:`jobs.loops`) run their solves
+through :func:`guarded`, which applies the failure policy that
+:class:`farm.ccx.outcome.Outcome` owns:
+
+1. an outcome worth it (:attr:`Outcome.retry_smaller`: non-convergence, a crash) is
+   retried ONCE with four times smaller increments;
+2. what still fails comes back as :class:`Failed` data with its reason - a sweep records
+   it in the store, a loop caches it (the same input would fail again) unless it is
+   :attr:`~Failed.transient` (a timeout: not a property of the input);
+3. a cancellation raises: the job is being stopped, there is nothing to record.
+
+A mesh or results error of the physics layer (:class:`farm.errors.FarmError`) is
+deterministic and recorded as data too; anything else (a bug) raises.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from farm.ccx.outcome import Outcome
+from farm.errors import FarmError, SolverError
+from farm.measure.measurement import Measurement
+from farm.specs import SolverSettings
+
+
+@dataclass(frozen=True, eq=False)
+class Solved:
+    """A successful solve: one measurement per state of its load path."""
+
+    measurements: tuple[Measurement, ...]
+    solve_seconds: float
+    ccx_runs: int = 1
+    increments: int = 0
+
+    @property
+    def measurement(self) -> Measurement:
+        """The only measurement of a single-state solve (loop evaluations)."""
+        if len(self.measurements) != 1:
+            raise ValueError(f"a solve of {len(self.measurements)} states has no single "
+                             "measurement: index .measurements")
+        return self.measurements[0]
+
+
+@dataclass(frozen=True)
+class Failed:
+    """A solve that failed for a reason worth recording (failures are data).
+
+    ``outcome`` is an :class:`~farm.ccx.outcome.Outcome` value, or the error class name
+    for failures outside ccx (a mesh error, a lost task).
+    """
+
+    reason: str
+    outcome: str = "error"
+    transient: bool = False
+
+    @property
+    def retry_smaller(self) -> bool:
+        """True when the solver's outcome says smaller steps (or pieces) may get through."""
+        try:
+            return Outcome(self.outcome).retry_smaller
+        except ValueError:  # not a solver outcome
+            return False
+
+
+Result = Solved | Failed
+
+
+def smaller_increments(settings: SolverSettings) -> SolverSettings:
+    """The same settings with four times smaller increments (and room for more of them)."""
+    return dataclasses.replace(
+        settings, initial_increment=settings.initial_increment / 4,
+        max_increment=settings.max_increment / 4,
+        min_increment=min(settings.min_increment, settings.initial_increment / 400),
+        max_increments=settings.max_increments * 4)
+
+
+def guarded(solve: Callable[[SolverSettings], Solved], settings: SolverSettings, *,
+            retry: bool = True) -> Result:
+    """Run ``solve(settings)`` under the policy above; ``retry=False`` skips step 1."""
+    try:
+        try:
+            return solve(settings)
+        except SolverError as e:
+            if not (retry and Outcome(e.outcome).retry_smaller):
+                raise
+            return solve(smaller_increments(settings))
+    except SolverError as e:
+        outcome = Outcome(e.outcome)
+        if outcome is Outcome.CANCELLED:
+            raise
+        return Failed(str(e), outcome.value, outcome.transient)
+    except FarmError as e:
+        return Failed(f"{type(e).__name__}: {e}", type(e).__name__)
+
+
+def cancellation_check() -> Callable[[], bool] | None:
+    """A poll that turns True once Dask cancels the task running in this thread.
+
+    Dask cannot interrupt a running task; a cancelled one is only marked on its worker.
+    The runner polls this and kills ccx, so a cancelled job leaves no solver behind.
+    """
+    try:
+        from distributed import get_worker
+        from distributed.worker import thread_state
+
+        worker, key = get_worker(), thread_state.key
+    except (ImportError, ValueError, AttributeError):
+        return None
+    last = [0.0, False]
+
+    def stop() -> bool:
+        now = time.monotonic()
+        if now - last[0] > 1.0:  # reading worker state is cheap, but once a second is plenty
+            last[0] = now
+            ts = worker.state.tasks.get(key)
+            last[1] = ts is None or ts.state in ("cancelled", "released", "forgotten")
+        return last[1]
+
+    return stop

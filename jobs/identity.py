@@ -1,0 +1,94 @@
+"""Every key the farm derives, from one recipe (DESIGN.md, "Identity").
+
+A key is the SHA-256 of canonical JSON (sorted keys, :func:`farm.specs.content_hash`) of
+the same ingredients everywhere:
+
+- the model spec (``ModelSpec.to_dict()``);
+- the mesh key (:func:`farm.mesh.version.mesh_key`: the spec's geometry and density AND
+  the mesher's own code and gmsh's version - a geometry fix once answered for hours from
+  stale caches because keys left the mesher out);
+- the solver version (``"CalculiX 2.20"``);
+- what is solved: a load case for an experiment, a task body for a loop evaluation.
+
+Experiments (sweeps), evaluations (inverse and calibration loops), load paths and loop
+solves all take their keys from here, so two parts of the farm can never disagree on
+what "the same input" means.
+
+Compatibility: stores written before this module (recipe 1) hold experiment ids that
+leave the mesher out. Their groups are guarded by the group's ``mesh_key`` (a group
+refuses a mesh from other code), so within such a group the old id still names exactly
+one experiment: :func:`resolve_ids` keeps the id a group already holds, and a resumed
+old store skips what it has instead of solving it again.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+
+import numpy as np
+
+from farm.mesh.version import mesh_key
+from farm.specs import ModelSpec, content_hash
+
+RECIPE = 2  # 1: experiment ids without the mesh key (stores written before 2026-11)
+DIGITS = 9  # forces (N) and displacements (mm) in keys and decks are rounded to 1e-9
+
+
+def canonical(values) -> tuple[float, ...]:
+    """Values rounded to :data:`DIGITS` decimals, -0.0 made 0.0 (hash- and deck-stable)."""
+    return tuple(float(v) + 0.0 for v in np.round(np.asarray(values, dtype=float), DIGITS))
+
+
+def model_hash(model: ModelSpec) -> str:
+    """Content hash of a model spec alone (default group names)."""
+    return content_hash(model.to_dict())
+
+
+def ingredients(model: ModelSpec, solver: str) -> dict:
+    """What every key of a solve of ``model`` hashes."""
+    return {"model": model.to_dict(), "mesh": mesh_key(model), "solver": solver}
+
+
+def _load(deflection: float, pressure: float) -> dict:
+    return {"deflection_mm": round(float(deflection), 9),
+            "pressure_mpa": round(float(pressure), 12)}
+
+
+def experiment_id(model: ModelSpec, deflection: float, pressure: float, solver: str) -> str:
+    """Id of one virtual experiment: model, mesh, solver and load case."""
+    return content_hash({**ingredients(model, solver), "load": _load(deflection, pressure)})
+
+
+def legacy_experiment_id(model: ModelSpec, deflection: float, pressure: float,
+                         solver: str) -> str:
+    """Recipe 1 (without the mesh key): the ids of stores written before :data:`RECIPE` 2."""
+    return content_hash({"model": model.to_dict(), "load": _load(deflection, pressure),
+                         "solver": solver})
+
+
+def evaluation_key(kind: str, model: ModelSpec, solver: str, outputs: int,
+                   task: Mapping) -> str:
+    """Key of one loop evaluation: its kind, the version of its outputs and its task."""
+    return content_hash({**ingredients(model, solver), "kind": kind, "outputs": outputs,
+                         "task": dict(task)})
+
+
+def path_key(experiment_ids: Iterable[str]) -> str:
+    """Dask key of a load-path task: the same experiments are never run twice at once."""
+    return "path-" + content_hash(list(experiment_ids))[:24]
+
+
+def value_key(body: Mapping) -> str:
+    """Key of a plain value that names no solve itself (an inverse problem, a loop)."""
+    return content_hash(dict(body))
+
+
+def resolve_ids(new: list[str], legacy: list[str], held: Iterable[str]) -> list[str]:
+    """The ids to use in a group that already holds ``held`` (the compatibility rule).
+
+    Each experiment keeps the recipe-1 id its group holds; anything else (a new group, a
+    new load case) gets the current id.
+    """
+    held = set(held)
+    return [old if new_id not in held and old in held else new_id
+            for new_id, old in zip(new, legacy, strict=True)]
