@@ -13,6 +13,14 @@ time (7 significant digits). Rows hold 0 (``total ...`` blocks, ``TOTALS=ONLY``)
 the values. Text that is not such a block (eigenvalue tables, participation factors)
 is skipped. ccx writes nothing to the ``.dat`` file for a diverged increment, so every
 block is converged output.
+
+What ccx always does, and the reader therefore checks (docs/readers.md, "Damaged
+files"): it ends every line; it separates blocks by blank lines and never puts a blank
+or text line among a block's rows; a block has rows unless it is a contact print with
+nothing in contact or a ``statistics for ...`` section (sub-headed tables, kept as a
+block without rows); a node print lists every node of its set, in the same order, each
+time the set is printed; an element print lists every integration point of each of its
+elements. A file that breaks one of these is damaged or cut short: ``ResultsError``.
 """
 
 from __future__ import annotations
@@ -113,20 +121,27 @@ def read_dat(path: str | Path) -> list[DatBlock]:
     Raises
     ------
     ResultsError
-        Missing file, or a block whose rows do not match its title (wrong number of
-        columns, a row cut short, an unreadable number); names the file and line.
+        Missing, empty or binary file, a file cut short (inside a line, after a title,
+        inside a node or element print), a blank or text line among a block's rows, or
+        rows that do not match their title (wrong number of columns, a row cut short,
+        an unreadable number); names the file, the line and what was expected there.
     """
     path = Path(path)
-    lines = read_bytes(path, "dat").decode("latin-1").splitlines()
-    blocks, i = [], 0
+    lines = _lines(read_bytes(path, "dat"), path)
+    blocks, kinds, firsts, i = [], [], [], 0
     while i < len(lines):
         match = _TITLE.match(lines[i])
         if match is None:
             i += 1
             continue
         rows, end = _rows(lines, i + 1)
-        blocks.append(_block(match, rows, str(path), i + 1))
+        block = _block(match, rows, str(path), i + 1)
+        _check_block_end(lines, end, block, str(path))
+        blocks.append(block)
+        kinds.append(_kind(block, match.group("head")))
+        firsts.append(rows[0][0] if rows else end + 1)
         i = end
+    _check_sets(blocks, kinds, firsts, str(path))
     return blocks
 
 
@@ -160,6 +175,133 @@ def select_blocks(
 def block_times(blocks: list[DatBlock], quantity: str | None = None) -> np.ndarray:
     """Sorted distinct times of the blocks (of ``quantity`` if given)."""
     return np.unique(np.array([b.time for b in select_blocks(blocks, quantity)], dtype=float))
+
+
+_NOT_TEXT = re.compile(rb"[\x00-\x08\x0b\x0e-\x1f\x7f]")
+_TEXT_BYTES = bytes(sorted(set(range(256)) - set(range(0x20)) - {0x7F} | set(b"\t\n\r\x0c")))
+# titles whose body is sub-headings and tables (*SECTION PRINT, *CONTACT PRINT CF; the
+# per-point face flux of ccx 2.11's *FACE PRINT): listed as blocks without rows
+_SECTIONS = ("statistics for", "heat flux at the integration points")
+
+
+def _lines(raw: bytes, path: Path) -> list[str]:
+    """The file's lines; ``ResultsError`` for an empty, binary or cut-short file."""
+    if not raw.strip():
+        raise ResultsError(f"{path}: dat file is empty: ccx printed nothing (the deck has no "
+                           "*NODE PRINT, *EL PRINT or *CONTACT PRINT, or the run stopped "
+                           "before its first print)")
+    if raw.translate(None, _TEXT_BYTES) and (bad := _NOT_TEXT.search(raw)):  # translate: fast
+        line = raw.count(b"\n", 0, bad.start()) + 1
+        raise ResultsError(f"{path}, line {line}: byte 0x{raw[bad.start()]:02x} is not text: "
+                           "expected a ccx .dat print file (binary or corrupted file)")
+    lines = raw.decode("latin-1").replace("\r\n", "\n").split("\n")
+    if lines[-1]:  # ccx ends every line: the writer was stopped inside this one
+        raise ResultsError(f"{path}, line {len(lines)}: the file ends inside a line (no end "
+                           f"of line after {lines[-1][-40:]!r}): cut short")
+    return lines[:-1]
+
+
+def _check_block_end(lines: list[str], end: int, block: DatBlock, path: str) -> None:
+    """What follows a block's rows must be a blank line and then no row, or the file end."""
+    what = f"{block.quantity} block (title at line {block.line})"
+    if len(block.values) == 0:
+        _check_no_rows(lines, end, block, path)
+    elif end < len(lines) and lines[end].strip():
+        raise ResultsError(f"{path}, line {end + 1}: expected another row of the {what} or a "
+                           f"blank line, got {lines[end].strip()[:40]!r}")
+    else:
+        after = end
+        while after < len(lines) and not lines[after].strip():
+            after += 1
+        if after < len(lines) and _is_row(lines[after]):
+            raise ResultsError(
+                f"{path}, line {after + 1}: a row after the blank line {end + 1} that ends the "
+                f"{what}; ccx puts no blank line inside a block and starts each block with a "
+                "title (a line inserted or lost)")
+
+
+def _check_no_rows(lines: list[str], end: int, block: DatBlock, path: str) -> None:
+    """A title without rows: a contact print with nothing in contact, or a section."""
+    what = f"{block.quantity} block (title at line {block.line})"
+    if "contact" in block.quantity:
+        return
+    if end == len(lines):
+        raise ResultsError(f"{path}, line {block.line}: the file ends after the title of the "
+                           f"{what}: expected its rows (cut short)")
+    if _TITLE.match(lines[end]):
+        raise ResultsError(f"{path}, line {end + 1}: the {what} has no rows: expected rows "
+                           "before the next title")
+    if not block.quantity.startswith(_SECTIONS):
+        raise ResultsError(f"{path}, line {end + 1}: expected a row of the {what}, got "
+                           f"{lines[end].strip()[:40]!r}")
+
+
+def _check_sets(blocks: list[DatBlock], kinds: list[str], first_rows: list[int],
+                path: str) -> None:
+    """Prints of one set must list its nodes alike and each element's points alike.
+
+    ccx prints every node of a node set each time; an element print may lose whole
+    elements (``*MODEL CHANGE, TYPE=ELEMENT, REMOVE``) but never part of one. So a print
+    cut at a row boundary shows as a missing node or integration point whenever the
+    set was printed before (any quantity). Contact prints, totals and per-element
+    prints are not checked.
+    """
+    last: dict[tuple[str, str], DatBlock] = {}
+    for block, kind, first in zip(blocks, kinds, first_rows, strict=True):
+        if kind not in ("node", "point"):
+            continue
+        ref = last.get((block.set_name, kind))
+        if ref is not None and kind == "node":
+            _same_nodes(block, ref, first, path)
+        elif ref is not None:
+            _same_points(block, ref, first, path)
+        last[block.set_name, kind] = block
+
+
+def _kind(block: DatBlock, head: str) -> str:
+    """``node``, ``point`` (element + integration point), ``element`` or ``other``."""
+    if block.total or not block.set_name or "contact" in block.quantity or not len(block.ids):
+        return "other"  # no rows: a statistics section
+    if block.ids.ndim == 2:
+        return "point" if "integ.pnt." in _parse_head(head)[1] else "other"
+    return "element" if {"elem", "element"} & set(_parse_head(head)[1]) else "node"
+
+
+def _same_nodes(block: DatBlock, ref: DatBlock, first: int, path: str) -> None:
+    n, m = len(block.ids), len(ref.ids)
+    differ = np.flatnonzero(block.ids[: min(n, m)] != ref.ids[: min(n, m)])
+    if differ.size == 0 and n == m:
+        return
+    what = f"the {ref.quantity} block of set {ref.set_name} (line {ref.line})"
+    if differ.size:
+        k = int(differ[0])
+        raise ResultsError(
+            f"{path}, line {first + k}: node {block.ids[k]} where {what} has node "
+            f"{ref.ids[k]}; ccx prints every node of a set in the same order each time "
+            "(a row lost or the file damaged)")
+    if n < m:
+        raise ResultsError(
+            f"{path}, line {first + n}: expected the row of node {ref.ids[n]} (row {n + 1} "
+            f"of {m}) of the {block.quantity} block (title at line {block.line}): {what} "
+            "lists every node of the set (file cut short or a row lost)")
+    raise ResultsError(f"{path}, line {first + m}: node {block.ids[m]} is not in {what}, "
+                       f"which lists the set's {m} nodes (a row too many)")
+
+
+def _same_points(block: DatBlock, ref: DatBlock, first: int, path: str) -> None:
+    elems, start, count = np.unique(block.ids[:, 0], return_index=True, return_counts=True)
+    ref_elems, ref_count = np.unique(ref.ids[:, 0], return_counts=True)
+    _, mine, theirs = np.intersect1d(elems, ref_elems, return_indices=True)
+    bad = np.flatnonzero(count[mine] != ref_count[theirs])
+    if bad.size:
+        k = mine[bad[0]]
+        line = first + int(start[k] + count[k])  # where its next point was due
+        raise ResultsError(
+            f"{path}, line {line}: element {elems[k]} has {count[k]} integration points in "
+            f"the {block.quantity} block (title at line {block.line}), "
+            f"{ref_count[theirs[bad[0]]]} in the {ref.quantity} block of set "
+            f"{ref.set_name} (line {ref.line}); ccx prints every point of an element "
+            "(file cut short or a row lost)")
 
 
 def _rows(lines: list[str], start: int) -> tuple[list[tuple[int, str]], int]:

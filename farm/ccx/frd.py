@@ -3,7 +3,8 @@
 The layout is the cgx manual's "Result Format" (fixed-width Fortran records):
 
 - ``    1C`` / ``    1U`` / ``    1P`` model and parameter headers (``1PSTEP`` carries the
-  block counter, the increment and the step number of the next result block);
+  block counter, the increment and the step number of the next result block; in a
+  ``*FREQUENCY`` step ``1PMODE`` carries the block's mode number);
 - ``    2C`` node block: `` -1`` + id + 3 x E12.5 per node, closed by `` -3``;
 - ``    3C`` element block: `` -1`` + id, type, group, material, then `` -2`` node lines;
 - ``  100C`` result block: the header carries the time (or frequency), then a `` -4``
@@ -71,6 +72,11 @@ class FrdResult:
         float64 values, one column per component.
     line : int
         Line of the block's ``100C`` header, for messages.
+    mode : int
+        Mode number of an eigenmode block (``*FREQUENCY`` step, from the ``1PMODE``
+        record ccx writes before it), 0 for every other block. Modes of equal frequency
+        (symmetric structures) differ only in this number: look them up with
+        :meth:`FrdFile.at_mode`, not by frequency.
     """
 
     name: str
@@ -81,6 +87,7 @@ class FrdResult:
     node_ids: np.ndarray
     values: np.ndarray
     line: int = 0
+    mode: int = 0
 
     def column(self, component: str) -> np.ndarray:
         """Values of one component, shape (n,); ``ResultsError`` for an unknown name."""
@@ -161,11 +168,17 @@ class FrdFile:
         chosen = self.results if name is None else self.results_named(name)
         return np.unique(np.array([r.time for r in chosen], dtype=np.float64))
 
+    def modes(self, name: str | None = None) -> np.ndarray:
+        """Sorted distinct mode numbers of the eigenmode blocks (of ``name`` if given)."""
+        chosen = self.results if name is None else self.results_named(name)
+        return np.unique(np.array([r.mode for r in chosen if r.mode], dtype=np.int64))
+
     def at(self, name: str, time: float, *, rtol: float = 1e-5, atol: float = 1e-12) -> FrdResult:
         """The last ``name`` block whose time is within ``atol + rtol * |time|``.
 
         The default ``rtol`` covers the header's 6 printed digits, so the time asked
-        for in the deck (``*TIME POINTS``) finds its block.
+        for in the deck (``*TIME POINTS``) finds its block. For eigenmodes the time is
+        the frequency; when modes share it, ``ResultsError``: use :meth:`at_mode`.
         """
         hits = [
             r for r in self.results_named(name) if abs(r.time - time) <= atol + rtol * abs(time)
@@ -176,7 +189,30 @@ class FrdFile:
                 f"{self.path}: no {name} block at time {time:g} "
                 f"(it has {name} at times {have.tolist()[:12]}; names: {self.names()})"
             )
+        modes = sorted({r.mode for r in hits if r.mode})
+        if len(modes) > 1:
+            raise ResultsError(
+                f"{self.path}: {name} blocks of modes {modes} share the frequency {time:g} "
+                f"(lines {[r.line for r in hits][:6]}); pick one with at_mode({name!r}, mode)"
+            )
         return hits[-1]
+
+    def at_mode(self, name: str, mode: int, *, step: int | None = None) -> FrdResult:
+        """The ``name`` block of eigenmode ``mode`` (of ``step`` when several steps are
+        ``*FREQUENCY`` steps); ``ResultsError`` when there is none or more than one."""
+        hits = [r for r in self.results_named(name)
+                if r.mode == mode and (step is None or r.step == step)]
+        if len(hits) == 1:
+            return hits[0]
+        where = "" if step is None else f" in step {step}"
+        if not hits:
+            raise ResultsError(f"{self.path}: no {name} block of mode {mode}{where} (it has "
+                               f"{name} of modes {self.modes(name).tolist()[:12]}; names: "
+                               f"{self.names()})")
+        raise ResultsError(
+            f"{self.path}: {len(hits)} {name} blocks of mode {mode}{where} (steps "
+            f"{[r.step for r in hits]}, lines {[r.line for r in hits][:6]}); give the step, "
+            "or for cyclic symmetry read the blocks with results_named")
 
 
 def read_frd(
@@ -284,6 +320,7 @@ class _Scanner:
     def scan(self) -> _Parts:
         parts = _Parts(blocks=[])
         step = (0, 0)  # (step, increment) of the last 1PSTEP record
+        mode = 0  # of the 1PMODE record after that 1PSTEP (eigenmode blocks only)
         while (line := self.next_line()) is not None:
             key = line[:6].strip()
             if key == b"2C":
@@ -291,9 +328,11 @@ class _Scanner:
             elif key == b"3C":
                 parts.elements = self.element_block(line)
             elif line.lstrip().startswith(b"1PSTEP"):
-                step = (_int(line[48:60]), _int(line[36:48]))
+                step, mode = (_int(line[48:60]), _int(line[36:48])), 0
+            elif line.lstrip().startswith(b"1PMODE"):
+                mode = _int(line[10:36])  # "%5sPMODE%25i"
             elif key == b"100C":
-                block = self.result_block(line, step)
+                block = self.result_block(line, step, mode)
                 if block is None:  # truncated and allowed: nothing after it
                     break
                 parts.blocks.append(block)
@@ -350,7 +389,8 @@ class _Scanner:
             return None
         return tuple(_frozen(a) for a in _elements(*got, idw, self.path))
 
-    def result_block(self, header: bytes, step: tuple[int, int]) -> tuple[int, FrdResult] | None:
+    def result_block(self, header: bytes, step: tuple[int, int],
+                     mode: int = 0) -> tuple[int, FrdResult] | None:
         line, idw, count = self.lineno, self.id_width(header), _count(header)
         time = _float(header[12:24], self, line, "time")
         name, components = self.component_records(line)
@@ -361,7 +401,7 @@ class _Scanner:
             return None
         ids, values = _records(*got, len(components), idw, self.path, self.known_ids)
         self.check_count(line, name, len(ids), count)
-        result = FrdResult(name, *step, time, components, ids, _frozen(values), line)
+        result = FrdResult(name, *step, time, components, ids, _frozen(values), line, mode)
         return _int(header[58:63]), result
 
     def component_records(self, header_line: int) -> tuple[str | None, tuple[str, ...]]:

@@ -107,7 +107,7 @@ def test_gzipped_file_reads_like_the_plain_one(tmp_path):
 def test_fast_path_gives_the_slow_paths_result(monkeypatch):
     """Whole blocks are cut by column when the rows line up; the token-by-token path
     (needed for tagged rows) must give the same arrays."""
-    files = [ONE, DATA / "diverge.dat", *sorted(EXAMPLES.glob("*.dat.ref*"))[:40]]
+    files = [ONE, DATA / "diverge.dat", *published_dats()[:40]]
     fast = [read_dat(path) for path in files]
     monkeypatch.setattr(dat_module, "_fixed_table", lambda texts: None)
     for path, blocks in zip(files, fast, strict=True):
@@ -117,6 +117,26 @@ def test_fast_path_gives_the_slow_paths_result(monkeypatch):
         for a, b in zip(blocks, slow, strict=True):
             np.testing.assert_array_equal(a.ids, b.ids)
             np.testing.assert_array_equal(a.values, b.values)
+
+
+def published_dats() -> list[Path]:
+    """The test suite's reference ``.dat`` files that hold something (35 are empty:
+    decks without prints)."""
+    def holds_text(path: Path) -> bool:
+        raw = path.read_bytes()
+        return bool((gzip.decompress(raw) if path.suffix == ".gz" else raw).strip())
+
+    return [path for path in sorted(EXAMPLES.glob("*.dat.ref*")) if holds_text(path)]
+
+
+def test_every_published_dat_reads():
+    """Every non-empty ``.dat`` ccx 2.11 wrote for its test suite passes the damage checks
+    (blank and text lines, cuts, node and point lists of a set), and so does ours."""
+    files = published_dats()
+    if not files:
+        example("beamp", ".inp")  # skips (or fails in CI) without the examples
+    blocks = [read_dat(path) for path in files]
+    assert len(files) >= 300 and sum(map(len, blocks)) >= 2700
 
 
 def test_diverged_run_printed_only_converged_increments():
@@ -242,6 +262,94 @@ def test_broken_files_raise_with_file_and_line(tmp_path, rows, message):
 def test_missing_file_raises(tmp_path):
     with pytest.raises(ResultsError, match=r"cannot read dat file .*nothing\.dat"):
         read_dat(tmp_path / "nothing.dat")
+
+
+def cut_after(lines: int) -> str:
+    """The fixture's first ``lines`` lines, each with its end of line (a cut at a
+    line boundary, as a killed writer leaves it)."""
+    return "".join(ONE.read_text().splitlines(keepends=True)[:lines])
+
+
+def test_a_cut_between_blocks_leaves_whole_blocks(tmp_path):
+    """A cut between blocks cannot be seen in the file: the blocks before it are whole."""
+    assert len(read_dat(dat_file(tmp_path, cut_after(40)))) == 5  # the prints of time 0.25
+
+
+# ccx writes every line whole and one row per node of a node set at every print, one
+# row per integration point of every element at every element print; a block never
+# holds a blank or text line (tests/farm/test_dat.py::test_every_published_dat_reads)
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        pytest.param(cut_after(85), r"line 86: expected the row of node 123457 \(row 3 of 4\)",
+                     id="node-print-cut-at-a-row"),
+        pytest.param(cut_after(116), r"line 117: element 100001 has 4 integration points",
+                     id="element-print-cut-at-a-row"),
+        pytest.param(cut_after(82), r"line 82: .*ends after the title of the displacements",
+                     id="cut-after-a-title"),
+        pytest.param(cut_after(84) + "    123456  0.000000E+00", r"line 85: .*no end of line",
+                     id="cut-inside-a-line"),
+        pytest.param(cut_after(81) + " displacements (vx,vy", r"line 82: .*no end of line",
+                     id="cut-inside-a-title"),
+        pytest.param(cut_after(5) + "garbage\n" + cut_after(120)[len(cut_after(5)):],
+                     r"line 6: expected another row of the displacements block \(title at "
+                     r"line 2\) or a blank line, got 'garbage'", id="garbage-inside-a-block"),
+        pytest.param(cut_after(5) + "\n" + cut_after(120)[len(cut_after(5)):],
+                     r"line 7: a row after the blank line 6 .*displacements block \(title at "
+                     r"line 2\)", id="blank-line-inside-a-block"),
+        pytest.param(cut_after(3) + "garbage\n" + cut_after(120)[len(cut_after(3)):],
+                     r"line 4: expected a row of the displacements block \(title at line 2\)",
+                     id="garbage-as-first-row"),
+        pytest.param(cut_after(2) + cut_after(120)[len(cut_after(7)):],
+                     r"line 4: the displacements block \(title at line 2\) has no rows",
+                     id="block-without-rows"),
+        pytest.param("", r"job\.dat: dat file is empty", id="empty"),
+        pytest.param("\n  \n", r"job\.dat: dat file is empty", id="blank"),
+    ],
+)
+def test_damaged_files_raise_with_file_line_and_expectation(tmp_path, text, message):
+    path = dat_file(tmp_path, text)
+    with pytest.raises(ResultsError, match=message) as info:
+        read_dat(path)
+    assert str(path) in str(info.value)
+
+
+@pytest.mark.parametrize(("head", "line"), [(b"", 1), (BROKEN_HEAD.encode(), 4)])
+def test_binary_junk_raises(tmp_path, head, line):
+    path = tmp_path / "job.dat"
+    path.write_bytes(head + bytes(range(256)) * 4 + b"\n")
+    with pytest.raises(ResultsError, match=rf"line {line}: byte 0x00 is not text"):
+        read_dat(path)
+
+
+def test_node_prints_of_a_set_list_the_same_nodes(tmp_path):
+    """A row lost in the middle of a file (not only at its end) is caught too."""
+    text = cut_after(120).replace("    123457  0.000000E+00  0.000000E+00 -1.800000E-01\n", "")
+    with pytest.raises(ResultsError, match=r"line 46: node 123458 where the forces block "
+                       r"of set NTOP \(line 9\) has node 123457"):
+        read_dat(dat_file(tmp_path, text))
+
+
+def test_rows_ccx_may_legitimately_vary_or_omit_are_accepted(tmp_path):
+    """Contact prints follow the contact state (none in contact: a title without rows);
+    an element print after ``*MODEL CHANGE, TYPE=ELEMENT, REMOVE`` lists fewer elements;
+    ``*SECTION PRINT`` statistics are sub-headed tables the reader lists without rows."""
+    contact = ("\n relative contact displacement (slave node,normal,tang1,tang2) for all "
+               "contact elements and time {t}\n")
+    ips = "".join(f"{e:10d}{p:4d}  1.000000E+00\n" for e in (1, 2) for p in (1, 2))
+    text = (
+        contact.format(t=" 0.1000000E+00")
+        + contact.format(t=" 0.2000000E+00") + "\n        33  1.0E+00  0.0E+00  0.0E+00\n"
+        + "\n pe (elem, integ.pnt.,pe) for set EALL and time  0.1000000E+01\n\n" + ips
+        + "\n pe (elem, integ.pnt.,pe) for set EALL and time  0.2000000E+01\n\n" + ips[:58]
+        + "\n statistics for surface set SBOT and time  0.1000000E+01\n\n"
+        "   total surface force (fx,fy,fz) and moment about the origin(mx,my,mz)\n\n"
+        "   -1.329195E+02  8.261111E-12 -3.074208E-12 -4.843667E-11 -5.581704E+02  6.6E+01\n"
+        + contact.format(t=" 0.3000000E+00")
+    )
+    blocks = read_dat(dat_file(tmp_path, text))
+    assert [len(b.values) for b in blocks] == [0, 1, 4, 2, 0, 0]
+    assert blocks[3].ids.tolist() == [[1, 1], [1, 2]]
 
 
 # ------------------------------------------------------------------ real ccx runs

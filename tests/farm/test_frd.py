@@ -283,6 +283,111 @@ def test_diverged_flag_overrides_the_guess():
         "DISP", "STRESS", "TOSTRAIN", "FORC", "ERROR"]
 
 
+# ------------------------------------------------------------ eigenmodes (*FREQUENCY)
+
+
+def modal_frd(modes: list[tuple[int, float, list[float]]], output_offset: int = 0) -> bytes:
+    """A ccx-style frd of two nodes and one DISP block per mode, as ccx 2.20 writes a
+    ``*FREQUENCY`` step: ``1PSTEP`` (block counter, increment, step), ``1PMODE`` (the
+    mode) and a ``100CL`` header with the frequency and the output counter, which is
+    the mode only when no step came before (``output_offset``)."""
+    out = ["    1C", f"    2C{'':18s}{2:12d}{1:38d}",
+           " -1         1 0.00000E+00 0.00000E+00 0.00000E+00",
+           " -1         2 1.00000E+00 0.00000E+00 0.00000E+00", " -3"]
+    for block, (mode, freq, disp) in enumerate(modes, start=1):
+        out += [f"    1PSTEP{block:25d}{1:12d}{1:12d}", f"    1PMODE{mode:25d}",
+                f"  100CL{100 + mode:5d}{freq:12.5E}{2:12d}{'':21s}2{mode + output_offset:5d}"
+                f"MODAL{1:8d}",
+                " -4  DISP        4    1", " -5  D1          1    2    1    0",
+                " -5  D2          1    2    2    0", " -5  D3          1    2    3    0",
+                " -5  ALL         1    2    0    0    1ALL"]
+        out += [f" -1{node:10d}" + "".join(f"{v:12.5E}" for v in disp) for node in (1, 2)]
+        out.append(" -3")
+    return ("\n".join([*out, " 9999", ""])).encode()
+
+
+# a square section's two bending modes share their frequency (to all printed digits)
+DEGENERATE = [(1, 24645.8153, [1.0, 0.0, 0.0]), (2, 24645.8153, [0.0, 1.0, 0.0]),
+              (3, 134175.879, [0.0, 0.0, 1.0])]
+
+
+@pytest.mark.parametrize("offset", [0, 1])
+def test_modes_of_equal_frequency_stay_distinct(tmp_path, offset):
+    path = tmp_path / "modes.frd"
+    path.write_bytes(modal_frd(DEGENERATE, output_offset=offset))
+    f = read_frd(path)
+    assert [r.mode for r in f.results] == [1, 2, 3] and f.results[0].time == f.results[1].time
+    np.testing.assert_array_equal(f.modes("DISP"), [1, 2, 3])
+    for mode, _, disp in DEGENERATE:
+        np.testing.assert_array_equal(f.at_mode("DISP", mode).values, [disp, disp])
+    with pytest.raises(ResultsError, match=r"modes \[1, 2\] share the frequency 24645\.8"):
+        f.at("DISP", 24645.8)  # which one is meant cannot be guessed
+    assert f.at("DISP", 134176.0).mode == 3  # a simple frequency still finds its mode
+    with pytest.raises(ResultsError, match=r"no DISP block of mode 4 .*modes \[1, 2, 3\]"):
+        f.at_mode("DISP", 4)
+
+
+def test_static_results_have_mode_zero():
+    f = read_frd(ONE)
+    assert {r.mode for r in f.results} == {0} and f.modes().size == 0
+
+
+def square_beam_deck(n_modes: int = 4) -> str:
+    """A 1 x 1 x 6 cantilever of 2 x 2 x 12 C3D8, clamped at z = 0: by symmetry its
+    first two bending modes (about x and about y) have one frequency."""
+    def node(i, j, k):
+        return 1 + i + 3 * (j + 3 * k)
+
+    lines = ["*NODE, NSET=NALL"]
+    lines += [f"{node(i, j, k)}, {i / 2}, {j / 2}, {k / 2}"
+              for k in range(13) for j in range(3) for i in range(3)]
+    lines.append("*ELEMENT, TYPE=C3D8, ELSET=EALL")
+    corners = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (0, 0, 1), (1, 0, 1), (1, 1, 1),
+               (0, 1, 1)]
+    elements = [(i, j, k) for k in range(12) for j in range(2) for i in range(2)]
+    lines += [f"{e}, " + ", ".join(str(node(i + a, j + b, k + c)) for a, b, c in corners)
+              for e, (i, j, k) in enumerate(elements, start=1)]
+    lines += ["*NSET, NSET=FIX", ", ".join(str(node(i, j, 0)) for j in range(3) for i in range(3)),
+              "*MATERIAL, NAME=STEEL", "*ELASTIC", "210000., 0.3", "*DENSITY", "7.8E-9",
+              "*SOLID SECTION, ELSET=EALL, MATERIAL=STEEL", "*BOUNDARY", "FIX, 1, 3",
+              "*STEP", "*FREQUENCY", str(n_modes), "*NODE FILE", "U",
+              "*NODE PRINT, NSET=NALL", "U", "*END STEP"]
+    return "\n".join(lines) + "\n"
+
+
+@pytest.mark.ccx
+def test_square_beam_degenerate_modes_keep_their_numbers(ccx, tmp_path):
+    deck = tmp_path / "square.inp"
+    deck.write_text(square_beam_deck())
+    run = solve(deck, tmp_path)
+    assert run.returncode == 0, run.output_tail
+    f = read_frd(tmp_path / "square.frd")
+    np.testing.assert_array_equal(f.modes("DISP"), [1, 2, 3, 4])
+    first, second = f.at_mode("DISP", 1), f.at_mode("DISP", 2)
+    assert first.time == second.time  # equal to the 10 printed digits
+    # the dat prints the modes in order, all at the step time: the k-th print is mode k
+    prints = select_blocks(read_dat(tmp_path / "square.dat"), "displacements")
+    assert len(prints) == 4
+    for mode, printed in enumerate(prints, start=1):
+        got = f.at_mode("DISP", mode).values_at(printed.ids)
+        np.testing.assert_allclose(got, printed.values, rtol=5e-6,
+                                   atol=5e-6 * np.abs(printed.values).max())
+    # two different shapes: the tips of the two bending modes move at right angles
+    tip = [n for n in range(1, 118) if n > 108]
+    a, b = first.values_at(tip)[:, :2].mean(axis=0), second.values_at(tip)[:, :2].mean(axis=0)
+    assert abs(a @ b) < 0.05 * np.linalg.norm(a) * np.linalg.norm(b)
+
+
+@pytest.mark.parametrize(("name", "frequency"), [("beampsensfreq", 1.17548e5),
+                                                 ("boxprofile", 31.6584)])
+def test_published_degenerate_modes(name, frequency):
+    """ccx 2.11's reference frd files of the test suite hold such pairs (modes 1, 2)."""
+    f = read_frd(example(name, ".frd.ref"))
+    first, second = f.at_mode("DISP", 1), f.at_mode("DISP", 2)
+    assert first.time == second.time == pytest.approx(frequency, rel=1e-6)
+    assert first.line != second.line and not np.array_equal(first.values, second.values)
+
+
 # ------------------------------------------------------------------ real ccx runs
 
 
