@@ -35,17 +35,4 @@ TABLE_5_1 = [
     ("strain + N(0, 0.04 %)", 4485.20, 0.017, 0.026, 149.28),
 ]
 
-# Table 4.1 (Fz N, Mx N m, My N m) and Table 4.2 (RMSE Ux, Uy, Uz mm; exx, eyy, exy micro)
-TABLE_4_1 = [
-    ("reference", 359.08, 0.0, 0.0),
-    ("displacement-based", 359.23, -0.840, -0.019),
-    ("strain-based", 356.71, -0.15, -0.25),
-    ("displacement-based + N(0, 1)", 358.28, -0.84, -0.020),
-    ("strain-based + N(0, 0.04)", 357.40, -0.2, -0.27),
-]
-TABLE_4_2 = [
-    ("displacement-based", 0.0075, 0.012, 0.049, 116.60, 172.07, 138.53),
-    ("strain-based", 0.030, 0.19, 0.24, 485.70, 560.16, 252.52),
-    ("displacement-based + N(0, 1)", 0.010, 0.040, 0.070, 131.08, 171.22, 147.54),
-    ("strain-based + N(0, 0.04)", 0.27, 1.93, 2.25, 4538.7, 5089.14, 2530.81),
-]
+# Tables 4.1-4.4 and the chapter-4 nodal-error spreads: analysis/report/ch4_thesis.py

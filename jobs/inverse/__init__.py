@@ -5,5 +5,6 @@
 - :mod:`jobs.inverse.objective`: eqs. 4.1/4.2 and the combined residuals, noise
 - :mod:`jobs.inverse.guesses`: initial guesses (scaled, uniform, thickness offset)
 - :mod:`jobs.inverse.loop`: one solve; :mod:`jobs.inverse.run`: all of a study on Dask
-- :mod:`jobs.inverse.store`, :mod:`jobs.inverse.tables`: results group, Tables 4.1-4.4
+- :mod:`jobs.inverse.store`: the results group (schema in :mod:`storage.solves`; Tables
+  4.1-4.4 from it in :mod:`analysis.report.ch4`)
 """

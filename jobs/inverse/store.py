@@ -8,8 +8,6 @@ from __future__ import annotations
 import json
 from collections.abc import Sequence
 
-import xarray as xr
-
 from jobs.errors import JobError
 from jobs.inverse.loop import LoopResult
 from jobs.inverse.problem import Problem
@@ -19,7 +17,6 @@ from storage.solves import (
     SolveRecord,
     SolvesAttrs,
     Unknowns,
-    solves_dataset,
     write_solves,
 )
 
@@ -56,13 +53,6 @@ def attrs(study: InverseStudy, problem: Problem) -> SolvesAttrs:
         noise=json.dumps({"displacement_mm": study.noise.displacement,
                           "strain": study.noise.strain}),
         problem_hash=study.problem_hash())
-
-
-def to_dataset(problem: Problem, results: Sequence[LoopResult],
-               study: InverseStudy | None = None) -> xr.Dataset:
-    """The group's contents in memory (what :func:`write_results` writes)."""
-    return solves_dataset(unknowns(problem), [record(r) for r in results],
-                          None if study is None else attrs(study, problem))
 
 
 def write_results(study: InverseStudy, problem: Problem, results: Sequence[LoopResult]) -> None:

@@ -52,7 +52,7 @@ def study_text(opts: Options) -> str:
 
 def run(opts: Options, log: Log | None = None) -> StageRun:
     """Run the chapter-4 study on the farm; its report is ``reports["ch4"]``."""
-    from jobs.inverse.run import run_inverse, summary_line
+    from jobs.inverse.run import run_inverse
     from jobs.inverse.study import parse_inverse_study
 
     log = logger(log)
@@ -62,7 +62,7 @@ def run(opts: Options, log: Log | None = None) -> StageRun:
     stage.texts["ch4"], stage.studies["ch4"] = text, study
     report = run_inverse(study, scheduler=opts.scheduler, workers=opts.workers)
     stage.reports["ch4"] = report
-    log(f"ch4: {summary_line(report)}")
+    log(f"ch4: {report.summary()}")
     stage.ccx_runs, stage.solver_seconds = report.totals.solved, report.totals.solver_seconds
     stage.notes += notes(report)
     stage.wall_seconds = time.perf_counter() - start

@@ -415,23 +415,6 @@ def test_nodal_errors_and_cost_from_the_store(stored):
                                        "converged 1"]})
 
 
-def test_the_deprecated_tables_module_gives_the_stored_tables(stored):
-    import pandas as pd
-
-    from analysis.report import ch4
-
-    with pytest.warns(DeprecationWarning):
-        import importlib
-
-        import jobs.inverse.tables as tables
-
-        importlib.reload(tables)
-    _, problem, results, ds = stored
-    for name in ch4.TABLES:
-        pd.testing.assert_frame_equal(getattr(tables, name)(results, problem),
-                                      getattr(ch4, name)(ds), check_exact=True)
-
-
 def test_farm_invert_reports_from_the_stored_group(stored, tmp_path):
     import io
 
