@@ -4,7 +4,6 @@ and the reporting room's imports (storage only, never farm or jobs)."""
 
 from __future__ import annotations
 
-import ast
 import json
 from pathlib import Path
 
@@ -14,7 +13,6 @@ import pytest
 import storage
 from analysis.report import ch3
 
-ROOT = Path(__file__).resolve().parents[2]
 N_INNER, N_TREAD = 4, 5
 
 
@@ -111,19 +109,4 @@ def test_the_figure_is_a_png(stage):
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
-def _imports(path: Path) -> set[str]:
-    """Top-level packages ``path`` imports, at module level or inside functions."""
-    names = set()
-    for node in ast.walk(ast.parse(path.read_text(), str(path))):
-        if isinstance(node, ast.Import):
-            names |= {a.name.split(".")[0] for a in node.names}
-        elif isinstance(node, ast.ImportFrom) and node.level == 0:
-            names.add(node.module.split(".")[0])
-    return names
-
-
-def test_the_reporting_room_imports_neither_farm_nor_jobs():
-    files = sorted((ROOT / "analysis" / "report").glob("*.py"))
-    assert {p.stem for p in files} >= {"ch3", "ch5", "calibration", "reproduction", "thesis"}
-    for path in files:
-        assert not _imports(path) & {"farm", "jobs", "cli"}, path.name
+# That analysis/report imports neither farm nor jobs is tests/test_layering.py's check.
