@@ -2,18 +2,30 @@
 
 The ``farm`` CLI (:mod:`cli`) mounts :data:`app` as ``farm analyse`` and turns
 :class:`~analysis.errors.AnalysisError` and :class:`storage.StoreError` into one line on
-stderr; the commands here raise those errors and never exit themselves.
+stderr; the commands here raise those errors and never exit themselves. Options are
+checked before the analysis runs: ``--out`` must be a folder that can be written,
+``--scheduler`` an address, and ``--reference-deflection`` one of the deflections the
+selection holds (the nearest one was once used silently: 999 mm meant 30 mm).
 """
 
 from __future__ import annotations
 
 import importlib
+import math
 from pathlib import Path
 from typing import Annotated
 
+import numpy as np
 import typer
 
 from analysis.errors import ParameterError
+from cli.options import check_scheduler
+from jobs import validate
+from jobs.errors import StudyError
+
+REFERENCE_TOLERANCE_MM = 1e-6  # stored deflections are rounded to 1e-9 mm
+MAX_DRAWS = 10_000  # Monte Carlo draws per noise level
+MAX_NOISE_LEVEL = 100.0  # multiples of the thesis' noise level
 
 
 def _study(name: str):
@@ -57,7 +69,8 @@ Reference = Annotated[
     typer.Option(help="Deflection (mm) of the reference experiment (default: median)."),
 ]
 Scheduler = Annotated[
-    str | None, typer.Option(help="Dask scheduler address, e.g. tcp://host:8786.")
+    str | None,
+    typer.Option(help="Dask scheduler address, e.g. tcp://host:8786.", callback=check_scheduler),
 ]
 
 
@@ -68,7 +81,26 @@ def _load(store: str, group: str | None, pressure: float | None, deflection: flo
 
 
 def _out(out: Path | None, command: str) -> Path:
-    return out if out is not None else Path("analysis-out") / command
+    folder = out if out is not None else Path("analysis-out") / command
+    try:
+        return validate.output_folder(folder, "--out")
+    except StudyError as e:
+        raise ParameterError(str(e)) from e
+
+
+def _reference(ds, deflection: float | None) -> float | None:
+    """``--reference-deflection`` if the selection holds it (within
+    :data:`REFERENCE_TOLERANCE_MM`), else one line listing the deflections it holds."""
+    if deflection is None:
+        return None
+    stored = np.unique(np.asarray(ds["deflection"].values, dtype=float))
+    if math.isfinite(deflection) and np.any(np.abs(stored - deflection) <= REFERENCE_TOLERANCE_MM):
+        return deflection
+    shown = ", ".join(f"{d:g}" for d in stored[:12]) + (", ..." if len(stored) > 12 else "")
+    raise ParameterError(
+        f"--reference-deflection {deflection:g} mm is not a deflection of the selected "
+        f"experiments; give one of: {shown} mm"
+    )
 
 
 def _done(report) -> None:
@@ -88,11 +120,12 @@ def pca(
     scheduler: Scheduler = None,
 ) -> None:
     """Cross-covariance PCA per direction: singular values, eigen-maps, importance (§5.3)."""
+    folder = _out(out, "pca")
     with dask_scheduler(scheduler):
         ds = _load(store, group, pressure, deflection)
         _done(
             _study("crosscov").run(
-                ds, _out(out, "pca"), inputs=inputs, n_modes=components, component=force_component
+                ds, folder, inputs=inputs, n_modes=components, component=force_component
             )
         )
 
@@ -111,12 +144,14 @@ def pcr(
     scheduler: Scheduler = None,
 ) -> None:
     """Principal component regression with 1..N modes (§5.4, Figs. 5.5-5.7)."""
+    folder = _out(out, "pcr")
     with dask_scheduler(scheduler):
         ds = _load(store, group, pressure, deflection)
+        reference_deflection = _reference(ds, reference_deflection)
         _done(
             _study("pcr").run(
                 ds,
-                _out(out, "pcr"),
+                folder,
                 inputs=inputs,
                 max_modes=components,
                 reference_deflection=reference_deflection,
@@ -146,12 +181,14 @@ def plsr(
     scheduler: Scheduler = None,
 ) -> None:
     """PLS regression, SIMPLS beside scikit-learn's NIPALS, PCTVAR (§5.5, Figs. 5.8-5.10)."""
+    folder = _out(out, "plsr")
     with dask_scheduler(scheduler):
         ds = _load(store, group, pressure, deflection)
+        reference_deflection = _reference(ds, reference_deflection)
         _done(
             _study("plsr").run(
                 ds,
-                _out(out, "plsr"),
+                folder,
                 inputs=inputs,
                 max_modes=components,
                 cv=cv,
@@ -205,12 +242,15 @@ def noise(
 ) -> None:
     """Monte Carlo measurement noise on PLSR: node maps, Table 5.1, sweep (§5.6)."""
     levels = _levels(noise_levels)
+    _draws(draws)
+    folder = _out(out, "noise")
     with dask_scheduler(scheduler):
         ds = _load(store, group, pressure, deflection)
+        reference_deflection = _reference(ds, reference_deflection)
         _done(
             _study("noise").run(
                 ds,
-                _out(out, "noise"),
+                folder,
                 inputs=inputs,
                 n_components=components,
                 multipliers=levels,
@@ -228,8 +268,20 @@ def _levels(text: str | None):
     if text is None:
         return _study("noise").DEFAULT_MULTIPLIERS
     try:
-        return tuple(float(v) for v in text.split(",") if v.strip())
+        levels = tuple(float(v) for v in text.split(",") if v.strip())
     except ValueError as exc:
         raise ParameterError(
-            f"--noise-levels must be numbers separated by commas, got {text!r}"
+            f"--noise-levels must be numbers separated by commas, got {validate.shown(text)}"
         ) from exc
+    if not levels or not all(0 <= v <= MAX_NOISE_LEVEL for v in levels):  # NaN fails too
+        raise ParameterError(
+            f"--noise-levels must be multiples of the thesis' noise in [0, {MAX_NOISE_LEVEL:g}], "
+            f"got {validate.shown(text)}"
+        )
+    return levels
+
+
+def _draws(draws: int) -> int:
+    if not 2 <= draws <= MAX_DRAWS:
+        raise ParameterError(f"--draws must be in [2, {MAX_DRAWS}], got {draws}")
+    return draws

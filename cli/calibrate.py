@@ -68,20 +68,24 @@ def calibrate(
     from cli.params import build_model
     from farm.ccx.runner import find_ccx
     from farm.errors import SpecError
+    from jobs import validate
     from jobs.calibrate.fit import CalibrationSettings
     from jobs.calibrate.params import Parameters, default_parameters
     from jobs.calibrate.references import read_points, thesis_points
     from jobs.calibrate.run import run_calibration
 
     if model not in ("reduced", "full"):
-        raise SpecError(f"unknown model {model!r}: choose 'reduced' or 'full'")
+        raise SpecError(f"unknown model {validate.shown(model)}: choose 'reduced' or 'full'")
     base = build_model(model, materials, None, overrides)
     names = (tuple(s.strip() for s in parameters.split(",") if s.strip()) if parameters
              else default_parameters(model, thickness))
     params = Parameters(names, base)
-    points = read_points(references, model) if references else thesis_points(model)
-    if max_evaluations < 2 or prior_weight < 0:
-        raise SpecError("--max-evaluations must be >= 2 and --prior-weight >= 0")
+    points = read_points(references, base) if references else thesis_points(model)
+    validate.integer(max_evaluations, "--max-evaluations", low=2, high=validate.MAX_EVALUATIONS)
+    validate.number(prior_weight, "--prior-weight", low=0)
+    validate.output_folder(out, "--out")
+    if cache is not None:
+        validate.output_folder(cache, "--cache")
     if scheduler is None:
         find_ccx()
     console = Console(width=None if sys.stdout.isatty() else 160)

@@ -24,7 +24,9 @@ def export(
     from farm.export import surface_vtus
     from farm.mesh import mesh_for
     from farm.specs import ModelSpec
+    from jobs import validate
 
+    validate.output_folder(out, "--out")  # before reading the store or meshing
     groups = [group] if group else storage.list_groups(store)
     if len(groups) != 1:
         raise SpecError(f"the store has groups {', '.join(groups) or 'none'}: choose one with "

@@ -77,14 +77,16 @@ def invert(study_file: Path = STUDY, scheduler: str = SCHEDULER, workers: int = 
     Running it again replays every evaluation from the cache (no ccx): resuming.
     """
     from farm.ccx.runner import find_ccx
+    from jobs import validate
     from jobs.inverse.run import run_inverse
     from jobs.inverse.study import load_inverse_study, with_repeats
 
     study = load_inverse_study(study_file)  # everything is validated before anything runs
     if repeats is not None:
-        if repeats < 1:
-            raise typer.BadParameter("--repeats must be >= 1")
+        validate.integer(repeats, "--repeats", low=1, high=validate.MAX_REPEATS)
         study = with_repeats(study, repeats)
+    if out is not None:
+        validate.output_folder(out, "--out")
     if scheduler is None:
         find_ccx()
     console = Console(width=None if sys.stdout.isatty() else 180)

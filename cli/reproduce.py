@@ -34,11 +34,15 @@ def reproduce(
     from farm.ccx.runner import ccx_version, find_ccx
     from farm.errors import SpecError
     from farm.presets import MATERIAL_PRESETS
+    from jobs import validate
     from jobs.reproduce import Options
 
     if materials not in MATERIAL_PRESETS:
-        raise SpecError(f"unknown material preset {materials!r}: choose one of "
+        raise SpecError(f"unknown material preset {validate.shown(materials)}: choose one of "
                         f"{', '.join(MATERIAL_PRESETS)}")
+    validate.output_folder(out, "--out")
+    if store is not None:
+        store = validate.store_location(store, "--store")
     find_ccx()
     out = out.resolve()
     opts = Options(out=out, store=store or str(out / "thesis.zarr"), quick=quick,

@@ -1,4 +1,8 @@
-"""``farm run``: solve one load path locally (no cluster) and print the force table."""
+"""``farm run``: solve one load path locally (no cluster) and print the force table.
+
+Every argument is checked before the solver starts (docs/limits.md), ``--out`` and
+``--vtu`` included: a path that cannot be written must not cost a finished solve.
+"""
 
 from __future__ import annotations
 
@@ -12,9 +16,12 @@ from rich.table import Table
 
 from cli.params import build_model, parse_range
 from farm.ccx.runner import find_ccx
+from farm.errors import SpecError
 from farm.experiment import PathResult, run_load_path
 from farm.mesh import mesh_for
-from farm.specs import LoadPath, SolverSettings
+from farm.specs import MAX_PRESSURE_MPA, THREADS, TIMEOUT_S, LoadPath, SolverSettings
+from jobs import validate
+from jobs.errors import StudyError
 
 
 def run(
@@ -38,9 +45,7 @@ def run(
     """Solve one load path (one model, one pressure, several deflections) and print a table."""
     spec = build_model(model, materials, road, overrides)
     kpa = (200.0 if spec.inflated else 0.0) if pressure is None else pressure
-    path = LoadPath(parse_range(deflection), kpa / 1000.0)
-    path.check_against(spec)
-    settings = SolverSettings(threads=threads, timeout=timeout, keep_scratch=keep)
+    path, settings = _checked(spec, kpa, deflection, threads, timeout, keep, out, vtu)
     find_ccx()  # fail before meshing if the solver is missing
     if keep:
         scratch = Path(f"farm-run-{time.strftime('%Y%m%d-%H%M%S')}").resolve()
@@ -57,6 +62,27 @@ def run(
 
         files = path_vtus(result, mesh_for(spec), vtu)
         Console(stderr=True).print(f"{len(files)} VTU files written to {vtu}")
+
+
+def _checked(spec, kpa: float, deflection: str, threads: int, timeout: float, keep: bool,
+             out: Path | None, vtu: Path | None) -> tuple[LoadPath, SolverSettings]:
+    """The load path and solver settings, every bound checked (raises SpecError)."""
+    try:
+        validate.number(kpa, "--pressure", low=0, high=1000 * MAX_PRESSURE_MPA)
+        validate.integer(threads, "--threads", low=THREADS[0], high=THREADS[1])
+        validate.number(timeout, "--timeout", low=TIMEOUT_S[0], high=TIMEOUT_S[1])
+        deflections = parse_range(deflection)
+        validate.EXPERIMENTS.check(len(deflections), "--deflection",
+                                   f"a path of {len(deflections)} deflections")
+        if out is not None:
+            validate.output_file(out, "--out")
+        if vtu is not None:
+            validate.output_folder(vtu, "--vtu")
+    except StudyError as e:
+        raise SpecError(str(e)) from e
+    path = LoadPath(deflections, kpa / 1000.0)
+    path.check_against(spec)
+    return path, SolverSettings(threads=threads, timeout=timeout, keep_scratch=keep)
 
 
 def _print_table(result: PathResult, kpa: float) -> None:

@@ -15,9 +15,10 @@ import hashlib
 import itertools
 import json
 import math
+import reprlib
 import typing
 from dataclasses import dataclass, field
-from typing import Any, Literal, get_args, get_type_hints
+from typing import Any, ClassVar, Literal, get_args, get_type_hints
 
 from farm.errors import SpecError
 
@@ -25,10 +26,34 @@ ModelKind = Literal["reduced", "full"]
 RoadKind = Literal["iterative", "contact"]
 CutFaces = Literal["fixed", "free"]
 
+# Bounds of what a spec may hold (docs/limits.md has the table): generous for research,
+# but no absurdities (E = 1e308 MPa, a 1e-9 s timeout, 2**63 threads) reach the solver.
+GEOMETRY_MM = (0.1, 10_000.0)  # every length of the profile: up to a 10 m tyre
+MODULUS_MPA = (1e-3, 1e6)  # Young's modulus: from a gel (1 kPa) to beyond steel (2e5 MPa)
+CLEARANCE_MM = (1e-4, 10.0)  # contact c0
+CONTACT_PRESSURE_MPA = (1e-4, 1e3)  # contact p0
+MAX_PRESSURE_MPA = 1.0  # inflation: 1000 kPa, three times a truck tyre's
+MIN_DEFLECTION_MM = 1e-6  # a nanometre: smaller is a rounding error, not a load
+THREADS = (1, 256)  # ccx threads per run
+TIMEOUT_S = (1.0, 7 * 86400.0)  # wall-clock seconds per ccx run: a second to a week
+MIN_INCREMENT = 1e-12  # smallest min_increment (a fraction of a load ramp)
+MAX_INCREMENTS = 1_000_000
+
+_SHORT = reprlib.Repr()
+_SHORT.maxstring = _SHORT.maxother = 60
+
 
 def _positive(name: str, value: float) -> None:
     if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
-        raise SpecError(f"{name} must be a positive number, got {value!r}")
+        raise SpecError(f"{name} must be a positive number, got {_SHORT.repr(value)}")
+
+
+def _within(name: str, value: float, bounds: tuple[float, float], unit: str) -> None:
+    low, high = bounds
+    if not (isinstance(value, int | float) and not isinstance(value, bool)
+            and math.isfinite(value) and low <= value <= high):
+        raise SpecError(f"{name} must be a number in [{low:g}, {high:g}] {unit}, "
+                        f"got {_SHORT.repr(value)}")
 
 
 @dataclass(frozen=True)
@@ -52,6 +77,7 @@ class TyreGeometry:
     tread_thickness, sidewall_thickness, bead_thickness : wall thickness per region.
     """
 
+    _prefix: ClassVar[str] = "geometry"
     rim_diameter: float = 406.4
     section_width: float = 280.0
     section_height: float = 196.0
@@ -65,7 +91,7 @@ class TyreGeometry:
 
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):
-            _positive(f"geometry.{f.name}", getattr(self, f.name))
+            _within(f"geometry.{f.name}", getattr(self, f.name), GEOMETRY_MM, "mm")
         if not self.rim_width < self.section_width:
             raise SpecError(
                 f"geometry.rim_width ({self.rim_width}) must be smaller than "
@@ -77,11 +103,14 @@ class TyreGeometry:
                 f"keep it below section_width - 2 x sidewall_thickness "
                 f"({self.section_width - 2 * self.sidewall_thickness})"
             )
-        walls = max(self.tread_thickness, self.sidewall_thickness, self.bead_thickness)
-        if not walls < self.section_height / 4:
+        walls = {n: getattr(self, n) for n in
+                 ("tread_thickness", "sidewall_thickness", "bead_thickness")}
+        thickest = max(walls, key=walls.get)
+        if not walls[thickest] < self.section_height / 4:
             raise SpecError(
-                f"wall thickness {walls} mm is too large for section_height "
-                f"{self.section_height} mm: keep every thickness below a quarter of it"
+                f"geometry.{thickest} ({walls[thickest]} mm) is too large a wall thickness "
+                f"for section_height {self.section_height} mm: keep every thickness below a "
+                f"quarter of it ({self.section_height / 4:g} mm)"
             )
         if not self.crown_drop < self.section_height / 4:
             raise SpecError(
@@ -108,6 +137,7 @@ class MeshDensity:
     the revolved sector (90 degrees for the reduced model, 360 for the full one).
     """
 
+    _prefix: ClassVar[str] = "mesh"
     tread: int = 8
     sidewall: int = 5
     bead: int = 2
@@ -117,7 +147,8 @@ class MeshDensity:
         for f in dataclasses.fields(self):
             v = getattr(self, f.name)
             if not (isinstance(v, int) and not isinstance(v, bool) and v >= 1):
-                raise SpecError(f"mesh.{f.name} must be a positive integer, got {v!r}")
+                raise SpecError(f"mesh.{f.name} must be a positive integer, got "
+                                f"{_SHORT.repr(v)}")
         if self.tread % 2:
             raise SpecError(
                 f"mesh.tread must be even (a node row on the tyre's centre line), got {self.tread}"
@@ -141,14 +172,16 @@ class Material:
     modulus G = E / (2 (1 + nu)) and bulk modulus K = E / (3 (1 - 2 nu)).
     """
 
+    _prefix: ClassVar[str] = "material"
     youngs_modulus: float
     poisson_ratio: float
 
     def __post_init__(self) -> None:
-        _positive("material.youngs_modulus", self.youngs_modulus)
+        _within("material.youngs_modulus", self.youngs_modulus, MODULUS_MPA, "MPa")
         nu = self.poisson_ratio
         if not (isinstance(nu, int | float) and -1.0 < nu < 0.5):
-            raise SpecError(f"material.poisson_ratio must lie in (-1, 0.5), got {nu!r}")
+            raise SpecError(f"material.poisson_ratio must lie in (-1, 0.5), got "
+                            f"{_SHORT.repr(nu)}")
 
     @property
     def c10(self) -> float:
@@ -183,12 +216,13 @@ class ContactLaw:
     # Measured on the full model at 200 kPa, 30 mm: c0 = 0.2/0.5/1.0 mm gave Fz within
     # +-1.5 % of each other, with the tread floating 0.03-0.25 mm above the road for
     # c0 = 0.5 mm, p0 = 0.5 MPa (peak pressure ~0.4 MPa) at 2/3 of the cost of c0 = 0.2.
+    _prefix: ClassVar[str] = "contact"
     clearance: float = 0.5
     pressure: float = 0.5
 
     def __post_init__(self) -> None:
-        _positive("contact.clearance", self.clearance)
-        _positive("contact.pressure", self.pressure)
+        _within("contact.clearance", self.clearance, CLEARANCE_MM, "mm")
+        _within("contact.pressure", self.pressure, CONTACT_PRESSURE_MPA, "MPa")
 
 
 @dataclass(frozen=True)
@@ -246,6 +280,14 @@ class ModelSpec:
         return self.kind == "full"
 
     @property
+    def node_estimate(self) -> int:
+        """Nodes of the structured mesh: two layers (one element through the wall) of
+        (meridional + 1) x (circumferential + 1) nodes, the full tyre's seam shared.
+        Arithmetic only: the bound of :mod:`jobs.validate` needs no mesh."""
+        rings = self.mesh.circumferential + (0 if self.is_full else 1)
+        return 2 * (self.mesh.meridional + 1) * rings
+
+    @property
     def inflated(self) -> bool:
         return self.is_full
 
@@ -286,13 +328,15 @@ class LoadPath:
         if not d:
             raise SpecError("a load path needs at least one deflection")
         for v in d:
-            if not (math.isfinite(v) and v > 0):
-                raise SpecError(f"deflection must be a positive number of mm, got {v!r}")
+            if not (math.isfinite(v) and v >= MIN_DEFLECTION_MM):
+                raise SpecError(f"deflection must be a positive number of mm (at least "
+                                f"{MIN_DEFLECTION_MM:g}), got {v!r}")
         if any(b <= a for a, b in itertools.pairwise(d)):
             raise SpecError(f"deflections must be strictly increasing, got {list(d)}")
-        if not (math.isfinite(self.pressure) and self.pressure >= 0):
+        if not (math.isfinite(self.pressure) and 0 <= self.pressure <= MAX_PRESSURE_MPA):
             raise SpecError(
-                f"pressure must be zero or a positive number of MPa, got {self.pressure!r}")
+                f"pressure must be a number of MPa in [0, {MAX_PRESSURE_MPA:g}] (at most "
+                f"{1000 * MAX_PRESSURE_MPA:g} kPa), got {self.pressure!r}")
 
     def check_against(self, model: ModelSpec) -> None:
         """Reject loads the model cannot take (raises :class:`SpecError`)."""
@@ -333,17 +377,25 @@ class SolverSettings:
     keep_scratch: bool = False
 
     def __post_init__(self) -> None:
-        if not (isinstance(self.threads, int) and self.threads >= 1):
-            raise SpecError(f"solver.threads must be a positive integer, got {self.threads!r}")
-        _positive("solver.timeout", self.timeout)
+        low, high = THREADS
+        if not (isinstance(self.threads, int) and not isinstance(self.threads, bool)
+                and low <= self.threads <= high):
+            raise SpecError(f"solver.threads must be an integer in [{low}, {high}], "
+                            f"got {self.threads!r}")
+        _within("solver.timeout", self.timeout, TIMEOUT_S, "s")
         if not 0 < self.min_increment <= self.initial_increment <= self.max_increment <= 1:
             raise SpecError(
                 "solver increments must satisfy 0 < min_increment <= initial_increment <= "
                 f"max_increment <= 1, got {self.min_increment}, {self.initial_increment}, "
                 f"{self.max_increment}"
             )
-        if not (isinstance(self.max_increments, int) and self.max_increments >= 1):
-            raise SpecError(f"solver.max_increments must be >= 1, got {self.max_increments!r}")
+        if self.min_increment < MIN_INCREMENT:  # ccx would cut back for ever
+            raise SpecError(f"solver.min_increment must be >= {MIN_INCREMENT:g}, got "
+                            f"{self.min_increment!r}")
+        if not (isinstance(self.max_increments, int) and not isinstance(self.max_increments, bool)
+                and 1 <= self.max_increments <= MAX_INCREMENTS):
+            raise SpecError(f"solver.max_increments must be an integer in [1, {MAX_INCREMENTS}], "
+                            f"got {self.max_increments!r}")
 
 
 def content_hash(data: Any) -> str:
@@ -355,13 +407,15 @@ def content_hash(data: Any) -> str:
 def _check_literal(name: str, value: Any, literal: Any) -> None:
     allowed = get_args(literal)
     if value not in allowed:
-        raise SpecError(f"{name} must be one of {', '.join(map(repr, allowed))}, got {value!r}")
+        raise SpecError(f"{name} must be one of {', '.join(map(repr, allowed))}, "
+                    f"got {_SHORT.repr(value)}")
 
 
 def _from_dict(cls: type, data: Any, where: str) -> Any:
     """Build a (nested) frozen dataclass from plain data, rejecting unknown keys."""
     if not isinstance(data, dict):
-        raise SpecError(f"{where} must be a table of keys, got {type(data).__name__} {data!r}")
+        raise SpecError(f"{where} must be a table of keys, got {type(data).__name__} "
+                        f"{_SHORT.repr(data)}")
     hints = get_type_hints(cls)
     names = {f.name for f in dataclasses.fields(cls)}
     unknown = sorted(set(data) - names)
@@ -376,17 +430,23 @@ def _from_dict(cls: type, data: Any, where: str) -> Any:
             value = _from_dict(hint, value, f"{where}.{name}")
         elif typing.get_origin(hint) is tuple:
             if not isinstance(value, list | tuple):
-                raise SpecError(f"{where}.{name} must be a list, got {value!r}")
+                raise SpecError(f"{where}.{name} must be a list, got {_SHORT.repr(value)}")
             value = tuple(value)
         elif hint is float and isinstance(value, int) and not isinstance(value, bool):
             value = float(value)
         elif hint in (float, int) and not _is_number(value, hint):
-            raise SpecError(f"{where}.{name} must be a {hint.__name__}, got {value!r}")
+            raise SpecError(f"{where}.{name} must be a {hint.__name__}, "
+                            f"got {_SHORT.repr(value)}")
         kwargs[name] = value
     try:
         return cls(**kwargs)
     except TypeError as e:  # a required key is missing
         raise SpecError(f"{where}: {e}") from e
+    except SpecError as e:  # name the key where it is: model.materials.tread.youngs_modulus
+        prefix = getattr(cls, "_prefix", None)
+        if prefix is None or not str(e).startswith(f"{prefix}."):
+            raise
+        raise SpecError(where + str(e).removeprefix(prefix)) from e
 
 
 def _is_number(value: Any, hint: type) -> bool:

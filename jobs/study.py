@@ -31,6 +31,8 @@ A study names a store, a model and its load cases::
 
 Every key is checked: an unknown key, a wrong type or an out-of-range value is one
 :class:`~jobs.errors.StudyError` naming the key, the value given and what is allowed.
+The study's experiment count is computed from its lists before anything is expanded and
+is at most :data:`jobs.validate.EXPERIMENTS` (docs/limits.md).
 """
 
 from __future__ import annotations
@@ -40,13 +42,14 @@ from pathlib import Path
 from typing import Any
 
 from farm.errors import SpecError
-from farm.specs import LoadPath, ModelSpec, SolverSettings
+from farm.specs import MAX_PRESSURE_MPA, LoadPath, ModelSpec, SolverSettings
 from jobs import validate as v
 from jobs.errors import StudyError
 from jobs.identity import model_hash
 
 SAMPLING_METHODS = ("lhs", "sobol")
 LOAD_KEYS = {"pressure_kpa", "deflection_mm", "sample"}
+MAX_KPA = 1000 * MAX_PRESSURE_MPA
 
 
 @dataclass(frozen=True)
@@ -91,18 +94,19 @@ def _sampling(data: Any, where: str) -> Sampling:
     t = v.table(data, where, {"method", "n", "seed", "deflection_mm", "pressure_kpa"},
                 {"method", "n"})
     method = v.choice(t["method"], f"{where}.method", SAMPLING_METHODS)
-    n = v.integer(t["n"], f"{where}.n", low=1, high=100_000)
-    seed = v.integer(t.get("seed", 0), f"{where}.seed", low=0)
+    n = v.integer(t["n"], f"{where}.n", low=1)
+    v.EXPERIMENTS.check(n, f"{where}.n", f"a design of n = {n} points")
+    seed = v.integer(t.get("seed", 0), f"{where}.seed", low=0, high=v.MAX_SEED)
     ranges = []
-    for key, name, scale in (("deflection_mm", "deflection", 1.0),
-                             ("pressure_kpa", "pressure", 1e-3)):
+    for key, name, scale, top in (("deflection_mm", "deflection", 1.0, None),
+                                  ("pressure_kpa", "pressure", 1e-3, MAX_KPA)):
         if key in t:
             r = t[key]
             if not (isinstance(r, list) and len(r) == 2):
-                raise v.fail(f"{where}.{key}", f"must be [low, high], got {r!r}")
-            low, high = (v.number(x, f"{where}.{key}", low=0) for x in r)
+                raise v.fail(f"{where}.{key}", f"must be [low, high], got {v.shown(r)}")
+            low, high = (v.number(x, f"{where}.{key}", low=0, high=top) for x in r)
             if not low < high:
-                raise v.fail(f"{where}.{key}", f"needs low < high, got {r!r}")
+                raise v.fail(f"{where}.{key}", f"needs low < high, got {v.shown(r)}")
             ranges.append((name, low * scale, high * scale))
     if not ranges:
         raise v.fail(where, "give a range for deflection_mm and/or pressure_kpa")
@@ -119,7 +123,7 @@ def _loads(data: Any, model: ModelSpec):
         raise v.fail(f"loads.{clash[0]}", "is both sampled and listed; give it in one place")
     # an inflated model needs a pressure > 0; the reduced one takes 0 (checked later)
     pressures = (tuple(p / 1000 for p in v.values(t["pressure_kpa"], "loads.pressure_kpa",
-                                                   low=0, strict=model.inflated))
+                                                   low=0, high=MAX_KPA, strict=model.inflated))
                  if "pressure_kpa" in t else None)
     deflections = (v.values(t["deflection_mm"], "loads.deflection_mm", low=0, strict=True)
                    if "deflection_mm" in t else ())
@@ -130,7 +134,24 @@ def _loads(data: Any, model: ModelSpec):
         if model.inflated:
             raise v.fail("loads.pressure_kpa", "is required for the inflated full model")
         pressures = (0.0,)
-    return pressures or (), deflections, sampling
+    pressures = pressures or ()
+    _check_count(pressures, deflections, sampling)
+    return pressures, deflections, sampling
+
+
+def _check_count(pressures: tuple, deflections: tuple, sampling: Sampling | None) -> None:
+    """At most :data:`jobs.validate.EXPERIMENTS` experiments, counted as
+    :func:`jobs.expand.load_cases` will make them: the grid, or each design point with
+    every listed value of the loads it does not sample."""
+    sampled = {name for name, _, _ in sampling.ranges} if sampling else set()
+    factors = [(f"a design of {sampling.n} points", sampling.n)] if sampling else []
+    factors += [(f"{len(values)} {name}{'s' * (len(values) != 1)}", len(values))
+                for name, values in (("pressure", pressures), ("deflection", deflections))
+                if name not in sampled and values]
+    count = 1
+    for _, n in factors:
+        count *= n
+    v.EXPERIMENTS.check(count, "loads", " x ".join(text for text, _ in factors))
 
 
 def parse_study(text: str, source: str = "<study>") -> Study:
@@ -141,6 +162,7 @@ def parse_study(text: str, source: str = "<study>") -> Study:
                 {"study", "model", "loads"})
         head = v.table(data["study"], "study", {"name", "store", "group"}, {"store"})
         store = v.string(head["store"], "study.store", "a path or URL string", blank=False)
+        v.store_location(store, "study.store")  # checked here, resolved by load_study
         group = head.get("group")
         if group is not None:
             v.identifier(group, "study.group")
@@ -159,10 +181,13 @@ def _check_loads(study: Study) -> None:
     """Load cases the model cannot take are rejected before anything runs."""
     ranges = {name: (low, high) for name, low, high in (study.sampling.ranges
                                                           if study.sampling else ())}
-    top = max([*study.deflections, ranges.get("deflection", (0, 0))[1]])
+    sampled = ranges.get("deflection")
+    top = max([*study.deflections, sampled[1] if sampled else 0])
+    lows = [*study.deflections, *([sampled[0]] if sampled and sampled[0] > 0 else [])]
+    low = min(lows, default=top)
     for p in [*study.pressures, *ranges.get("pressure", ())]:
         try:
-            LoadPath((top,), p).check_against(study.model)
+            LoadPath(tuple(sorted({low, top})), p).check_against(study.model)
         except SpecError as e:
             raise StudyError(f"loads: {e}") from e
 
@@ -172,6 +197,5 @@ def load_study(path: str | Path) -> Study:
     directory, like any path given on the command line."""
     path = Path(path)
     study = parse_study(v.read_text(path), str(path))
-    if "://" not in study.store:
-        study = replace(study, store=str(Path(study.store).expanduser().resolve()))
-    return study
+    with v.located(str(path)):
+        return replace(study, store=v.store_location(study.store, "study.store"))

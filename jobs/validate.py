@@ -17,6 +17,18 @@ store coordinate. A study writes it ``{ start = 10, stop = 40, step = 5 }``, the
 ``10:40:5``; a list is ``[10, 20, 30]`` or ``10,20,30`` (:func:`values`,
 :func:`values_from_text`).
 
+Limits (docs/limits.md is their one table). Files are read only when they are regular
+files of at most :data:`MAX_FILE_BYTES`, as UTF-8, nested at most :data:`MAX_DEPTH`
+deep (:func:`read_text`, :func:`parse_toml`): a FIFO, a device or a directory is refused
+before it is opened for reading, so nothing waits for ever. Counts are computed before
+anything is expanded: a study has at most :data:`EXPERIMENTS` experiments and a model at
+most :data:`MESH_NODES` mesh nodes, practical limits that a researcher may raise through
+their environment variables (:class:`Limit`); physical bounds of the specs (moduli,
+pressures, threads, timeouts) live in :mod:`farm.specs`. Paths, URLs, output files and
+folders, scheduler addresses and worker counts given on the command line are checked
+here too (:func:`location`, :func:`output_file`, :func:`output_folder`,
+:func:`scheduler_address`, :func:`workers`), before anything is solved.
+
 Why not pydantic. Pydantic v2 (``extra="forbid"``, a JSON Schema for editors) was
 considered and not adopted, because it would add code rather than delete it. It would
 replace the primitive checks here (``table`` to ``identifier``: about 65 lines) with
@@ -34,7 +46,12 @@ one real gain, can be written by hand for the two tables if it is ever wanted.
 
 from __future__ import annotations
 
+import ipaddress
 import math
+import os
+import re
+import reprlib
+import stat
 import tomllib
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -44,12 +61,22 @@ from typing import Any
 
 from farm.errors import SpecError
 from farm.presets import MATERIAL_PRESETS, default_model
-from farm.specs import ModelSpec, SolverSettings
+from farm.specs import TIMEOUT_S, ModelSpec, SolverSettings
 from jobs.errors import StudyError
+from storage import open_store
+from storage.errors import StoreError
 from storage.schema import GROUP_NAME
 
 MAX_VALUES = 100_000  # values one list or range may expand to
 DECIMALS = 9  # rounding of range values (a nanometre in mm)
+MAX_FILE_BYTES = 1 << 20  # study files and reference tables: 1 MiB (the thesis' are < 2 KiB)
+MAX_DEPTH = 8  # tables and lists in a study nest at most this deep (the deepest needs 4)
+MAX_PATH_CHARS = 4096  # a path or URL (Linux' PATH_MAX)
+MAX_WORKERS = 1024  # --workers: processes of the embedded cluster, or workers to wait for
+MAX_SEED = 2 ** 32 - 1  # seeds of designs and noise draws (numpy's legacy range)
+MAX_EVALUATIONS = 100_000  # evaluations of one optimisation loop
+MAX_REPEATS = 1_000  # repeats of one inverse condition
+MAX_LOOPS = 10_000  # optimisation loops of one inverse study
 IDENTIFIER = GROUP_NAME  # names of store groups, studies and conditions: the store's rule
 MODEL_KINDS = ("reduced", "full")
 MODEL_KEYS = {"kind", "materials", "road", "cut_faces", "geometry", "mesh", "contact",
@@ -58,6 +85,58 @@ SOLVER_KEYS = {"timeout_s", "threads", "initial_increment", "min_increment", "ma
                "max_increments", "max_path_length", "retry_smaller_increments"}
 RANGE_KEYS = {"start", "stop", "step"}
 RANGE_HINT = "give start:stop:step (e.g. 10:40:5) or a list (10,20,30)"
+SCHEDULER_SCHEMES = ("tcp", "tls", "ucx", "ws", "wss", "inproc")
+HOSTNAME = re.compile(r"(?=.{1,253}$)[A-Za-z0-9_]([A-Za-z0-9_-]{0,61}[A-Za-z0-9_])?"
+                      r"(\.[A-Za-z0-9_]([A-Za-z0-9_-]{0,61}[A-Za-z0-9_])?)*")
+
+_SHORT = reprlib.Repr()
+_SHORT.maxstring = _SHORT.maxother = 60
+_SHORT.maxlevel, _SHORT.maxlist, _SHORT.maxdict = 2, 6, 4
+
+
+def shown(value: Any) -> str:
+    """``repr(value)`` cut short: an error line names a 1 MiB list, it does not print it."""
+    return _SHORT.repr(value)
+
+
+# ------------------------------------------------------------------------------ limits
+
+
+@dataclass(frozen=True)
+class Limit:
+    """A practical limit (not a physical one) that a researcher may raise: the
+    environment variable ``env`` overrides ``default`` (docs/limits.md)."""
+
+    name: str  # what is counted, plural ("experiments")
+    env: str
+    default: int
+
+    def value(self) -> int:
+        text = os.environ.get(self.env)
+        if text is None or not text.strip():
+            return self.default
+        try:
+            value = int(text)
+        except ValueError:
+            value = 0
+        if not 1 <= value <= 10 ** 12:
+            raise StudyError(f"{self.env} must be a whole number of {self.name} in [1, 1e12], "
+                             f"got {shown(text)}")
+        return value
+
+    def check(self, count: int, where: str, what: str) -> int:
+        """``count`` if within the limit, else one error naming ``where`` and ``what``."""
+        limit = self.value()
+        if count > limit:
+            raise fail(where, f"{what} is {count} {self.name}, above the limit of {limit} "
+                       f"(set {self.env} to raise it; docs/limits.md)")
+        return count
+
+
+# Mesh nodes: the default full model has 1760; 200 000 nodes is a day of ccx per load path
+# on one core (ccx's time grows faster than linearly in the node count).
+EXPERIMENTS = Limit("experiments", "FARM_MAX_EXPERIMENTS", 10_000)
+MESH_NODES = Limit("mesh nodes", "FARM_MAX_MESH_NODES", 200_000)
 
 
 # ------------------------------------------------------------------- errors and files
@@ -78,19 +157,98 @@ def located(source: str) -> Iterator[None]:
 
 
 def parse_toml(text: str, source: str) -> dict[str, Any]:
-    """The TOML document ``text`` as a dict (raises :class:`StudyError` naming ``source``)."""
+    """The TOML document ``text`` as a dict, nested at most :data:`MAX_DEPTH` deep
+    (raises :class:`StudyError` naming ``source``)."""
     try:
-        return tomllib.loads(text)
+        data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise StudyError(f"{source} is not valid TOML: {e}") from e
+    except RecursionError as e:  # tomllib recurses once per level of [ or {
+        raise StudyError(f"{source} is nested too deeply to read (lists or tables inside "
+                         f"each other hundreds of levels deep; a study needs {MAX_DEPTH} "
+                         "at most)") from e
+    with located(source):
+        _check_depth(data)
+    return data
+
+
+def _check_depth(data: dict) -> None:
+    """Walk the document without recursion: too deep a value is refused before any
+    check (or error message) recurses into it."""
+    stack: list[tuple[Any, str, int]] = [(data, "", 0)]
+    while stack:
+        value, where, depth = stack.pop()
+        if depth > MAX_DEPTH:
+            raise fail(where[:80] + ("..." if len(where) > 80 else ""),
+                       f"nested more than {MAX_DEPTH} tables or lists deep")
+        if isinstance(value, dict):
+            stack += [(v, f"{where}.{k}" if where else str(k), depth + 1)
+                      for k, v in value.items()]
+        elif isinstance(value, list):
+            stack += [(v, f"{where}[{k}]", depth + 1) for k, v in enumerate(value)]
+
+
+_FILE_KINDS = ((stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a FIFO (named pipe)"),
+               (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+               (stat.S_ISSOCK, "a socket"))
+
+
+def _file_kind(mode: int) -> str:
+    return next((name for test, name in _FILE_KINDS if test(mode)), "not a regular file")
 
 
 def read_text(path: Path, what: str = "study file") -> str:
-    """The text of ``path`` (raises :class:`StudyError` saying why it cannot be read)."""
+    """The UTF-8 text of the regular file ``path``, at most :data:`MAX_FILE_BYTES`.
+
+    A FIFO, a device or a directory is refused from its ``stat`` before it is opened
+    for reading (opening a FIFO waits for a writer; ``/dev/urandom`` never ends), and
+    the file is opened non-blocking and checked again, in case it was swapped in
+    between. Raises :class:`StudyError` saying what is wrong and what to give instead.
+    """
     try:
-        return path.read_text()
+        data = _read_regular(path)
     except OSError as e:
         raise StudyError(f"cannot read {what} {path}: {e.strerror or e}") from e
+    except ValueError as e:  # a NUL byte in the path
+        raise StudyError(f"cannot read {what} {shown(str(path))}: {e}") from e
+    if isinstance(data, str):
+        raise StudyError(f"cannot read {what} {path}: it is {data}, not a regular file")
+    if len(data) > MAX_FILE_BYTES:
+        raise StudyError(f"cannot read {what} {path}: it is larger than "
+                         f"{MAX_FILE_BYTES >> 20} MiB")
+    try:
+        return data.decode("utf-8").removeprefix("\ufeff")
+    except UnicodeDecodeError as e:
+        line = data[:e.start].count(b"\n") + 1
+        raise StudyError(f"cannot read {what} {path}: it is not UTF-8 text (byte "
+                         f"0x{data[e.start]:02x} on line {line}): save it as UTF-8") from e
+
+
+def regular_file(path: Path, what: str) -> Path:
+    """``path`` if it is a regular file, judged from its ``stat`` alone (a table that
+    another module reads later, and may be large): a FIFO or a device is refused."""
+    try:
+        mode = os.stat(path).st_mode
+    except (OSError, ValueError) as e:
+        raise StudyError(f"cannot read {what} {shown(str(path))}: "
+                         f"{getattr(e, 'strerror', None) or e}") from e
+    if not stat.S_ISREG(mode):
+        raise StudyError(f"cannot read {what} {path}: it is {_file_kind(mode)}, not a "
+                         "regular file")
+    return path
+
+
+def _read_regular(path: Path) -> bytes | str:
+    """The first ``MAX_FILE_BYTES + 1`` bytes of ``path``, or what kind of file it is
+    when it is not a regular one."""
+    mode = os.stat(path).st_mode
+    if not stat.S_ISREG(mode):
+        return _file_kind(mode)
+    with os.fdopen(os.open(path, os.O_RDONLY | os.O_NONBLOCK), "rb") as f:
+        mode = os.fstat(f.fileno()).st_mode
+        if not stat.S_ISREG(mode):
+            return _file_kind(mode)
+        return f.read(MAX_FILE_BYTES + 1)
 
 
 # ------------------------------------------------------------------ tables and scalars
@@ -100,7 +258,7 @@ def table(data: Any, where: str, allowed: set[str], required: set[str] = frozens
           ) -> dict[str, Any]:
     """``data`` if it is a table with only ``allowed`` keys and every ``required`` one."""
     if not isinstance(data, dict):
-        raise fail(where, f"must be a table, got {type(data).__name__} {data!r}")
+        raise fail(where, f"must be a table, got {type(data).__name__} {shown(data)}")
     unknown = sorted(set(data) - allowed)
     if unknown:
         raise fail(f"{where}.{unknown[0]}", f"unknown key; allowed: {', '.join(sorted(allowed))}")
@@ -122,57 +280,58 @@ def number(value: Any, where: str, *, low: float | None = None, high: float | No
            strict: bool = False) -> float:
     """A finite number (not a boolean), ``>= low`` (``> low`` if ``strict``), ``<= high``."""
     if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise fail(where, f"must be a number, got {value!r}")
+        raise fail(where, f"must be a number, got {shown(value)}")
     if ((low is not None and (value < low or (strict and value == low)))
             or (high is not None and value > high)):
-        raise fail(where, f"must be {_bounds(low, high, strict)}, got {value!r}")
+        raise fail(where, f"must be {_bounds(low, high, strict)}, got {shown(value)}")
     return float(value)
 
 
 def integer(value: Any, where: str, *, low: int | None = None, high: int | None = None) -> int:
     """An integer (not a boolean) in ``[low, high]`` (either bound optional)."""
     if isinstance(value, bool) or not isinstance(value, int):
-        raise fail(where, f"must be an integer, got {value!r}")
+        raise fail(where, f"must be an integer, got {shown(value)}")
     if (low is not None and value < low) or (high is not None and value > high):
-        raise fail(where, f"must be an integer {_bounds(low, high, False)}, got {value!r}")
+        raise fail(where, f"must be an integer {_bounds(low, high, False)}, got {shown(value)}")
     return value
 
 
 def boolean(value: Any, where: str) -> bool:
     """``true`` or ``false`` (not 0 or 1)."""
     if not isinstance(value, bool):
-        raise fail(where, f"must be true or false, got {value!r}")
+        raise fail(where, f"must be true or false, got {shown(value)}")
     return value
 
 
 def choice(value: Any, where: str, allowed: tuple[str, ...]) -> str:
     """One of ``allowed``."""
     if not isinstance(value, str) or value not in allowed:
-        raise fail(where, f"must be one of {', '.join(allowed)}, got {value!r}")
+        raise fail(where, f"must be one of {', '.join(allowed)}, got {shown(value)}")
     return value
 
 
 def choices(value: Any, where: str, allowed: tuple[str, ...]) -> tuple[str, ...]:
     """A non-empty list of ``allowed`` strings, repeats dropped, order kept."""
     if not isinstance(value, list) or not value:
-        raise fail(where, f"must be a non-empty list, got {value!r}")
+        raise fail(where, f"must be a non-empty list, got {shown(value)}")
     for item in value:
         if not isinstance(item, str) or item not in allowed:
-            raise fail(where, f"must list {', '.join(allowed)}; got {item!r}")
+            raise fail(where, f"must list {', '.join(allowed)}; got {shown(item)}")
     return tuple(dict.fromkeys(value))
 
 
 def string(value: Any, where: str, what: str = "a string", *, blank: bool = True) -> str:
     """A string (a non-blank one unless ``blank``); ``what`` says what it should be."""
     if not isinstance(value, str) or (not blank and not value.strip()):
-        raise fail(where, f"must be {what}, got {value!r}")
+        raise fail(where, f"must be {what}, got {shown(value)}")
     return value
 
 
 def identifier(value: Any, where: str) -> str:
     """A name usable as a store group or a file name (:data:`IDENTIFIER`)."""
     if not (isinstance(value, str) and IDENTIFIER.fullmatch(value)):
-        raise fail(where, f"must be letters, digits, '_', '.', '-' (at most 128), got {value!r}")
+        raise fail(where, f"must be letters, digits, '_', '.', '-' (at most 128), "
+                   f"got {shown(value)}")
     return value
 
 
@@ -183,54 +342,65 @@ def inclusive_range(start: float, stop: float, step: float, where: str) -> tuple
     """``start, start + step, ...`` up to ``stop`` inclusive, rounded to :data:`DECIMALS`.
 
     The one range rule of study files and the CLI. ``stop`` is included when it is
-    within 1e-9 steps of the grid (so 0.1 steps reach 0.3); at most :data:`MAX_VALUES`.
+    within 1e-9 steps of the grid (so 0.1 steps reach 0.3); at most :data:`MAX_VALUES`,
+    counted before anything is made (a step of 1e-308 is a count, not an allocation).
     """
     if not (math.isfinite(step) and step > 0):
-        raise fail(f"{where}.step", f"must be > 0, got {step!r}")
+        raise fail(f"{where}.step", f"must be > 0, got {shown(step)}")
     if stop < start:
         raise fail(where, f"stop ({stop:g}) must not be below start ({start:g})")
-    n = math.floor((stop - start) / step + 1e-9) + 1
-    if n > MAX_VALUES:
-        raise fail(where, f"{n} values is too many (at most {MAX_VALUES})")
+    steps = (stop - start) / step
+    if not steps < MAX_VALUES:  # also an infinite count, which has no integer
+        n = f"{math.floor(steps + 1e-9) + 1}" if math.isfinite(steps) else "too many:"
+        raise fail(where, f"{n} values is too many (at most {MAX_VALUES}): step {step:g} "
+                   f"over {start:g} to {stop:g}")
+    n = math.floor(steps + 1e-9) + 1
     return tuple(round(start + k * step, DECIMALS) for k in range(n))
 
 
-def values(value: Any, where: str, *, low: float | None = None, strict: bool = False
-           ) -> tuple[float, ...]:
+def values(value: Any, where: str, *, low: float | None = None, high: float | None = None,
+           strict: bool = False) -> tuple[float, ...]:
     """A number, a non-empty list of numbers or a ``{start, stop, step}`` range table ->
-    the sorted distinct values, each ``>= low`` (``> low`` if ``strict``)."""
+    the sorted distinct values, each ``>= low`` (``> low`` if ``strict``) and ``<= high``,
+    also once rounded to :data:`DECIMALS` (5e-324 is not a deflection > 0)."""
+    bounds = {"low": low, "high": high, "strict": strict}
     if isinstance(value, dict):
         r = table(value, where, RANGE_KEYS, RANGE_KEYS)
-        start, stop = (number(r[k], f"{where}.{k}", low=low, strict=strict)
-                       for k in ("start", "stop"))
+        start, stop = (number(r[k], f"{where}.{k}", **bounds) for k in ("start", "stop"))
         out = inclusive_range(start, stop, number(r["step"], f"{where}.step", low=0,
                                                   strict=True), where)
+        smallest = start
     elif isinstance(value, list):
         if not value:
             raise fail(where, "must not be empty")
         if len(value) > MAX_VALUES:
             raise fail(where, f"{len(value)} values is too many (at most {MAX_VALUES})")
-        out = [number(v, f"{where}[{k}]", low=low, strict=strict) for k, v in enumerate(value)]
+        out = [number(v, f"{where}[{k}]", **bounds) for k, v in enumerate(value)]
+        smallest = min(out)
     else:
-        out = [number(value, where, low=low, strict=strict)]
-    return tuple(sorted({round(v, DECIMALS) for v in out}))
+        out = [smallest := number(value, where, **bounds)]
+    rounded = sorted({round(v, DECIMALS) for v in out})
+    if low is not None and strict and rounded[0] <= low:
+        raise fail(where, f"must be > {low:g}, got {shown(smallest)} (rounds to "
+                   f"{rounded[0]:g} at {DECIMALS} decimals)")
+    return tuple(rounded)
 
 
-def values_from_text(text: str, where: str, *, low: float | None = None, strict: bool = False
-                     ) -> tuple[float, ...]:
+def values_from_text(text: str, where: str, *, low: float | None = None,
+                     high: float | None = None, strict: bool = False) -> tuple[float, ...]:
     """The command line's form of :func:`values`: ``"10:40:5"`` (the range
     ``{start = 10, stop = 40, step = 5}``), ``"10,20,30"`` or ``"30"``."""
     parts = text.split(":") if ":" in text else text.split(",")
     try:
         numbers = [float(p) for p in parts]
     except ValueError as e:
-        raise StudyError(f"cannot read {where} {text!r}: {RANGE_HINT}") from e
+        raise StudyError(f"cannot read {where} {shown(text)}: {RANGE_HINT}") from e
     if ":" not in text:
-        return values(numbers, where, low=low, strict=strict)
+        return values(numbers, where, low=low, high=high, strict=strict)
     if len(numbers) != 3:
-        raise StudyError(f"{where} range {text!r} needs three numbers: start:stop:step")
+        raise StudyError(f"{where} range {shown(text)} needs three numbers: start:stop:step")
     return values(dict(zip(("start", "stop", "step"), numbers, strict=True)), where, low=low,
-                  strict=strict)
+                  high=high, strict=strict)
 
 
 # ------------------------------------------------------------------------ model, solver
@@ -242,10 +412,10 @@ def model(data: Any, where: str = "model") -> ModelSpec:
     t = table(data, where, MODEL_KEYS, {"kind"})
     kind = t["kind"]
     if kind not in MODEL_KINDS:
-        raise fail(f"{where}.kind", f"unknown model {kind!r}: choose 'reduced' or 'full'")
+        raise fail(f"{where}.kind", f"unknown model {shown(kind)}: choose 'reduced' or 'full'")
     materials = t.get("materials", "table-3.1")
     if isinstance(materials, str) and materials not in MATERIAL_PRESETS:
-        raise fail(f"{where}.materials", f"unknown preset {materials!r}; presets: "
+        raise fail(f"{where}.materials", f"unknown preset {shown(materials)}; presets: "
                    f"{', '.join(MATERIAL_PRESETS)} (or give a table per region)")
     base = default_model(kind, materials if isinstance(materials, str) else "table-3.1")
     overrides = {k: v for k, v in t.items()
@@ -255,11 +425,18 @@ def model(data: Any, where: str = "model") -> ModelSpec:
 
 def override_model(base: ModelSpec, overrides: dict[str, Any], where: str = "model"
                    ) -> ModelSpec:
-    """``base`` with ``overrides`` (nested tables merged key by key, unknown keys named)."""
+    """``base`` with ``overrides`` (nested tables merged key by key, unknown keys named),
+    a mesh of at most :data:`MESH_NODES` nodes."""
     try:
-        return ModelSpec.from_dict(_merge(base.to_dict(), overrides, where))
+        spec = ModelSpec.from_dict(_merge(base.to_dict(), overrides, where))
     except SpecError as e:  # its messages name the key (model.mesh.tread ...)
         raise StudyError(str(e)) from e
+    m = spec.mesh
+    MESH_NODES.check(spec.node_estimate, f"{where}.mesh",
+                     f"{m.meridional} x {m.circumferential} elements (tread={m.tread}, "
+                     f"sidewall={m.sidewall}, bead={m.bead}, circumferential="
+                     f"{m.circumferential})")
+    return spec
 
 
 def _merge(base: dict, override: dict, where: str) -> dict:
@@ -284,7 +461,8 @@ def solver(data: Any, where: str = "solver") -> SolverTable:
     t = table(data, where, SOLVER_KEYS)
     kwargs: dict[str, Any] = {}
     if "timeout_s" in t:
-        kwargs["timeout"] = number(t["timeout_s"], f"{where}.timeout_s", low=0, strict=True)
+        kwargs["timeout"] = number(t["timeout_s"], f"{where}.timeout_s", low=TIMEOUT_S[0],
+                                   high=TIMEOUT_S[1])
     for k in ("threads", "max_increments"):
         if k in t:
             kwargs[k] = integer(t[k], f"{where}.{k}", low=1)
@@ -299,3 +477,108 @@ def solver(data: Any, where: str = "solver") -> SolverTable:
                        integer(t.get("max_path_length", 0), f"{where}.max_path_length", low=0),
                        boolean(t.get("retry_smaller_increments", True),
                                f"{where}.retry_smaller_increments"))
+
+
+# ------------------------------------------------------------ paths, addresses, workers
+
+
+def location(value: Any, where: str, what: str = "a path or URL", base: Path | None = None
+             ) -> str:
+    """A store or cache location: a URL (``scheme://...``) as given, or a local path made
+    absolute (``~`` expanded, a relative one taken from ``base``, default the current
+    folder). Control characters, over-long names and a ``~user`` that does not exist are
+    refused here, where the key can still be named."""
+    text = string(value, where, what, blank=False)
+    if len(text) > MAX_PATH_CHARS or any(ord(c) < 32 or ord(c) == 127 for c in text):
+        raise fail(where, f"must be {what} of at most {MAX_PATH_CHARS} printable characters, "
+                   f"got {shown(text)}")
+    if "://" in text:
+        if not re.fullmatch(r"[A-Za-z][A-Za-z0-9+.-]*://\S+", text):
+            raise fail(where, f"is not a URL (scheme://location), got {shown(text)}")
+        return text
+    if any(len(part.encode()) > 255 for part in Path(text).parts):
+        raise fail(where, f"has a path component longer than 255 bytes: {shown(text)}")
+    try:
+        path = Path(text).expanduser()
+        return str((path if base is None else base / path).resolve())
+    except (RuntimeError, KeyError, OSError) as e:  # ~nobody: no such user
+        raise fail(where, f"cannot resolve the path {shown(text)}: {e}") from e
+
+
+def store_location(value: Any, where: str, base: Path | None = None) -> str:
+    """A store: :func:`location`, then what the storage layer accepts as a store
+    (:func:`storage.open_store`, no I/O: schemes, buckets, control characters), so that
+    a store no worker can write is refused before a cluster starts."""
+    text = location(value, where, "a directory path or URL", base)
+    try:
+        open_store(value)  # as written: "s3:/bucket" is a typo, not a folder "s3:"
+    except StoreError as e:
+        raise fail(where, str(e)) from e
+    return text
+
+
+def output_file(path: Path, where: str) -> Path:
+    """A file to write later: not a directory, in an existing, writable folder.
+    Checked before any work, so that a finished solve is never lost to a bad path."""
+    path = Path(path).expanduser()
+    if path.is_dir():
+        raise fail(where, f"{path} is a directory: give a file name")
+    folder = path.parent
+    if not folder.is_dir():
+        raise fail(where, f"the folder {folder} of {path} does not exist (create it first)")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise fail(where, f"the folder {folder} of {path} is not writable")
+    return path
+
+
+def output_folder(path: Path, where: str) -> Path:
+    """A folder to write into later (made if missing): not a file, and its nearest
+    existing ancestor a writable folder."""
+    path = Path(path).expanduser()
+    existing = path
+    while not existing.exists() and existing != existing.parent:
+        existing = existing.parent
+    if not existing.is_dir():
+        what = "is" if existing == path else f"would be made under {existing}, which is"
+        raise fail(where, f"{path} {what} a file, not a folder: give a folder path")
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise fail(where, f"{existing} is not writable: give a folder you can write to")
+    return path
+
+
+def scheduler_address(value: str | None, where: str = "--scheduler") -> str | None:
+    """A Dask scheduler address: ``[scheme://]host:port`` with a scheme of
+    :data:`SCHEDULER_SCHEMES` (tcp when none is given), a host name, IPv4 or [IPv6]
+    address and a port in 1-65535; or ``inproc://...``. ``None`` (embedded) passes."""
+    if value is None:
+        return None
+    hint = "give host:port or tcp://host:port (e.g. tcp://127.0.0.1:8786)"
+    scheme, sep, rest = value.partition("://")
+    if not sep:
+        scheme, rest = "tcp", value
+    if scheme not in SCHEDULER_SCHEMES:
+        raise fail(where, f"unknown protocol {shown(scheme)} in {shown(value)}; use one of "
+                   f"{', '.join(SCHEDULER_SCHEMES)}: {hint}")
+    if scheme == "inproc":
+        if not re.fullmatch(r"[\w.:/-]{1,256}", rest):
+            raise fail(where, f"{shown(value)} is not an inproc address (inproc://host/pid/n)")
+        return value
+    host, colon, port = rest.rpartition(":")
+    if not colon or not _is_host(host) or not (port.isdigit() and 1 <= int(port) <= 65535):
+        raise fail(where, f"{shown(value)} is not a scheduler address: {hint}")
+    return value
+
+
+def _is_host(host: str) -> bool:
+    if host.startswith("[") and host.endswith("]"):
+        try:
+            ipaddress.IPv6Address(host[1:-1])
+        except ValueError:
+            return False
+        return True
+    return bool(HOSTNAME.fullmatch(host))
+
+
+def workers(value: int | None, where: str = "--workers") -> int | None:
+    """A worker count in [1, :data:`MAX_WORKERS`]; ``None`` (one per core) passes."""
+    return None if value is None else integer(value, where, low=1, high=MAX_WORKERS)

@@ -7,16 +7,26 @@ the full model's 3933 N at 25 mm / 80 kPa (§3.4) and 4476 N at 30 mm / 200 kPa
     model,deflection_mm,pressure_kpa,force_n
     full,25,80,3933
     full,30,200,4476
+
+The file is read as :func:`jobs.validate.read_text` reads study files (a regular UTF-8
+file of at most 1 MiB); given the model spec, every point is checked against it as a
+load path is (pressures up to 1000 kPa, deflections the tyre can take).
 """
 
 from __future__ import annotations
 
 import csv
+import io
 import math
 from dataclasses import dataclass
 from pathlib import Path
 
+from farm.errors import SpecError
+from farm.specs import MAX_PRESSURE_MPA, LoadPath, ModelSpec
+from jobs import validate
 from jobs.errors import StudyError
+
+MAX_FORCE_N = 1e6  # a reference force: 100 t on one tyre
 
 COLUMNS = ("model", "deflection_mm", "pressure_kpa", "force_n")
 
@@ -43,25 +53,30 @@ def thesis_points(model: str) -> tuple[ReferencePoint, ...]:
     return tuple(p for p in THESIS_POINTS if p.model == model)
 
 
-def _number(row: dict, key: str, where: str, positive: bool) -> float:
+def _number(row: dict, key: str, where: str, positive: bool, high: float) -> float:
     try:
         v = float(row[key])
     except (TypeError, ValueError) as e:
-        raise StudyError(f"{where}: {key} must be a number, got {row[key]!r}") from e
-    if not math.isfinite(v) or v < 0 or (positive and v == 0):
-        raise StudyError(f"{where}: {key} must be {'> 0' if positive else '>= 0'}, got {v!r}")
+        raise StudyError(f"{where}: {key} must be a number, got {validate.shown(row[key])}"
+                         ) from e
+    if not math.isfinite(v) or v < 0 or (positive and v == 0) or v > high:
+        raise StudyError(f"{where}: {key} must be {'> 0' if positive else '>= 0'} and "
+                         f"<= {high:g}, got {v!r}")
     return v
 
 
-def read_points(path: str | Path, model: str) -> tuple[ReferencePoint, ...]:
-    """The CSV's points of ``model`` (raises :class:`StudyError` naming the bad row)."""
+def read_points(path: str | Path, model: str | ModelSpec) -> tuple[ReferencePoint, ...]:
+    """The CSV's points of ``model`` - a kind, or a spec that every point is checked
+    against (raises :class:`StudyError` naming the file, the line and the value)."""
     path = Path(path)
+    spec = model if isinstance(model, ModelSpec) else None
+    model = spec.kind if spec else model
+    text = validate.read_text(path, "references")
     try:
-        with path.open(newline="") as f:
-            rows = list(csv.DictReader(f))
-            header = set(rows[0]) if rows else set()
-    except OSError as e:
-        raise StudyError(f"cannot read references {path}: {e.strerror or e}") from e
+        rows = list(csv.DictReader(io.StringIO(text, newline="")))
+    except csv.Error as e:
+        raise StudyError(f"cannot read references {path}: {e}") from e
+    header = set(rows[0]) if rows else set()
     missing = [c for c in COLUMNS if c not in header]
     if not rows or missing:
         raise StudyError(f"{path}: needs a header with {', '.join(COLUMNS)} and at least one "
@@ -74,13 +89,20 @@ def read_points(path: str | Path, model: str) -> tuple[ReferencePoint, ...]:
             raise StudyError(f"{where}: model must be reduced or full, got {kind!r}")
         if kind != model:
             continue
-        pressure = _number(row, "pressure_kpa", where, positive=False) / 1000.0
+        pressure = _number(row, "pressure_kpa", where, False, 1000 * MAX_PRESSURE_MPA) / 1000
         if (pressure > 0) != (kind == "full"):
             need = ("inflated: give pressure_kpa > 0" if kind == "full"
                     else "not inflated: pressure_kpa must be 0")
             raise StudyError(f"{where}: the {kind} model is {need}")
-        points.append(ReferencePoint(kind, _number(row, "deflection_mm", where, True), pressure,
-                                     _number(row, "force_n", where, True), str(path)))
+        point = ReferencePoint(kind, _number(row, "deflection_mm", where, True, math.inf),
+                               pressure, _number(row, "force_n", where, True, MAX_FORCE_N),
+                               str(path))
+        if spec is not None:
+            try:
+                LoadPath((point.deflection,), pressure).check_against(spec)
+            except SpecError as e:
+                raise StudyError(f"{where}: {e}") from e
+        points.append(point)
     if not points:
         raise StudyError(f"{path} has no reference point for the {model} model")
     return tuple(points)

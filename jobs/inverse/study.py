@@ -43,7 +43,8 @@
     repeats = 1
 
 Everything is validated here, once: a bad key or value is one
-:class:`~jobs.errors.StudyError` naming it, before anything is submitted.
+:class:`~jobs.errors.StudyError` naming it, before anything is submitted. Counts and
+sizes have bounds (docs/limits.md): repeats, evaluations, loops, noise levels, scales.
 """
 
 from __future__ import annotations
@@ -62,6 +63,14 @@ OPTIMIZERS = ("nelder-mead", "least-squares")
 INITIALS = ("scaled", "uniform", "offset")
 NOISE_DRAWS = ("per_evaluation", "per_solve")
 REGULARISATIONS = ("none", "tikhonov", "smoothness")
+# Bounds of the chapter-4 settings (docs/limits.md): far beyond the thesis' values (1 mm,
+# 4e-4, a 0.9 guess, 4 N), short of numbers no measurement or optimiser could mean.
+MAX_NOISE_MM = 100.0
+MAX_NOISE_STRAIN = 1.0
+MAX_SCALE = 10.0
+MAX_FORCE_N = 1e4  # guess_sigma_n and fd_step_n: nodal forces are tens of newtons
+MAX_TOLERANCE = 1e3
+MAX_WEIGHT = 1e12
 
 
 @dataclass(frozen=True)
@@ -163,12 +172,14 @@ def thesis_conditions(repeats: int = 10, optimizers: tuple[str, ...] = ("nelder-
     )
 
 
-def _positive(t: dict, key: str, where: str, default: float) -> float:
-    return v.number(t.get(key, default), f"{where}.{key}", low=0, strict=True)
+def _positive(t: dict, key: str, where: str, default: float, high: float | None = None
+              ) -> float:
+    return v.number(t.get(key, default), f"{where}.{key}", low=0, high=high, strict=True)
 
 
-def _count(t: dict, key: str, where: str, default: int, low: int = 1) -> int:
-    return v.integer(t.get(key, default), f"{where}.{key}", low=low)
+def _count(t: dict, key: str, where: str, default: int, low: int = 1,
+           high: int | None = None) -> int:
+    return v.integer(t.get(key, default), f"{where}.{key}", low=low, high=high)
 
 
 def _optimizer(name: str, data: Any) -> OptimizerSettings:
@@ -185,17 +196,18 @@ def _optimizer(name: str, data: Any) -> OptimizerSettings:
         raise v.fail(f"{where}.noise_draw", "least squares needs 'per_solve': a finite-"
                      "difference Jacobian of a target redrawn between columns is noise")
     common = {"name": name, "noise_draw": draw,
-              "max_evaluations": _count(t, "max_evaluations", where, 200 if lsq else 600, 2)}
+              "max_evaluations": _count(t, "max_evaluations", where, 200 if lsq else 600, 2,
+                                        v.MAX_EVALUATIONS)}
     if not lsq:
-        return OptimizerSettings(**common, xatol=_positive(t, "xatol", where, 1e-3),
-                                 fatol=_positive(t, "fatol", where, 1e-7))
+        return OptimizerSettings(**common, xatol=_positive(t, "xatol", where, 1e-3, MAX_TOLERANCE),
+                                 fatol=_positive(t, "fatol", where, 1e-7, MAX_TOLERANCE))
     reg = v.choice(t.get("regularisation", "none"), f"{where}.regularisation", REGULARISATIONS)
-    weight = v.number(t.get("weight", 0.0), f"{where}.weight", low=0)
+    weight = v.number(t.get("weight", 0.0), f"{where}.weight", low=0, high=MAX_WEIGHT)
     if reg != "none" and weight == 0:
         raise v.fail(f"{where}.weight", f"give a weight > 0 for {reg} regularisation")
-    return OptimizerSettings(**common, fd_step=_positive(t, "fd_step_n", where, 0.25),
+    return OptimizerSettings(**common, fd_step=_positive(t, "fd_step_n", where, 0.25, MAX_FORCE_N),
                              regularisation=reg, weight=weight,
-                             tolerance=_positive(t, "tolerance", where, 1e-8))
+                             tolerance=_positive(t, "tolerance", where, 1e-8, MAX_TOLERANCE))
 
 
 def _condition(data: Any, k: int, optimizers: tuple[str, ...]) -> Condition:
@@ -210,17 +222,20 @@ def _condition(data: Any, k: int, optimizers: tuple[str, ...]) -> Condition:
                              optimizers),
         noise=v.boolean(t.get("noise", True), f"{where}.noise"),
         initial=v.choice(t.get("initial", "scaled"), f"{where}.initial", INITIALS),
-        scale=_positive(t, "scale", where, 0.9),
-        guess_sigma=v.number(t.get("guess_sigma_n", 0.0), f"{where}.guess_sigma_n", low=0),
-        repeats=_count(t, "repeats", where, 1))
+        scale=_positive(t, "scale", where, 0.9, MAX_SCALE),
+        guess_sigma=v.number(t.get("guess_sigma_n", 0.0), f"{where}.guess_sigma_n", low=0,
+                             high=MAX_FORCE_N),
+        repeats=_count(t, "repeats", where, 1, high=v.MAX_REPEATS))
 
 
 def _mask(data: Any, base: Path) -> MaskSpec:
     t = v.table(data, "mask", {"eigen_vectors", "keep", "mode"}, {"eigen_vectors"})
-    path = v.string(t["eigen_vectors"], "mask.eigen_vectors", "a path")
+    path = v.location(t["eigen_vectors"], "mask.eigen_vectors", "a path", base)
     keep = v.number(t.get("keep", 0.5), "mask.keep", low=0, high=1, strict=True)
-    return MaskSpec(str((base / path).expanduser().resolve()) if not Path(path).is_absolute()
-                    else path, keep, _count(t, "mode", "mask", 1))
+    mask = MaskSpec(path, keep, _count(t, "mode", "mask", 1, high=1000))
+    if Path(path).exists():  # a FIFO or a device would be read for ever at run time
+        v.regular_file(Path(path), "mask.eigen_vectors")
+    return mask
 
 
 def parse_inverse_study(text: str, source: str = "<study>", base: Path | None = None
@@ -233,16 +248,13 @@ def parse_inverse_study(text: str, source: str = "<study>", base: Path | None = 
 
 def _paths(head: dict, base: Path) -> tuple[str, str]:
     """The store and the evaluation cache, relative paths taken from ``base``."""
-    store = v.string(head["store"], "study.store", "a path or URL string", blank=False)
-    if "://" not in store:
-        store = str((base / store).expanduser().resolve())
+    store = v.store_location(head["store"], "study.store", base)
     cache = head.get("cache")
     if cache is None:
         if "://" in store:
             raise v.fail("study.cache", "give a local cache directory for a URL store")
         return store, store.rstrip("/") + ".evaluations"
-    cache = v.string(cache, "study.cache", "a directory path")
-    return store, str((base / cache).expanduser().resolve())
+    return store, v.location(cache, "study.cache", "a directory path", base)
 
 
 def _parse(data: dict, source: str, base: Path) -> InverseStudy:
@@ -260,8 +272,8 @@ def _parse(data: dict, source: str, base: Path) -> InverseStudy:
     ref = v.table(data.get("reference", {}), "reference", {"deflection_mm"})
     deflection = _positive(ref, "deflection_mm", "reference", 30.0)
     noise_t = v.table(data.get("noise", {}), "noise", {"displacement_mm", "strain"})
-    noise = NoiseSettings(_positive(noise_t, "displacement_mm", "noise", 1.0),
-                          _positive(noise_t, "strain", "noise", 4e-4))
+    noise = NoiseSettings(_positive(noise_t, "displacement_mm", "noise", 1.0, MAX_NOISE_MM),
+                          _positive(noise_t, "strain", "noise", 4e-4, MAX_NOISE_STRAIN))
     opt_t = v.table(data.get("optimizers", {"nelder-mead": {}}), "optimizers", set(OPTIMIZERS))
     if not opt_t:
         raise v.fail("optimizers", "name at least one optimiser")
@@ -276,8 +288,12 @@ def _parse(data: dict, source: str, base: Path) -> InverseStudy:
         conditions = tuple(_condition(c, k, names) for k, c in enumerate(conds))
     if len({c.name for c in conditions}) != len(conditions):
         raise v.fail("conditions", "condition names must be distinct")
+    loops = sum(len(c.methods) * len(c.optimizers) * c.repeats for c in conditions)
+    if loops > v.MAX_LOOPS:
+        raise v.fail("conditions", f"methods x optimisers x repeats is {loops} loops, above "
+                     f"the limit of {v.MAX_LOOPS}")
     settings = v.solver(data.get("solver", {})).settings
-    seed = v.integer(head.get("seed", 0), "study.seed", low=0)
+    seed = v.integer(head.get("seed", 0), "study.seed", low=0, high=v.MAX_SEED)
     mask = _mask(data["mask"], base) if "mask" in data else None
     study = InverseStudy(name, store, group, cache, seed, model, deflection, noise, optimizers,
                          conditions, mask, settings, source)

@@ -250,3 +250,24 @@ def test_runs_on_a_dask_cluster(uz_only_store, tmp_path, monkeypatch):
     monkeypatch.setattr("analysis.cluster.CONNECT_TIMEOUT", "1s")
     with pytest.raises(SchedulerError, match="Dask scheduler"):
         _run("pca", uz_only_store, "--out", tmp_path / "x", "--scheduler", "tcp://127.0.0.1:1")
+
+
+@pytest.mark.parametrize("command", ["pcr", "plsr", "noise"])
+@pytest.mark.parametrize("value", [999, 27.5, -1, float("nan")])
+def test_a_reference_deflection_not_stored_is_an_error_listing_the_stored_ones(
+        thesis_store, tmp_path, command, value):
+    """Once the nearest experiment was used silently: 999 mm meant 40 mm."""
+    with pytest.raises(ParameterError) as info:
+        _run(command, thesis_store, "--reference-deflection", value, "--out", tmp_path)
+    assert "give one of: 10, 15, 20, 25, 30, 35, 40 mm" in str(info.value)
+    assert not any(tmp_path.iterdir())  # nothing written
+
+
+def test_output_and_scheduler_options_are_checked_before_reading(thesis_store, tmp_path):
+    (tmp_path / "afile").write_text("x")
+    with pytest.raises(ParameterError, match=r"--out: .*afile is a file, not a folder"):
+        _run("pca", thesis_store, "--out", tmp_path / "afile")
+    result = runner.invoke(app, ["pca", str(thesis_store), "--scheduler", "not a url"])
+    assert result.exit_code == 2 and "is not a scheduler address" in result.output
+    with pytest.raises(ParameterError, match=r"--noise-levels must be .* in \[0, 100\]"):
+        _run("noise", thesis_store, "--noise-levels", "1,nan", "--out", tmp_path / "n")

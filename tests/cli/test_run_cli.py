@@ -62,3 +62,39 @@ def test_run_prints_the_force_table_and_saves_arrays(tmp_path, capsys):
         assert list(z["deflection"]) == [10.0, 20.0]
         assert z["displacement"].shape == (2, len(z["inner_node"]), 3)
         assert np.all(z["total_force"][:, 2] > 0)
+
+
+@pytest.mark.parametrize(
+    "argv, needle",
+    [
+        (["--deflection", "10:40:1e-308"], "too many"),  # the count overflowed to inf
+        (["--deflection", "10:40:1e-12"], "30000000000001 values is too many"),
+        (["--deflection", "5e-324"], "deflection must be a positive number"),
+        (["--pressure", "1e308"], "--pressure: must be in [0, 1000]"),
+        (["--pressure", "nan"], "--pressure: must be a number, got nan"),
+        (["--threads", str(2 ** 63 - 1)], "--threads: must be an integer in [1, 256]"),
+        (["--timeout", "1e-9"], "--timeout: must be in [1, 604800]"),
+        (["--set", "mesh.circumferential=1000000"], "FARM_MAX_MESH_NODES"),
+        (["--set", "materials.tread.youngs_modulus=1e308"],
+         "model.materials.tread.youngs_modulus must be a number in [0.001, 1e+06] MPa"),
+    ],
+)
+def test_absurd_values_are_refused_before_solving(argv, needle, capsys, monkeypatch):
+    import cli.run
+
+    monkeypatch.setattr(cli.run, "run_load_path", lambda *a, **k: pytest.fail("solved"))
+    code, _, err = _run(["run", "--model", "reduced", *COARSE, *argv], capsys)
+    assert code == 1 and err.count("\n") == 1 and needle in err, err
+
+
+@pytest.mark.parametrize("out", ["missing/x.npz", "folder", "afile/x.npz"])
+def test_out_is_checked_before_the_solve_not_after(out, tmp_path, capsys, monkeypatch):
+    """A path that cannot be written once cost a finished solve: now nothing is solved."""
+    import cli.run
+
+    (tmp_path / "folder").mkdir()
+    (tmp_path / "afile").write_text("x")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(cli.run, "run_load_path", lambda *a, **k: pytest.fail("solved"))
+    code, _, err = _run(["run", "--model", "reduced", *COARSE, "--out", out], capsys)
+    assert code == 1 and err.startswith("farm: error: --out: ") and err.count("\n") == 1, err

@@ -126,3 +126,185 @@ def test_malformed_study_is_one_line_and_touches_nothing(text, tmp_path_factory,
     assert err.startswith("farm: error: ") and err.count("\n") == 1, err
     assert "Traceback" not in err
     assert not store.exists()
+
+
+# ------------------------------------------------- hostile input: files, counts, bounds
+# (issue 14; the seeded corpus of tests/jobs/test_fuzz_inputs.py runs these and more
+# through the CLI, these name each rule and its property)
+
+
+def _write(tmp_path, text: str | bytes, name="study.toml") -> Path:
+    path = tmp_path / name
+    path.write_bytes(text if isinstance(text, bytes) else text.encode())
+    return path
+
+
+def test_a_study_that_is_not_utf8_is_one_error_naming_the_line(tmp_path):
+    text = study_text(tmp_path / "s.zarr").encode()
+    path = _write(tmp_path, text.replace(b"[loads]", b"# \xe9t\xe9\n[loads]"))
+    with pytest.raises(StudyError, match=r"not UTF-8 text \(byte 0xe9 on line 1[0-9]\)"):
+        load_study(path)
+
+
+@pytest.mark.parametrize("kind", ["fifo", "directory", "device"])
+def test_files_that_are_not_regular_are_refused_without_reading(tmp_path, kind):
+    import os
+    import threading
+
+    path = {"fifo": tmp_path / "pipe.toml", "directory": tmp_path,
+            "device": Path("/dev/zero")}[kind]
+    if kind == "fifo":
+        os.mkfifo(path)
+    errors = []
+
+    def load():
+        try:
+            load_study(path)
+        except StudyError as e:
+            errors.append(str(e))
+
+    reader = threading.Thread(target=load, daemon=True)
+    reader.start()
+    reader.join(timeout=10)
+    if reader.is_alive() and kind == "fifo":  # unblock the reader: it opened the FIFO
+        with open(path, "w"):
+            pass
+    assert not reader.is_alive() and len(errors) == 1, "the reader waited on the file"
+    assert "not a regular file" in errors[0]
+
+
+def test_a_study_file_over_the_size_limit_is_refused(tmp_path):
+    from jobs import validate
+
+    text = study_text(tmp_path / "s.zarr") + "#" * validate.MAX_FILE_BYTES
+    with pytest.raises(StudyError, match="larger than 1 MiB"):
+        load_study(_write(tmp_path, text))
+
+
+@pytest.mark.parametrize("depth", [9, 2000])
+def test_deep_nesting_is_one_error_not_a_recursion_error(tmp_path, depth):
+    text = study_text(tmp_path / "s.zarr").replace(
+        'name = "test"', "name = " + "[" * depth + "]" * depth)
+    with pytest.raises(StudyError, match="nested"):
+        parse_study(text, "deep.toml")
+
+
+@pytest.mark.parametrize(("step", "match"), [
+    ("1e-308", "too many"),  # (stop - start) / step overflows to inf: no int, no list
+    ("1e-12", "25000000000001 values is too many"),
+])
+def test_a_range_step_is_counted_before_anything_is_made(step, match):
+    text = study_text(Path("/tmp/s.zarr"), deflections=f"{{ start = 5, stop = 30, step = {step} }}")
+    with pytest.raises(StudyError, match=match):
+        parse_study(text)
+
+
+def _grid(pressures: int, deflections: int) -> str:
+    return (study_text(Path("/tmp/s.zarr"), deflections=f"{{ start = 1, stop = 100, step = "
+                       f"{99 / (deflections - 1)!r} }}")
+            .replace('kind = "reduced"\nroad = "contact"', 'kind = "full"')
+            .replace("[loads]", f"[loads]\npressure_kpa = {{ start = 100, stop = 300, step = "
+                                f"{200 / (pressures - 1)!r} }}"))
+
+
+def test_the_experiment_count_is_limited_and_the_limit_can_be_raised(monkeypatch):
+    study = parse_study(_grid(100, 100))  # exactly the limit
+    assert len(study.pressures) * len(study.deflections) == 10_000
+    with pytest.raises(StudyError, match=r"loads: 101 pressures x 100 deflections is 10100 "
+                                         r"experiments, above the limit of 10000 \(set "
+                                         r"FARM_MAX_EXPERIMENTS"):
+        parse_study(_grid(101, 100))
+    monkeypatch.setenv("FARM_MAX_EXPERIMENTS", "20000")
+    assert len(parse_study(_grid(101, 100)).pressures) == 101
+    monkeypatch.setenv("FARM_MAX_EXPERIMENTS", "lots")
+    with pytest.raises(StudyError, match="FARM_MAX_EXPERIMENTS must be a whole number"):
+        parse_study(_grid(101, 100))
+
+
+def test_a_sampled_design_counts_with_the_loads_it_does_not_sample():
+    text = _grid(2, 2).replace("[loads]", "[loads.sample]\nmethod = 'lhs'\nn = 4000\n"
+                               "deflection_mm = [5, 30]\n[loads]")
+    text = text.replace("deflection_mm = { start", "# deflection_mm = { start")
+    with pytest.raises(StudyError, match=r"a design of 4000 points x 3 pressures is 12000"):
+        parse_study(text.replace("step = 200.0", "step = 100.0"))
+    assert parse_study(text).sampling.n == 4000  # 4000 x 2 pressures
+
+
+def test_mesh_node_bound_counts_what_the_mesher_makes(monkeypatch):
+    import dataclasses
+
+    from farm.mesh import mesh_for
+    from farm.presets import default_model
+    from farm.specs import MeshDensity
+
+    for kind in ("reduced", "full"):
+        spec = dataclasses.replace(default_model(kind), mesh=MeshDensity(4, 2, 1, 8))
+        assert spec.node_estimate == len(mesh_for(spec).nodes)
+    text = study_text(Path("/tmp/s.zarr")).replace("circumferential = 8",
+                                                   "circumferential = 1000000")
+    with pytest.raises(StudyError, match=r"model\.mesh: .*circumferential=1000000\) is 22000022 "
+                                         r"mesh nodes.*FARM_MAX_MESH_NODES"):
+        parse_study(text)
+    monkeypatch.setenv("FARM_MAX_MESH_NODES", str(10 ** 8))
+    assert parse_study(text).model.mesh.circumferential == 1_000_000
+
+
+@pytest.mark.parametrize(("edit", "needle"), [
+    (("[loads]", "[model.materials.tread]\nyoungs_modulus = 1e308\n[loads]"),
+     "model.materials.tread.youngs_modulus must be a number in [0.001, 1e+06] MPa"),
+    (("[loads]", "[model.materials.bead]\nyoungs_modulus = 1e-308\n[loads]"),
+     "model.materials.bead.youngs_modulus"),
+    (("[loads]", "[model.contact]\nclearance = 1e308\n[loads]"), "model.contact.clearance"),
+    (("[loads]", "[model.geometry]\nrim_diameter = 1e308\n[loads]"),
+     "model.geometry.rim_diameter"),
+    (("[loads]", "[model.geometry]\nbead_thickness = 60\n[loads]"),
+     "model.geometry.bead_thickness (60.0 mm) is too large"),
+    (("[solver]", "[solver]\nthreads = 9223372036854775807"), "solver.threads must be an integer "
+     "in [1, 256]"),
+    (("[solver]", "[solver]\ntimeout_s = 1e-9"), "solver.timeout_s: must be in [1, 604800]"),
+    (("[solver]", "[solver]\nmin_increment = 1e-300"), "solver.min_increment must be >= 1e-12"),
+    (("[solver]", "[solver]\nmax_increments = 9223372036854775807"), "solver.max_increments"),
+    (("start = 5", "start = 5e-324"), "loads.deflection_mm: must be > 0, got 5e-324 (rounds to 0"),
+    (('store = "', 'store = "~no_such_user_x/'), "study.store: cannot resolve the path"),
+    (('store = "', 'store = "a\\u0000b'), "study.store: must be a directory path or URL"),
+])
+def test_absurd_values_are_one_error_naming_the_key_and_the_range(edit, needle, tmp_path):
+    text = study_text(tmp_path / "s.zarr").replace(*edit)
+    with pytest.raises(StudyError) as info:
+        load_study(_write(tmp_path, text))
+    assert needle in str(info.value) and "\n" not in str(info.value)
+
+
+def test_pressures_are_bounded_in_kpa():
+    text = _grid(2, 2).replace("start = 100, stop = 300", "start = 100, stop = 1e308")
+    with pytest.raises(StudyError, match=r"loads.pressure_kpa.stop: must be in \(0, 1000\]"):
+        parse_study(text.replace("step = 200.0", "step = 1e307"))
+
+
+@pytest.mark.parametrize(("address", "ok"), [
+    ("tcp://127.0.0.1:8786", True), ("10.0.0.5:8786", True), ("tls://sched.example:8786", True),
+    ("tcp://[::1]:8786", True), ("inproc://10.0.0.1/123/1", True), ("ucx://h:13337", True),
+    ("tcp://farm_scheduler_1:8786", True), ("not a url", False), ("tcp://host", False),
+    ("http://host:8786", False), ("tcp://host:0", False), ("tcp://host:65536", False),
+    ("tcp://[::1:8786", False), ("", False), ("tcp://host:8786/x", False),
+])
+def test_scheduler_addresses(address, ok):
+    from jobs import validate
+
+    if ok:
+        assert validate.scheduler_address(address) == address
+    else:
+        with pytest.raises(StudyError, match="--scheduler: "):
+            validate.scheduler_address(address)
+
+
+@pytest.mark.parametrize("argv", [["--workers", "-3"], ["--workers", "0"],
+                                  ["--workers", "100000"], ["--scheduler", "not a url"]])
+def test_bad_cluster_options_are_usage_errors_before_the_study_is_read(argv, capsys,
+                                                                       monkeypatch):
+    monkeypatch.setattr("jobs.driver.connect", lambda *a, **k: pytest.fail("connected"))
+    with pytest.raises(SystemExit) as info:
+        main(["sweep", "submit", "no-such-study.toml", *argv])
+    err = capsys.readouterr().err
+    assert info.value.code == 2 and err.count("\n") == 1
+    assert err.startswith(f"farm: error: Invalid value for '{argv[0]}'")
