@@ -2,10 +2,12 @@
 
 The store schema is in ``docs/schema.md``. This module is the only place in
 :mod:`analysis` that opens a group, and it reads through :mod:`storage`'s readers
-(``open_dataset``, ``done``, ``select``, ``status_counts``); everything else works on the
-:class:`xarray.Dataset` that :func:`load` returns: done experiments only, optionally
-filtered by load case, with the per-experiment variables as dask arrays chunked along
-``experiment`` so that a store larger than memory streams through the reductions.
+(``open_dataset``, ``done``, ``verify_done``, ``select``, ``status_counts``); everything
+else works on the :class:`xarray.Dataset` that :func:`load` returns: done experiments
+only, optionally filtered by load case, each checked against its checksum (a damaged
+one is refused by name, never analysed), with the per-experiment variables as dask
+arrays chunked along ``experiment`` so that a store larger than memory streams through
+the reductions.
 
 Matrices follow the thesis' notation: ``X`` is K experiments by N inner nodes for one
 *direction* (Ux, Uy, Uz, exx, eyy, exy, or a CST surface strain), ``Y`` is K by M tread
@@ -31,6 +33,8 @@ from analysis.errors import (
     NoVarianceError,
     TooFewExperimentsError,
 )
+from storage.errors import reading
+from storage.read import verify_done
 
 #: direction name -> (store variable, component dimension, component label)
 DIRECTIONS: dict[str, tuple[str, str, str]] = {
@@ -93,7 +97,8 @@ def open_group(store: Any, group: str) -> xr.Dataset:
 
 def list_groups(store: Any) -> list[str]:
     """Names of the experiment groups of ``store`` (one per model)."""
-    return storage.list_groups(store)
+    with reading("the store's list of groups (its root zarr.json)", str(store)):
+        return storage.list_groups(store)
 
 
 def resolve_group(store: Any, group: str | None) -> str:
@@ -120,7 +125,9 @@ def load(
 
     Reads through :mod:`storage` (:func:`storage.open_dataset`, :func:`storage.done`,
     :func:`storage.select`), so "done" and "matches" mean what they mean for every
-    other reader of the store.
+    other reader of the store. Every done experiment's id and load case, and the data
+    of the selected ones, are checked against their checksums first
+    (:func:`storage.read.verify_done`).
 
     Parameters
     ----------
@@ -144,10 +151,12 @@ def load(
         raise MissingVariableError(f"group {name!r} has no 'status' variable: not a farm store")
     asked = (("pressure", pressure), ("deflection", deflection))
     filters = {k: v for k, v in asked if v is not None}
-    done = storage.done(ds)
+    done = storage.done(ds, verify=False)
+    verify_done(done, data=False)  # ids and load cases, which the selection relies on
     sel = storage.select(done, **filters)
     if sel.sizes["experiment"] == 0:
         raise EmptySelectionError(_empty_message(store, name, done, filters))
+    sel = verify_done(sel)  # the data of what is analysed (in memory, if it fits)
     attrs = {"store": str(store), "group": name, "filters": _filter_text(filters)}
     return _chunk(sel.assign_attrs(attrs))
 

@@ -89,12 +89,23 @@ def _combine(task: PathTask, parts: list[PathOutcome]) -> PathOutcome:
 
 
 def run_path(task: PathTask) -> PathOutcome:
-    """Worker entry point: solve the path's experiments not yet done, write them."""
-    ids = [e.id for e in task.path.experiments]
-    status = storage.statuses(task.store, task.group, ids)
-    todo = [e for e in task.path.experiments if status.get(e.id) != storage.DONE]
-    skipped = tuple(e.id for e in task.path.experiments if status.get(e.id) == storage.DONE)
-    if not todo:
-        return PathOutcome(task.path.key, skipped=skipped)
-    outcome = _solve(task, todo, cancellation_check())
-    return dataclasses.replace(outcome, skipped=skipped)
+    """Worker entry point: solve the path's experiments not yet done, write them.
+
+    Under the path's claim (:func:`storage.claim`): a cluster that shares no scheduler
+    with another one on the same store (two embedded clusters) waits while the other
+    solves the path, then reads the statuses and skips what it wrote. Tasks of one
+    scheduler never meet here: their Dask key is the path's key.
+    """
+    should_stop = cancellation_check()
+    with storage.claim(task.store, task.group, task.path.key, should_stop=should_stop) as go:
+        if not go:  # cancelled while another cluster's worker held the path
+            return PathOutcome(task.path.key)
+        ids = [e.id for e in task.path.experiments]
+        status = storage.statuses(task.store, task.group, ids)
+        todo = [e for e in task.path.experiments if status.get(e.id) != storage.DONE]
+        skipped = tuple(e.id for e in task.path.experiments
+                        if status.get(e.id) == storage.DONE)
+        if not todo:
+            return PathOutcome(task.path.key, skipped=skipped)
+        outcome = _solve(task, todo, should_stop)
+        return dataclasses.replace(outcome, skipped=skipped)

@@ -1,9 +1,9 @@
 """The Zarr v3 dataset of virtual experiments (schema: ``docs/schema.md``).
 
 One store, one group per model mesh; every group opens with
-``xarray.open_zarr(store, group=name)``. The client creates groups and reserves slots
-(metadata has one writer); workers write whole chunks of their own slot, status last.
-No FEM and no Dask here.
+``xarray.open_zarr(store, group=name)``. Clients create groups and reserve slots,
+taking turns at the store's lock (metadata has one writer at a time); workers write
+whole chunks of their own slot, status last. No FEM and no Dask here.
 
 Client::
 
@@ -21,6 +21,13 @@ Analysis::
     ds = done(open_dataset(store, group))
     select(ds, pressure=0.2, deflection=slice(10, 40))
 
+Several clients on one store take turns at metadata (``storage.lock``); a worker holds
+a claim on the unit of work it does, so that a second cluster waits instead of solving
+it again::
+
+    with claim(store, group, "path-3f9a") as go:
+        ...  # if go: re-read statuses, solve what is not done
+
 Inverse studies (one group each, client-written; ``storage.solves``)::
 
     write_solves(store, group, Unknowns(...), [SolveRecord(...), ...], SolvesAttrs(...))
@@ -29,21 +36,34 @@ Inverse studies (one group each, client-written; ``storage.solves``)::
 
 from storage.errors import (
     AlreadyDoneError,
+    ConcurrentClientError,
+    DamagedStoreError,
     GroupNotFoundError,
     MeshMismatchError,
     NotAStoreError,
     NotReservedError,
     ParameterConflictError,
     SchemaError,
+    StoreBusyError,
     StoreError,
 )
 from storage.group import create_group, list_groups
+from storage.lock import claim, client_lock
 from storage.mesh import GroupAttrs, MeshNodes, package_versions
-from storage.paths import StoreLike, open_store
-from storage.read import done, open_dataset, parameters, select, status_counts, statuses
+from storage.paths import URL_SCHEMES, StoreLike, open_store
+from storage.read import (
+    done,
+    open_dataset,
+    parameters,
+    select,
+    status_counts,
+    statuses,
+    verify_done,
+)
 from storage.reserve import reserve
 from storage.schema import DONE, FAILED, PENDING, SCHEMA_VERSION
 from storage.solves import SolveRecord, SolvesAttrs, Unknowns, open_solves, write_solves
+from storage.verify import VerifyReport, verify
 from storage.write import write_experiment, write_failure
 
 __all__ = [
@@ -51,7 +71,10 @@ __all__ = [
     "FAILED",
     "PENDING",
     "SCHEMA_VERSION",
+    "URL_SCHEMES",
     "AlreadyDoneError",
+    "ConcurrentClientError",
+    "DamagedStoreError",
     "GroupAttrs",
     "GroupNotFoundError",
     "MeshMismatchError",
@@ -62,9 +85,13 @@ __all__ = [
     "SchemaError",
     "SolveRecord",
     "SolvesAttrs",
+    "StoreBusyError",
     "StoreError",
     "StoreLike",
     "Unknowns",
+    "VerifyReport",
+    "claim",
+    "client_lock",
     "create_group",
     "done",
     "list_groups",
@@ -77,6 +104,8 @@ __all__ = [
     "select",
     "status_counts",
     "statuses",
+    "verify",
+    "verify_done",
     "write_experiment",
     "write_failure",
     "write_solves",

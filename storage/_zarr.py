@@ -11,6 +11,10 @@ Why these are needed (zarr-python 3.1; checked against 3.1.6):
   ``zarr.core.sync.sync`` (internal).
 - :class:`zarr.abc.store.Store` exposes only coroutines (``exists``); the same
   ``sync`` runs them from synchronous code.
+- Reading and writing one key's raw bytes (``Store.get``/``Store.set``) needs a
+  buffer prototype (``zarr.core.buffer``, internal); ``farm sweep verify`` uses them to
+  read metadata documents as bytes and to restore a damaged ``zarr.json`` from the
+  root's consolidated copy (``storage.verify``).
 - :func:`zarr.consolidate_metadata` warns on every call that consolidated metadata is
   not part of the v3 specification; the warning's text is matched to silence it.
 
@@ -18,6 +22,8 @@ What to check on a zarr upgrade (``tests/storage`` exercises every function here
 concurrency and crash tests depend on the write order of :func:`write_in_order`):
 
 - ``zarr.core.sync.sync`` still exists and runs a coroutine on zarr's loop;
+- ``zarr.core.buffer.default_buffer_prototype()`` still exists, with
+  ``.buffer.from_bytes``;
 - ``zarr.Array.async_array`` still returns the array's ``AsyncArray``, whose
   ``getitem(selection)`` and ``setitem(selection, value)`` are coroutines;
 - the consolidated-metadata warning still starts with ``Consolidated metadata is
@@ -35,6 +41,7 @@ import numpy as np
 import zarr
 from zarr import AsyncArray
 from zarr.abc.store import Store
+from zarr.core.buffer import default_buffer_prototype
 from zarr.core.sync import sync as _sync
 
 T = TypeVar("T")
@@ -42,8 +49,8 @@ T = TypeVar("T")
 #: One write: an array, the selection along its first axis, the values.
 Write = tuple[AsyncArray, slice, np.ndarray]
 
-__all__ = ["AsyncArray", "Write", "async_arrays", "consolidate", "key_exists", "read_item",
-           "run", "write_in_order"]
+__all__ = ["AsyncArray", "Write", "async_arrays", "consolidate", "get_bytes", "key_exists",
+           "list_dir", "read_item", "run", "set_bytes", "write_in_order"]
 
 
 def run(coroutine: Coroutine[Any, Any, T]) -> T:
@@ -54,6 +61,26 @@ def run(coroutine: Coroutine[Any, Any, T]) -> T:
 def key_exists(store: Store, key: str) -> bool:
     """Whether ``key`` (e.g. ``"zarr.json"``) exists in ``store``."""
     return bool(run(store.exists(key)))
+
+
+def get_bytes(store: Store, key: str) -> bytes | None:
+    """The raw bytes stored under ``key``, or None when there are none."""
+    buf = run(store.get(key, prototype=default_buffer_prototype()))
+    return None if buf is None else buf.to_bytes()
+
+
+def set_bytes(store: Store, key: str, data: bytes) -> None:
+    """Store ``data`` under ``key`` as it is (no codec)."""
+    run(store.set(key, default_buffer_prototype().buffer.from_bytes(data)))
+
+
+def list_dir(store: Store, prefix: str) -> list[str]:
+    """Names directly under ``prefix`` (``""``: the root), keys and "folders" alike."""
+
+    async def collect() -> list[str]:
+        return [name async for name in store.list_dir(prefix)]
+
+    return sorted(run(collect()))
 
 
 def async_arrays(group: zarr.Group, names: Iterable[str]) -> dict[str, AsyncArray]:

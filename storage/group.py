@@ -1,8 +1,10 @@
 """Client side: create the group of a mesh (node sets written once); list groups.
 
-Creating writes metadata, so only the submitting client calls it (one metadata writer,
-DESIGN.md). A group is marked complete by its ``schema_version`` attribute, written
-last, so a client killed half-way leaves a group that the next call rebuilds.
+Creating writes metadata, so it runs under the store's client lock (one metadata
+writer at a time, :mod:`storage.lock`): of two clients racing to create one group, the
+second finds it complete and checks it holds its own mesh and model. A group is marked
+complete by its ``schema_version`` attribute, written last, so a client killed
+half-way leaves a group that the next call rebuilds.
 """
 
 from __future__ import annotations
@@ -14,8 +16,15 @@ import numpy as np
 import zarr
 
 from storage.errors import MeshMismatchError, SchemaError
+from storage.lock import client_lock
 from storage.mesh import GroupAttrs, MeshNodes
-from storage.paths import StoreLike, check_group_name, open_group, open_store
+from storage.paths import (
+    StoreLike,
+    check_group_name,
+    farm_entries_ignored,
+    open_group,
+    open_store,
+)
 from storage.paths import publish as _publish
 from storage.paths import root_group as _root_group
 from storage.schema import (
@@ -76,7 +85,9 @@ def create_group(store: StoreLike, group: str, mesh: MeshNodes, attrs: GroupAttr
     Raises
     ------
     MeshMismatchError
-        The group exists for a different mesh.
+        The group exists for a different mesh, or for another model (``model_spec``).
+    StoreBusyError
+        Another client held the store's lock for too long.
     """
     if not isinstance(mesh, MeshNodes) or not isinstance(attrs, GroupAttrs):
         raise SchemaError(
@@ -85,12 +96,13 @@ def create_group(store: StoreLike, group: str, mesh: MeshNodes, attrs: GroupAttr
         )
     check_group_name(group)
     zs = open_store(store)
-    root = _root_group(zs, create=True)
-    if group in root and _is_complete(root, group):
-        _check_same_mesh(open_group(zs, group), group, mesh, attrs)
-    else:
-        _build(root, group, mesh, attrs)
-    _publish(zs)
+    with client_lock(zs, create=True):  # completeness and mesh are judged under the lock
+        root = _root_group(zs, create=True)
+        if group in root and _is_complete(root, group):
+            _check_same_mesh(open_group(zs, group), group, mesh, attrs)
+        else:
+            _build(root, group, mesh, attrs)
+        _publish(zs)
 
 
 def _is_complete(root: zarr.Group, group: str) -> bool:
@@ -148,10 +160,30 @@ def _check_same_mesh(g: zarr.Group, group: str, mesh: MeshNodes, attrs: GroupAtt
             f"group {group!r} has mesh key {attrs.mesh_key!r} but another mesh: {diff}; "
             "the mesh key must change when the mesh does"
         )
+    # One group, one model: materials or boundary conditions mixed in one group would
+    # mix populations in every analysis of it.
+    held = _spec(g.attrs.get("model_spec"))
+    mine = _spec(attrs.model_spec)
+    if held != mine:
+        names = sorted(k for k in set(held) | set(mine) if held.get(k) != mine.get(k))
+        raise MeshMismatchError(
+            f"group {group!r} holds experiments of another model on this mesh (model_spec "
+            f"differs in {', '.join(map(repr, names)) or 'its values'}): use one group per "
+            "model (another group name)"
+        )
+
+
+def _spec(text: object) -> dict:
+    try:
+        spec = json.loads(text) if isinstance(text, str) else None
+    except ValueError:
+        spec = None
+    return spec if isinstance(spec, dict) else {"model_spec": text}
 
 
 def list_groups(store: StoreLike) -> list[str]:
     """Names of the experiment groups in a store, sorted."""
     zs = open_store(store, read_only=True)
     root = _root_group(zs)
-    return sorted(name for name, g in root.groups() if "schema_version" in g.attrs)
+    with farm_entries_ignored():
+        return sorted(name for name, g in root.groups() if "schema_version" in g.attrs)

@@ -7,6 +7,11 @@ resize only grows arrays, so a cached array (with a stale, smaller shape) still 
 the right chunk for every index it knows. A cached index is nevertheless checked on
 every write against the stored id (one small read), which also catches a store deleted
 and made anew at the same path; a miss or a mismatch reloads everything.
+
+The handle also keeps the load-case parameters of every id it knows, which the
+worker's checksum covers (:mod:`storage.checksum`): read after the ids, so every id in
+the handle has its parameters (a client writes them before the id), and an id's
+parameters never change.
 """
 
 from __future__ import annotations
@@ -21,7 +26,7 @@ from zarr.abc.store import Store
 from zarr.storage import FsspecStore, LocalStore
 
 from storage._zarr import AsyncArray, async_arrays, read_item
-from storage.errors import NotReservedError
+from storage.errors import NotReservedError, reading
 from storage.paths import describe, open_group
 from storage.reserve import read_ids
 from storage.schema import EXPERIMENT, WORKER_VARIABLES
@@ -38,9 +43,12 @@ class Handle:
     Attributes
     ----------
     arrays : dict of str to zarr.AsyncArray
-        ``experiment`` and every worker-written variable.
+        ``experiment`` and every worker-written variable the group has (``checksum``
+        is missing from groups written before checksums).
     index : dict of str to int
         Experiment id -> index, as far as known when loaded.
+    params : dict of str to (K,) float64
+        Load-case parameters of the first K >= len(index) slots, by name.
     inner_node : (N,) int64, tread_node : (M,) int64
         The group's node ids.
     mesh_key : str
@@ -49,6 +57,7 @@ class Handle:
 
     arrays: dict[str, AsyncArray]
     index: dict[str, int]
+    params: dict[str, np.ndarray]
     inner_node: np.ndarray
     tread_node: np.ndarray
     mesh_key: str
@@ -66,15 +75,24 @@ def _key(store: Store, group: str) -> tuple[object, ...]:
 
 
 def _load(store: Store, group: str) -> Handle:
-    g = open_group(store, group)
-    names = [EXPERIMENT.name, *(v.name for v in WORKER_VARIABLES)]
-    return Handle(
-        arrays=async_arrays(g, names),
-        index={e: i for i, e in enumerate(read_ids(g))},
-        inner_node=g["inner_node"][...],
-        tread_node=g["tread_node"][...],
-        mesh_key=str(g.attrs.get("mesh_key")),
-    )
+    with reading(f"group {group!r}", describe(store)):
+        g = open_group(store, group)
+        # Ids first: a client creates and writes an id's parameters before the id, so
+        # the arrays listed after it hold the parameters of every id read.
+        ids = read_ids(g)
+        members = dict(g.arrays())
+        names = [EXPERIMENT.name,
+                 *(v.name for v in WORKER_VARIABLES if v.name != "checksum" or v.name in members)]
+        params = {name: np.asarray(a[...], dtype=np.float64) for name, a in members.items()
+                  if a.attrs.get("role") == "parameter"}
+        return Handle(
+            arrays=async_arrays(g, names),
+            index={e: i for i, e in enumerate(ids)},
+            params=params,
+            inner_node=g["inner_node"][...],
+            tread_node=g["tread_node"][...],
+            mesh_key=str(g.attrs.get("mesh_key")),
+        )
 
 
 def _verified(h: Handle, experiment_id: str, i: int) -> bool:

@@ -1,7 +1,10 @@
 """Read side: a group as an ``xarray.Dataset``, and cheap status look-ups for the client.
 
 Only ``status == 1`` means done: a slot that is pending or failed may hold NaN, or the
-partial chunks of a writer that died, so analyses go through :func:`done`.
+partial chunks of a writer that died, so analyses go through :func:`done`, which also
+checks every done experiment against its checksum (:mod:`storage.checksum`) and refuses
+damaged ones by name. A store whose bytes do not decode gives one
+:class:`DamagedStoreError` line that names what failed, never zarr's traceback.
 """
 
 from __future__ import annotations
@@ -11,12 +14,19 @@ from typing import Any
 
 import numpy as np
 import xarray as xr
+import zarr
 
-from storage.errors import NotReservedError, SchemaError
-from storage.paths import StoreLike, open_group, open_store
+from storage._zarr import list_dir
+from storage.checksum import Slots, check
+from storage.errors import DamagedStoreError, NotReservedError, SchemaError, reading, verify_hint
+from storage.paths import StoreLike, describe, open_group, open_store
 from storage.reserve import read_ids
-from storage.schema import CLIENT_CHUNK, DONE, STATUS_NAMES
+from storage.schema import CHECKED_NAMES, CLIENT_CHUNK, DONE, FAILED, PENDING, STATUS_NAMES
 
+#: Up to this size, the checked variables of the experiments that :func:`verify_done`
+#: checks are read into memory once: what was hashed is then what the caller analyses,
+#: without a second read. Larger selections are checked block by block and stay lazy.
+IN_MEMORY_BYTES = 256 * 2**20
 #: Relative tolerance of :func:`select` on parameter values.
 SELECT_RTOL = 1e-9
 # One dask chunk per 4096 experiments (98 MB of a full model's
@@ -38,24 +48,143 @@ def open_dataset(store: StoreLike, group: str, *, chunks: Any = _DEFAULT_CHUNKS)
         experiments (the one-experiment chunks of the store, merged).
     """
     zs = open_store(store, read_only=True)
-    open_group(zs, group)  # clear errors for a missing store, group or schema
+    where = describe(zs)
+    with reading(f"group {group!r}", where):
+        open_group(zs, group)  # clear errors for a missing store, group or schema
+        arrays = _fresh_arrays(zs, group, where)
     chunks = dict(chunks) if isinstance(chunks, dict) else chunks  # never share the default
-    try:
-        ds = xr.open_zarr(zs, group=group, consolidated=True, chunks=chunks)
-    except (KeyError, ValueError):  # no (or stale) consolidated metadata: read it fresh
-        ds = xr.open_zarr(zs, group=group, consolidated=False, chunks=chunks)
+    with reading(f"group {group!r}", where):
+        try:
+            ds = xr.open_zarr(zs, group=group, consolidated=True, chunks=chunks)
+        except (KeyError, ValueError):  # no (or stale) consolidated metadata: read it fresh
+            ds = xr.open_zarr(zs, group=group, consolidated=False, chunks=chunks)
+    gone = sorted(set(ds.variables) - arrays)
+    if gone:  # listed in the consolidated copy, absent on disk: it would read as all fill
+        raise DamagedStoreError(
+            f"group {group!r} of {where} has lost array {gone[0]!r} (listed in the store's "
+            f"metadata, absent from the group); {verify_hint(where)}"
+        )
     text = [name for name, var in ds.data_vars.items() if var.dtype.kind == "T"]
-    return ds.assign({name: ds[name].astype(object) for name in text})
+    ds = ds.assign({name: ds[name].astype(object) for name in text})
+    # The load case labels the experiments: coordinates along ``experiment`` (no index),
+    # so ``ds.where(ds.deflection == 30, drop=True)`` and, after
+    # ``ds.set_xindex("deflection")``, ``ds.sel(deflection=30)`` work (issue 12). Read
+    # now (8 bytes an experiment, which done() reads anyway): a lazy label cannot index.
+    names = parameters(ds)
+    with reading(f"the load cases of group {group!r}", where):
+        ds = ds.set_coords([n for n in names if n in ds.data_vars])
+        ds = ds.assign_coords({n: ds[n].load() for n in names})
+    ds.encoding.update(farm_store=where, farm_group=group)  # for the messages of done()
+    return ds
 
 
-def done(ds: xr.Dataset) -> xr.Dataset:
-    """The experiments of ``ds`` that are done (``status == 1``)."""
-    return ds.isel(experiment=np.flatnonzero(np.asarray(ds["status"]) == DONE))
+def _fresh_arrays(zs, group: str, where: str) -> set[str]:
+    """Names of the group's arrays, each one's metadata read fresh; the first that does
+    not decode, or a missing ``experiment`` or ``status``, is a DamagedStoreError."""
+    names = {n for n in list_dir(zs, group) if n != "zarr.json" and not n.startswith(".")}
+    g = zarr.open_group(store=zs, path=group, mode="r", use_consolidated=False)
+    for name in sorted(names):
+        with reading(f"{group}/{name}/zarr.json", where):
+            g[name]
+    for name in ("experiment", "status"):
+        if name not in names:
+            raise DamagedStoreError(
+                f"group {group!r} of {where} has no {name!r} array (deleted?); "
+                f"{verify_hint(where)}"
+            )
+    return names
+
+
+def done(ds: xr.Dataset, *, verify: bool = True) -> xr.Dataset:
+    """The experiments of ``ds`` that are done (``status == 1``), checked.
+
+    With ``verify`` (the default), every one of them is checked against its checksum
+    (:func:`verify_done`): a damaged one raises :class:`DamagedStoreError` naming it.
+    """
+    with _reading_ds(ds, "the status"):
+        sel = ds.isel(experiment=np.flatnonzero(np.asarray(ds["status"]) == DONE))
+    return verify_done(sel) if verify else sel
+
+
+def verify_done(ds: xr.Dataset, *, data: bool = True) -> xr.Dataset:
+    """``ds``, checked: raise :class:`DamagedStoreError` naming its damaged experiments.
+
+    Checks every done or failed experiment of ``ds``: it has an id, and (in groups with
+    checksums) its id and load case match its checksum's label and, with ``data``, its
+    status and data match the rest (:mod:`storage.checksum`). The labels alone are cheap
+    (``data=False``: what a selection by load case relies on). The data cost one read of
+    the checked variables: up to :data:`IN_MEMORY_BYTES` they are returned in memory
+    (the caller analyses what was hashed, and reads nothing twice); beyond, they are
+    read block by block and the returned variables stay lazy.
+    """
+    with _reading_ds(ds, "the ids, status and checksums"):
+        status = np.asarray(ds["status"].values).astype(np.int64)
+        ids = [str(e) for e in np.asarray(ds["experiment"].values).tolist()]
+        sums = ([str(c) for c in np.asarray(ds["checksum"].values).tolist()]
+                if "checksum" in ds else None)
+        params = {n: np.asarray(ds[n].values, dtype=np.float64) for n in parameters(ds)}
+    positions = np.flatnonzero(np.isin(status, (DONE, FAILED))).tolist()
+    bad = {k: "it is done but has no id (the ids chunk is missing or damaged)"
+           for k in positions if not ids[k]}
+    if sums is not None:
+        missing = [n for n in CHECKED_NAMES if n not in ds] if data else []
+        if missing:
+            raise SchemaError(
+                f"cannot check the experiments against their checksums without {missing[0]!r}:"
+                " call storage.done(...) on the whole dataset, before choosing variables"
+            )
+        if data:
+            ds = _in_memory(ds)
+        slots = Slots(ids, status, params, sums,
+                      lambda n, lo, hi: ds[n].isel(experiment=slice(lo, hi)).values,
+                      {n: _bytes_per_experiment(ds, n) for n in CHECKED_NAMES if n in ds})
+        bad.update(check(slots, [k for k in positions if ids[k]], data=data))
+    if bad:
+        raise DamagedStoreError(_damage_message(ds, ids, bad))
+    return ds
+
+
+def _in_memory(ds: xr.Dataset) -> xr.Dataset:
+    """``ds`` with its checked variables read into memory, if they fit the budget."""
+    names = list(CHECKED_NAMES)
+    size = sum(_bytes_per_experiment(ds, n) for n in names) * ds.sizes["experiment"]
+    if size > IN_MEMORY_BYTES:
+        return ds
+    try:
+        loaded = ds[names].compute()
+    except Exception:  # a chunk that does not decode: the block-wise check names it
+        return ds
+    return ds.assign({n: loaded[n] for n in names})
+
+
+def _bytes_per_experiment(ds: xr.Dataset, name: str) -> int:
+    var = ds[name]
+    return int(var.dtype.itemsize * var.size // max(var.sizes.get("experiment", 1), 1))
+
+
+def _damage_message(ds: xr.Dataset, ids: list[str], bad: dict[int, str]) -> str:
+    where = ds.encoding.get("farm_store", "STORE")
+    group = ds.encoding.get("farm_group", "?")
+    named = [f"{ids[k]} ({reason})" for k, reason in bad.items() if ids[k]]
+    orphans = sum(1 for k in bad if not ids[k])
+    parts = named[:5] + ([f"and {len(named) - 5} more"] if len(named) > 5 else [])
+    if orphans:
+        parts.append(f"{orphans} done slot(s) without an id (the ids chunk is missing or "
+                     "damaged)")
+    return (f"{len(bad)} damaged experiment(s) in group {group!r} of {where}: "
+            f"{'; '.join(parts)}; refusing to use them: {verify_hint(where)} (marks them "
+            "pending), then `farm sweep resume STUDY` re-solves them")
+
+
+def _reading_ds(ds: xr.Dataset, what: str):
+    return reading(f"{what} of group {ds.encoding.get('farm_group', '?')!r}",
+                   ds.encoding.get("farm_store", "STORE"))
 
 
 def parameters(ds: xr.Dataset) -> list[str]:
-    """Names of the load-case parameter variables of ``ds``."""
-    return sorted(n for n, v in ds.data_vars.items() if v.attrs.get("role") == "parameter")
+    """Names of the load-case parameters of ``ds`` (coordinates along ``experiment`` in
+    what :func:`open_dataset` returns; data variables in older in-memory datasets)."""
+    return sorted(n for n, v in ds.variables.items() if v.attrs.get("role") == "parameter")
 
 
 def _matches(values: np.ndarray, want: Any, name: str) -> np.ndarray:
@@ -107,27 +236,49 @@ def statuses(
     NotReservedError
         An id asked for was never reserved in the group.
     """
-    g = open_group(open_store(store, read_only=True), group)
-    ids = read_ids(g)
+    zs = open_store(store, read_only=True)
+    where = describe(zs)
+    with reading(f"the ids of group {group!r}", where):
+        g = open_group(zs, group)
+        ids = read_ids(g)
+    with reading(f"the 'status' array of group {group!r}", where):
+        status = g["status"]
     index = {e: i for i, e in enumerate(ids)}
     wanted = ids if experiment_ids is None else list(experiment_ids)
     missing = [e for e in wanted if e not in index]
+    if experiment_ids is None or missing:  # ids lost (a missing chunk reads as empty)?
+        _check_orphans(status, len(ids), group, where)
     if missing:
         raise NotReservedError(
             f"experiment {missing[0]!r} is not reserved in group {group!r} "
             f"({len(missing)} of {len(wanted)} ids are not): reserve them first"
         )
-    status = g["status"]
     # A client resizing right now may have grown ``experiment`` before ``status``: the
     # slots beyond the status array are brand new, hence pending.
     slots = np.array([index[e] for e in wanted], dtype=np.int64)
     inside = slots < status.shape[0]
     values = np.zeros(slots.size, dtype=np.int8)
-    if experiment_ids is None:
-        values[inside] = status[...][slots[inside]]
-    elif inside.any():
-        values[inside] = status.get_coordinate_selection(slots[inside])
+    with reading(f"the 'status' array of group {group!r}", where):
+        if experiment_ids is None:
+            values[inside] = status[...][slots[inside]]
+        elif inside.any():
+            values[inside] = status.get_coordinate_selection(slots[inside])
     return {e: int(v) for e, v in zip(wanted, values, strict=True)}
+
+
+def _check_orphans(status: zarr.Array, n_ids: int, group: str, where: str) -> None:
+    """Raise if a slot past the reserved ids is done or failed: its id was lost."""
+    if status.shape[0] <= n_ids:
+        return
+    with reading(f"the 'status' array of group {group!r}", where):
+        tail = status[n_ids:]
+    orphans = np.flatnonzero(tail != PENDING) + n_ids
+    if orphans.size:
+        raise DamagedStoreError(
+            f"group {group!r} of {where} has {orphans.size} done or failed slot(s) without an "
+            f"experiment id (from slot {int(orphans[0])}): the ids chunk is missing or "
+            f"damaged; {verify_hint(where)}"
+        )
 
 
 def status_counts(store: StoreLike, group: str) -> dict[str, int]:

@@ -1,10 +1,13 @@
 """Client side: reserve experiment slots; the id -> index table they form.
 
 An experiment id gets one index along ``experiment`` forever. ``reserve`` resizes every
-experiment-dim array, so only the submitting client calls it (one metadata writer).
-Order makes it crash-safe: arrays grow first, then the new slots' parameters, then
-their ids (a slot exists once its id is written), then the consolidated metadata; a
-client killed half-way leaves empty trailing slots that the next call reuses.
+experiment-dim array, so it runs under the store's client lock (:mod:`storage.lock`):
+clients take turns, and each reads the ids the one before it reserved. Order makes it
+crash-safe: arrays grow first, then the new slots' parameters, then their ids (a slot
+exists once its id is written), then the consolidated metadata; a client killed
+half-way leaves empty trailing slots that the next call reuses. Last, what was written
+is read back: where no lock could exclude a second client (an object store that ignores
+conditional writes), a lost race raises :class:`ConcurrentClientError`, never silently.
 """
 
 from __future__ import annotations
@@ -16,9 +19,10 @@ from typing import Any
 import numpy as np
 import zarr
 
-from storage.errors import ParameterConflictError, SchemaError
+from storage.errors import ConcurrentClientError, ParameterConflictError, SchemaError
 from storage.group import create_array
-from storage.paths import StoreLike, open_group, open_store
+from storage.lock import client_lock
+from storage.paths import StoreLike, describe, open_group, open_store
 from storage.paths import publish as _publish
 from storage.schema import (
     EXPERIMENT_ID,
@@ -131,26 +135,60 @@ def reserve(
     -------
     dict of str to int
         Index of every requested id.
+
+    Raises
+    ------
+    StoreBusyError
+        Another client held the store's lock for too long.
+    ConcurrentClientError
+        Another client reserved in the group at the same moment without the lock
+        (object stores without conditional writes); run again when it is done.
     """
     zs = open_store(store)
-    g = open_group(zs, group)
     ids = _check_ids(experiment_ids)
     units = dict(units or {})
-    values = _check_params(g, params, len(ids), units)
-    stored = read_ids(g)
-    index = {e: i for i, e in enumerate(stored)}
-    _check_known(g, group, ids, values, index)
-    rows = np.array([j for j, e in enumerate(ids) if e not in index], dtype=np.int64)
-    new = [ids[j] for j in rows]
-    k_old, k_new = len(stored), len(stored) + len(new)
-    _grow(g, values, units, k_new)
-    if new:
-        for name, a in values.items():
-            g[name][k_old:k_new] = a[rows]
-        g["experiment"][k_old:k_new] = np.array(new, dtype=object)  # ids last: slot is used
-        index.update({e: k_old + j for j, e in enumerate(new)})
-    _publish(zs)
+    with client_lock(zs):
+        g = open_group(zs, group)  # fresh metadata, read under the lock
+        values = _check_params(g, params, len(ids), units)
+        stored = read_ids(g)
+        index = {e: i for i, e in enumerate(stored)}
+        _check_known(g, group, ids, values, index)
+        rows = np.array([j for j, e in enumerate(ids) if e not in index], dtype=np.int64)
+        new = [ids[j] for j in rows]
+        k_old, k_new = len(stored), len(stored) + len(new)
+        _grow(g, values, units, k_new)
+        if new:
+            for name, a in values.items():
+                g[name][k_old:k_new] = a[rows]
+            g["experiment"][k_old:k_new] = np.array(new, dtype=object)  # ids last: slot used
+            index.update({e: k_old + j for j, e in enumerate(new)})
+            _check_written(zs, group, slice(k_old, k_new), new,
+                           {name: a[rows] for name, a in values.items()})
+        _publish(zs)
     return {e: index[e] for e in ids}
+
+
+def _check_written(zs, group: str, slots: slice, ids: list[str],
+                   values: dict[str, np.ndarray]) -> None:
+    """Read back the new slots: another client racing past the lock shows up here."""
+    g = open_group(zs, group)
+    found = {"experiment": g["experiment"][slots]} | {n: g[n][slots] for n in values}
+    theirs = np.flatnonzero(np.asarray(found["experiment"], dtype=object)
+                            != np.array(ids, dtype=object))
+    if theirs.size == 0:
+        for name, a in values.items():
+            theirs = np.flatnonzero(found[name] != a)
+            if theirs.size:
+                break
+    if theirs.size:
+        j = int(theirs[0])
+        raise ConcurrentClientError(
+            f"another client reserved experiments in group {group!r} of {describe(zs)} at "
+            f"the same time: slot {slots.start + j} should hold {ids[j]!r} as just written, "
+            f"but holds {str(found['experiment'][j])!r} ({theirs.size} of {len(ids)} slots "
+            "differ); let one client reserve at a time (object stores: one submitting "
+            "client), then run again"
+        )
 
 
 def _check_known(

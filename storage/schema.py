@@ -10,7 +10,8 @@ Who writes what (the write rules of DESIGN.md):
   submitting client, in :func:`storage.reserve`, so they may use large chunks along
   ``experiment`` (cheap to read: an id lookup is one read per 1024 experiments).
 - ``"worker"`` variables are written by workers, one experiment per chunk along
-  ``experiment`` so that concurrent workers never touch the same object.
+  ``experiment`` so that concurrent workers never touch the same object; among them
+  ``checksum`` (:mod:`storage.checksum`), over the variables of :data:`CHECKED_NAMES`.
 """
 
 from __future__ import annotations
@@ -149,14 +150,20 @@ INFO_VARIABLES = (
 )
 
 ERROR = _v("error", "experiment", "str", "-", "failure reason (empty unless failed)", "worker")
+CHECKSUM = _v("checksum", "experiment", "str", "-",
+              "digest of the id, load case, status and data of a done or failed experiment",
+              "worker")
 STATUS = _v("status", "experiment", "int8", "-", "0 pending, 1 done, 2 failed", "worker")
 
-#: Everything a worker writes, in write order: ``status`` last.
-WORKER_VARIABLES = (*RESULT_VARIABLES, *INFO_VARIABLES, ERROR, STATUS)
+#: Everything a worker writes, in write order: ``status`` last. ``checksum`` is absent
+#: from groups written before checksums existed (they stay readable and writable).
+WORKER_VARIABLES = (*RESULT_VARIABLES, *INFO_VARIABLES, ERROR, CHECKSUM, STATUS)
 
 FIXED_VARIABLES = {v.name: v for v in (*MESH_VARIABLES, EXPERIMENT, *WORKER_VARIABLES)}
 RESULT_NAMES = tuple(v.name for v in RESULT_VARIABLES)
 INFO_NAMES = tuple(v.name for v in INFO_VARIABLES)
+#: The worker variables a checksum covers (with the status), in this order.
+CHECKED_NAMES = (*RESULT_NAMES, *INFO_NAMES, ERROR.name)
 
 
 def parameter(name: str, units: str) -> Variable:

@@ -30,6 +30,7 @@ import xarray as xr
 import zarr
 
 from storage.errors import SchemaError, StoreError
+from storage.lock import client_lock
 from storage.paths import (
     StoreLike,
     check_group_name,
@@ -353,14 +354,16 @@ def write_solves(store: StoreLike, group: str, unknowns: Unknowns,
     check_group_name(group)
     ds = solves_dataset(unknowns, solves, attrs)
     zs = open_store(store)
-    root = root_group(zs, create=True)
-    _check_replaceable(root, group, describe(zs))
-    try:
-        ds.to_zarr(zs, group=group, mode="w", zarr_format=3, consolidated=False)
-        publish(zs)
-    except (OSError, ValueError, TypeError) as e:
-        raise StoreError(f"writing the inverse solves into group {group!r} of "
-                         f"{describe(zs)} failed ({type(e).__name__}: {e}): write again") from e
+    with client_lock(zs, create=True):  # metadata has one writer at a time
+        root = root_group(zs, create=True)
+        _check_replaceable(root, group, describe(zs))
+        try:
+            ds.to_zarr(zs, group=group, mode="w", zarr_format=3, consolidated=False)
+            publish(zs)
+        except (OSError, ValueError, TypeError) as e:
+            raise StoreError(f"writing the inverse solves into group {group!r} of "
+                             f"{describe(zs)} failed ({type(e).__name__}: {e}): write "
+                             "again") from e
 
 
 def _check_replaceable(root: zarr.Group, group: str, where: str) -> None:

@@ -7,6 +7,10 @@ a done experiment is never half old, half new), then every data chunk, then ``st
 to done or failed. A writer killed anywhere leaves the slot not done; with atomic
 object writes (local directories: temporary file renamed into place; S3: whole-object
 PUT) no chunk is ever torn. Readers must take only ``status == 1`` as done.
+
+With the data goes the slot's checksum (:mod:`storage.checksum`: id, load case,
+status and data), so that a reader can tell a slot damaged later from one written
+whole. Groups made before checksums have no ``checksum`` array; writes there skip it.
 """
 
 from __future__ import annotations
@@ -19,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from storage._zarr import read_item, write_in_order
+from storage.checksum import checksum
 from storage.errors import AlreadyDoneError, MeshMismatchError, SchemaError, StoreError
 from storage.handles import Handle, locate
 from storage.paths import StoreLike, open_store
@@ -118,6 +123,17 @@ def check_info(info: Mapping[str, Any], *, complete: bool) -> dict[str, np.ndarr
     return out
 
 
+def _signed(h: Handle, i: int, experiment_id: str, values: dict[str, np.ndarray],
+            status: int) -> dict[str, np.ndarray]:
+    """``values`` with the slot's checksum added (where the group has the array)."""
+    if "checksum" not in h.arrays:
+        return values
+    params = {name: a[i] for name, a in h.params.items() if i < a.size}
+    one = {name: v[0] for name, v in values.items()}
+    text = checksum(experiment_id, params, status, one)
+    return {**values, "checksum": np.array([text], dtype=object)}
+
+
 def _write(h: Handle, i: int, values: dict[str, np.ndarray], status: int, where: str) -> None:
     region = slice(i, i + 1)
     state = h.arrays["status"]
@@ -165,6 +181,7 @@ def write_experiment(
     _check_mesh_key(h, group, mesh_key)
     values: dict[str, np.ndarray] = {**check_result(result, h), **check_info(info, complete=True)}
     values["error"] = np.array([""], dtype=object)
+    values = _signed(h, i, experiment_id, values, DONE)
     _write(h, i, values, DONE, f"experiment {experiment_id!r} into group {group!r}")
 
 
@@ -203,6 +220,7 @@ def write_failure(
     for name in RESULT_NAMES:
         values[name] = np.full((1, *result_shape(name, n_inner, n_tread)), np.nan)
     values["error"] = np.array([truncate_error(reason)], dtype=object)
+    values = _signed(h, i, experiment_id, values, FAILED)
     _write(h, i, values, FAILED, f"the failure of {experiment_id!r} into group {group!r}")
 
 

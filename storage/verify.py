@@ -1,0 +1,599 @@
+"""``farm sweep verify``: find what is damaged in a store, name it, and mark it.
+
+Per experiment group, :func:`verify` checks that
+
+1. every ``zarr.json`` (the store's, the group's, each array's) decodes, and every
+   array of the schema is there (``checksum`` only in groups made since checksums);
+2. shapes agree along ``experiment`` and along the node dimensions;
+3. the ids decode, are well formed and unique, no empty id comes before reserved ones,
+   every status is 0, 1 or 2, and no slot without an id is done or failed;
+4. each done or failed experiment's chunks decode and its checksum matches its id,
+   load case, status and data (:mod:`storage.checksum`); experiments of groups
+   written before checksums are counted "unverifiable (no checksums)";
+5. the other chunks (mesh arrays, load-case parameters) decode.
+
+``repair=True`` then fixes what the store itself can tell (under the client lock,
+:mod:`storage.lock`; run it while no sweep writes to the store):
+
+- a damaged experiment goes back to **pending**, its ``error`` saying why: ``farm sweep
+  resume`` re-solves it. Pending rather than a new "damaged" status because every
+  reader and the queue already take pending as "not done, solve it" (the queue runs
+  pending experiments and, if asked, failed ones: a new value would be skipped by
+  every client that does not know it); ``error`` keeps the why;
+- a done or failed slot without an id (its ids chunk is lost) goes back to pending:
+  resume reserves the study's ids again and re-solves them;
+- a ``zarr.json`` that is missing or does not decode is restored from the copy in the
+  root's consolidated metadata (refreshed after every client change), its length along
+  ``experiment`` taken from the group; a lost ``status`` array then gets its values
+  back from the checksums (a slot whose checksum matches as done is done);
+- a damaged root ``zarr.json`` is rewritten as a plain group and the consolidated
+  metadata rebuilt.
+
+What the store cannot tell stays reported: garbled load-case parameters (the damaged
+experiments are marked pending, but re-reserving them needs their true load case:
+restore the chunk or submit into a new store), or metadata without a consolidated copy.
+"""
+
+from __future__ import annotations
+
+import json
+from contextlib import AbstractContextManager, nullcontext
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import zarr
+from zarr.abc.store import Store
+from zarr.storage import LocalStore
+
+from storage._zarr import get_bytes, list_dir, set_bytes
+from storage.checksum import Slots, check
+from storage.errors import NotAStoreError, verify_hint
+from storage.paths import StoreLike, describe, open_store, publish
+from storage.schema import (
+    CHECKED_NAMES,
+    CLIENT_CHUNK,
+    DONE,
+    EXPERIMENT_ID,
+    FAILED,
+    FIXED_VARIABLES,
+    PENDING,
+    REQUIRED_PARAMETERS,
+    STATUS_NAMES,
+)
+
+#: Arrays every experiment group has (``checksum`` is optional: older groups lack it).
+REQUIRED_ARRAYS = tuple(sorted((set(FIXED_VARIABLES) | set(REQUIRED_PARAMETERS)) - {"checksum"}))
+_SHOWN = 20  # damage lines shown per group (the JSON report has all)
+_ORPHAN = ("is {state} but has no experiment id (the ids chunk of its slot is missing or "
+           "damaged)")
+
+
+@dataclass(frozen=True)
+class Damage:
+    """One thing found damaged: an experiment (``experiment``/``index``), or a key."""
+
+    group: str
+    what: str
+    reason: str
+    experiment: str | None = None
+    index: int | None = None
+
+    def line(self) -> str:
+        if self.experiment is not None:
+            return f"{self.experiment} (group {self.group}, slot {self.index}): {self.reason}"
+        return f"{self.what}: {self.reason}"
+
+
+@dataclass(frozen=True)
+class GroupReport:
+    """What :func:`verify` found in one group."""
+
+    group: str
+    reserved: int
+    checked: int  # done and failed experiments looked at
+    unverifiable: int  # of those, how many had nothing to check against
+    damage: tuple[Damage, ...]
+    repaired: tuple[str, ...] = ()
+
+    @property
+    def damaged_ids(self) -> set[str]:
+        return {d.experiment for d in self.damage if d.experiment is not None}
+
+    @property
+    def ok(self) -> int:
+        """Experiments whose checksum matched."""
+        return max(self.checked - self.unverifiable - len(self.damaged_ids), 0)
+
+    def summary(self) -> str:
+        return (f"group {self.group}: {self.reserved} reserved, {self.checked} checked: "
+                f"{self.ok} ok, {len(self.damaged_ids)} damaged, {self.unverifiable} "
+                f"unverifiable (no checksums), {len(self.damage)} problems")
+
+
+@dataclass(frozen=True)
+class VerifyReport:
+    """What :func:`verify` found in a store (and what it repaired, if asked)."""
+
+    store: str
+    groups: tuple[GroupReport, ...]
+    damage: tuple[Damage, ...] = ()  # of the store's own metadata
+    repaired: tuple[str, ...] = ()
+    after: VerifyReport | None = None  # the store verified again after a repair
+
+    @property
+    def ok(self) -> bool:
+        return not self.damage and not any(g.damage for g in self.groups)
+
+    @property
+    def damaged_ids(self) -> set[str]:
+        return set().union(*(g.damaged_ids for g in self.groups))
+
+    def lines(self) -> list[str]:
+        out = [f"store {self.store}: {len(self.groups)} group(s), "
+               + ("no damage found" if self.ok else "DAMAGED")]
+        out += [f"  damaged: {d.line()}" for d in self.damage]
+        for g in self.groups:
+            out.append(g.summary())
+            out += [f"  damaged: {d.line()}" for d in g.damage[:_SHOWN]]
+            if len(g.damage) > _SHOWN:
+                out.append(f"  ... and {len(g.damage) - _SHOWN} more (--json lists them all)")
+        repaired = [*self.repaired, *(r for g in self.groups for r in g.repaired)]
+        out += [f"repaired: {r}" for r in repaired]
+        if self.after is not None:
+            out.append("after repair: " + ("no damage left" if self.after.ok else
+                                           "still damaged: " + "; ".join(
+                                               d.line() for d in _all(self.after))))
+        elif not self.ok:
+            out.append(f"to mark the damaged experiments for re-solving: "
+                       f"{verify_hint(self.store)}")
+        return out
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "store": self.store, "ok": self.ok, "damaged_ids": sorted(self.damaged_ids),
+            "damage": [_damage_dict(d) for d in _all(self)],
+            "groups": [{"group": g.group, "reserved": g.reserved, "checked": g.checked,
+                        "ok": g.ok, "damaged": len(g.damaged_ids),
+                        "unverifiable": g.unverifiable} for g in self.groups],
+            "repaired": [*self.repaired, *(r for g in self.groups for r in g.repaired)],
+            "after_repair": None if self.after is None else self.after.to_dict(),
+        }
+
+
+def _all(report: VerifyReport) -> list[Damage]:
+    return [*report.damage, *(d for g in report.groups for d in g.damage)]
+
+
+def _damage_dict(d: Damage) -> dict[str, Any]:
+    return {"group": d.group, "what": d.what, "reason": d.reason,
+            "experiment": d.experiment, "index": d.index}
+
+
+def verify(store: StoreLike, group: str | None = None, *, repair: bool = False) -> VerifyReport:
+    """Check a store (or one group of it) for damage; with ``repair``, mark and restore.
+
+    Parameters
+    ----------
+    store : path, URL or zarr store
+    group : str, optional
+        One experiment group; by default every experiment group of the store.
+    repair : bool
+        Mark damaged experiments pending and restore damaged metadata (module doc).
+
+    Returns
+    -------
+    VerifyReport
+        ``ok`` is True when nothing was found damaged; with ``repair``, ``after`` is
+        the store verified again.
+    """
+    zs = open_store(store, read_only=not repair)
+    where = describe(zs)
+    if isinstance(zs, LocalStore) and not Path(zs.root).is_dir():
+        raise NotAStoreError(f"no store at {where}: check the path")
+    root_doc, root_damage = _root(zs)
+    if root_damage and get_bytes(zs, "zarr.json") is None and not list_dir(zs, ""):
+        raise NotAStoreError(f"no Zarr store at {where}: check the path")
+    copies = _copies(root_doc)
+    with _lock(zs, repair):  # repairs write metadata: one client at a time
+        names = [group] if group is not None else _experiment_groups(zs)
+        checks = [_GroupCheck(zs, name, copies, repair) for name in names]
+        reports = tuple(c.run() for c in checks)
+        restored = any(c.restored for c in checks)
+        repaired = _repair_root(zs, root_damage, restored) if repair else []
+    report = VerifyReport(where, reports, tuple(root_damage), tuple(repaired))
+    if repair and not report.ok:
+        report = VerifyReport(where, reports, tuple(root_damage), tuple(repaired),
+                              after=verify(store, group))
+    return report
+
+
+def _lock(zs: Store, repair: bool) -> AbstractContextManager:
+    if not repair:
+        return nullcontext()
+    from storage.lock import client_lock
+
+    return client_lock(zs)
+
+
+# --- the store's root ---------------------------------------------------------------------
+
+
+def _root(zs: Store) -> tuple[dict | None, list[Damage]]:
+    raw = get_bytes(zs, "zarr.json")
+    if raw is None:
+        return None, [Damage("", "zarr.json", "the store's root metadata is missing")]
+    try:
+        doc = json.loads(raw)
+        if not isinstance(doc, dict) or doc.get("node_type") != "group":
+            raise ValueError("not a group's metadata")
+    except ValueError as e:
+        return None, [Damage("", "zarr.json", f"the store's root metadata does not decode "
+                                              f"({_short(e)})")]
+    return doc, []
+
+
+def _copies(root_doc: dict | None) -> dict[str, dict]:
+    """Key (``group`` or ``group/array``) -> its metadata as last consolidated."""
+    try:
+        meta = root_doc["consolidated_metadata"]["metadata"]  # type: ignore[index]
+    except (TypeError, KeyError):
+        return {}
+    return meta if isinstance(meta, dict) else {}
+
+
+def _experiment_groups(zs: Store) -> list[str]:
+    """Child groups that are experiment groups, or whose metadata is too damaged to tell."""
+    names = []
+    for name in list_dir(zs, ""):
+        if name.startswith(".") or name == "zarr.json":
+            continue
+        raw = get_bytes(zs, f"{name}/zarr.json")
+        if raw is None and not list_dir(zs, name):
+            continue
+        try:
+            doc = json.loads(raw) if raw is not None else None
+        except ValueError:
+            doc = None
+        if doc is None or (doc.get("node_type") == "group"
+                           and "schema_version" in doc.get("attributes", {})):
+            names.append(name)
+    return names
+
+
+def _repair_root(zs: Store, root_damage: list[Damage], restored: bool) -> list[str]:
+    done: list[str] = []
+    if root_damage:
+        set_bytes(zs, "zarr.json", json.dumps({"zarr_format": 3, "node_type": "group",
+                                               "attributes": {}}).encode())
+        done.append("zarr.json: rewritten as a plain root group")
+    if done or restored:  # the consolidated copy must show the restored metadata
+        try:
+            publish(zs)
+            done.append("consolidated metadata rebuilt")
+        except Exception as e:  # other metadata is still damaged
+            done.append(f"consolidated metadata NOT rebuilt ({_short(e)})")
+    return done
+
+
+# --- one group ---------------------------------------------------------------------------
+
+
+class _GroupCheck:
+    """The checks (and repairs) of one experiment group, in the order of the module doc."""
+
+    def __init__(self, zs: Store, group: str, copies: dict[str, dict], repair: bool) -> None:
+        self.zs, self.group, self.copies, self.repair = zs, group, copies, repair
+        self.damage: list[Damage] = []
+        self.repaired: list[str] = []
+        self.arrays: dict[str, zarr.Array] = {}
+        self.restored: set[str] = set()
+
+    def report(self, reserved: int = 0, checked: int = 0, unverifiable: int = 0) -> GroupReport:
+        return GroupReport(self.group, reserved, checked, unverifiable, tuple(self.damage),
+                           tuple(self.repaired))
+
+    def key_damage(self, what: str, reason: str) -> None:
+        self.damage.append(Damage(self.group, what, reason))
+
+    def run(self) -> GroupReport:
+        if not self._open_metadata():
+            return self.report()
+        k = self._length()
+        ids, used = self._ids(k)
+        if ids is None:
+            return self.report()
+        params, bad_params = self._params(k)
+        status = self._status(k, ids, used, params)
+        if status is None:
+            return self.report(reserved=used)
+        self._mesh_chunks()
+        positions = [i for i in range(used) if status[i] in (DONE, FAILED) and ids[i]]
+        self._orphans(ids, status, used)
+        for i in positions:
+            if i in bad_params:
+                self._experiment(ids[i], i, bad_params[i])
+        checkable = [i for i in positions if i not in bad_params and EXPERIMENT_ID.fullmatch(
+            ids[i])]
+        unverifiable = self._checksums(ids, status, params, checkable)
+        self._mark()
+        return self.report(used, len(positions), unverifiable)
+
+    # 1. metadata --------------------------------------------------------------------------
+
+    def _open_metadata(self) -> bool:
+        key = f"{self.group}/zarr.json"
+        try:
+            zarr.open_group(store=self.zs, path=self.group, mode="r", use_consolidated=False)
+        except Exception as e:  # missing or undecodable metadata
+            if not self._restore(self.group, key, e):
+                return False
+        children = [c for c in list_dir(self.zs, self.group)
+                    if c != "zarr.json" and not c.startswith(".")]
+        for name in sorted(set(children) | set(REQUIRED_ARRAYS) | {"checksum"}):
+            self._open_array(name, present=name in children)
+        return True
+
+    def _open_array(self, name: str, present: bool) -> None:
+        path = f"{self.group}/{name}"
+        if not present and name == "checksum":
+            return
+        try:
+            if not present:
+                raise FileNotFoundError("no such array")
+            self.arrays[name] = zarr.open_array(store=self.zs, path=path, mode="r")
+            return
+        except Exception as e:  # missing or undecodable metadata
+            if self._restore(path, f"{path}/zarr.json", e):
+                self.arrays[name] = zarr.open_array(store=self.zs, path=path, mode="r")
+
+    def _restore(self, path: str, key: str, error: BaseException) -> bool:
+        if get_bytes(self.zs, key) is not None:
+            self.key_damage(key, f"the metadata does not decode ({_short(error)})")
+        elif path != self.group and not list_dir(self.zs, path):
+            self.key_damage(path, "the array is missing (deleted?)")
+        else:
+            self.key_damage(key, "the metadata is missing")
+        copy = self.copies.get(path)
+        if not self.repair or not isinstance(copy, dict):
+            return False
+        doc = {k: v for k, v in copy.items() if k != "consolidated_metadata"}
+        set_bytes(self.zs, key, json.dumps(doc, indent=2).encode())
+        self.restored.add(path.removeprefix(f"{self.group}/") if path != self.group else "")
+        self.repaired.append(f"{key}: restored from the consolidated metadata")
+        return True
+
+    # 2. shapes ---------------------------------------------------------------------------
+
+    def _length(self) -> int:
+        """Slots along ``experiment``; arrays of another length (or node size) are named,
+        and restored ones are brought to it."""
+        along = {n: a.shape[0] for n, a in self.arrays.items() if _dims(a)[:1] == ("experiment",)}
+        k = along.get("experiment", max(along.values(), default=0))
+        for name, n in along.items():
+            if n != k and name not in self.restored:
+                self.key_damage(f"{self.group}/{name}",
+                                f"has {n} slots along experiment, the ids have {k}")
+        for name in self.restored & set(along):
+            if along[name] != k:
+                self._writable(name).resize((k, *self.arrays[name].shape[1:]))
+                self.arrays[name] = zarr.open_array(store=self.zs, path=f"{self.group}/{name}",
+                                                    mode="r")
+        self._node_sizes()
+        return k
+
+    def _node_sizes(self) -> None:
+        for dim in ("inner_node", "tread_node", "component", "strain_component"):
+            if dim not in self.arrays:
+                continue
+            n = self.arrays[dim].shape[0]
+            for name, a in self.arrays.items():
+                for d, size in zip(_dims(a), a.shape, strict=False):
+                    if d == dim and size != n:
+                        self.key_damage(f"{self.group}/{name}",
+                                        f"has {size} {dim} entries, {dim} has {n}")
+
+    # 3. ids and status -------------------------------------------------------------------
+
+    def _ids(self, k: int) -> tuple[list[str | None] | None, int]:
+        if "experiment" not in self.arrays:
+            return None, 0
+        raw, bad = self._read_1d("experiment", k)
+        ids: list[str | None] = [None if i in bad else str(v) for i, v in enumerate(raw)]
+        used = next((i for i, e in enumerate(ids) if e == ""), k)
+        later = [i for i in range(used, k) if ids[i]]
+        if later:
+            self.key_damage(f"{self.group}/experiment",
+                            f"empty id at slot {used} before reserved ones (slots {_few(later)})")
+            used = k
+        self._check_ids(ids, used)
+        return ids, used
+
+    def _check_ids(self, ids: list[str | None], used: int) -> None:
+        seen: dict[str, int] = {}
+        for i, e in enumerate(ids[:used]):
+            if e is None or e == "":
+                continue
+            if not EXPERIMENT_ID.fullmatch(e):
+                self.damage.append(Damage(self.group, "experiment", "its id is garbled",
+                                          e[:40], i))
+            elif e in seen:
+                self.damage.append(Damage(self.group, "experiment",
+                                          f"its id is also at slot {seen[e]}", e, i))
+            seen.setdefault(e, i)
+
+    def _status(self, k: int, ids: list, used: int, params: dict) -> np.ndarray | None:
+        if "status" not in self.arrays:
+            return None
+        raw, bad = self._read_1d("status", k)
+        status = np.array([PENDING if i in bad else int(v) for i, v in enumerate(raw)],
+                          dtype=np.int64)
+        if "status" in self.restored:
+            status = self._recover_status(ids, used, status, params)
+        for i in sorted(bad) + [i for i in range(k) if status[i] not in STATUS_NAMES]:
+            who = ids[i] if i < used and ids[i] else None
+            self.damage.append(Damage(self.group, "status", "its status does not decode"
+                                      if i in bad else f"its status {status[i]} is not 0, 1 or 2",
+                                      who, i))
+            status[i] = PENDING
+        return status
+
+    def _orphans(self, ids: list, status: np.ndarray, used: int) -> None:
+        for i in np.flatnonzero(np.isin(status, (DONE, FAILED))):
+            if i >= used or not ids[i]:
+                self.damage.append(Damage(self.group, f"{self.group}/experiment slot {i}",
+                                          _ORPHAN.format(state=STATUS_NAMES[status[i]]),
+                                          None, int(i)))
+
+    # 4. checksums ------------------------------------------------------------------------
+
+    def _params(self, k: int) -> tuple[dict[str, np.ndarray], dict[int, str]]:
+        params: dict[str, np.ndarray] = {}
+        bad: dict[int, str] = {}
+        for name, a in self.arrays.items():
+            if a.attrs.get("role") != "parameter":
+                continue
+            values, unreadable = self._read_1d(name, k)
+            params[name] = np.array([np.nan if i in unreadable else v
+                                     for i, v in enumerate(values)], dtype=np.float64)
+            for i in unreadable:
+                bad.setdefault(i, f"its {name!r} chunk does not decode")
+        return params, bad
+
+    def _checksums(self, ids: list, status: np.ndarray, params: dict, positions: list[int]
+                   ) -> int:
+        missing = [n for n in CHECKED_NAMES if n not in self.arrays]
+        if "checksum" not in self.arrays or missing:
+            return len(positions)
+        sums, bad = self._read_1d("checksum", len(ids))
+        for i in bad:
+            if i in positions:
+                self._experiment(ids[i], i, "its checksum chunk does not decode")
+        slots = self._slots(ids, status, params, ["" if i in bad else str(s)
+                                                  for i, s in enumerate(sums)])
+        for i, reason in check(slots, [i for i in positions if i not in bad]).items():
+            self._experiment(ids[i], i, reason + self._missing_chunks(i, status[i]))
+        return 0
+
+    def _slots(self, ids, status, params, sums) -> Slots:
+        sizes = {n: int(np.prod(self.arrays[n].shape[1:], dtype=np.int64))
+                 * self.arrays[n].dtype.itemsize for n in CHECKED_NAMES}
+        return Slots([e or "" for e in ids], status, params, sums,
+                     lambda n, lo, hi: self.arrays[n][lo:hi], sizes)
+
+    def _missing_chunks(self, i: int, state: int) -> str:
+        if state != DONE:
+            return ""
+        lost = []
+        for name in CHECKED_NAMES:
+            a = self.arrays[name]
+            key = f"{self.group}/{name}/c/{i}" + "/0" * (a.ndim - 1)
+            if name != "error" and get_bytes(self.zs, key) is None:
+                lost.append(key)
+        return f"; missing chunk(s): {', '.join(lost)}" if lost else ""
+
+    def _recover_status(self, ids: list, used: int, status: np.ndarray, params: dict
+                        ) -> np.ndarray:
+        """A restored status array is all pending: a slot whose checksum matches as done
+        (or failed) is done (or failed)."""
+        if "checksum" not in self.arrays or any(n not in self.arrays for n in CHECKED_NAMES):
+            self.repaired.append(f"{self.group}/status: restored, every experiment pending "
+                                 "(no checksums to recover done ones from)")
+            return status
+        sums, bad = self._read_1d("checksum", len(ids))
+        candidates = [i for i in range(used) if ids[i] and i not in bad and sums[i]]
+        for state in (DONE, FAILED):
+            trial = np.full(len(ids), state, dtype=np.int64)
+            slots = self._slots(ids, trial, params, [str(s) for s in sums])
+            wrong = check(slots, candidates)
+            for i in candidates:
+                if i not in wrong:
+                    status[i] = state
+            candidates = list(wrong)
+        found = np.flatnonzero(status != PENDING)
+        if found.size:
+            self._writable("status").set_coordinate_selection(found, status[found].astype(np.int8))
+        self.repaired.append(f"{self.group}/status: {np.count_nonzero(status == DONE)} done and "
+                             f"{np.count_nonzero(status == FAILED)} failed recovered from their "
+                             "checksums, the rest pending")
+        return status
+
+    # 5. other chunks ---------------------------------------------------------------------
+
+    def _mesh_chunks(self) -> None:
+        for name, a in self.arrays.items():
+            if _dims(a)[:1] == ("experiment",):
+                continue
+            try:
+                a[...]
+            except Exception as e:  # a chunk that does not decode
+                self.key_damage(f"{self.group}/{name}", f"a chunk does not decode ({_short(e)})")
+
+    # repair -------------------------------------------------------------------------------
+
+    def _experiment(self, experiment: str, index: int, reason: str) -> None:
+        self.damage.append(Damage(self.group, "experiment", reason, experiment, index))
+
+    def _mark(self) -> None:
+        """Damaged experiments and orphan slots back to pending (``error`` says why)."""
+        if not self.repair:
+            return
+        marked = sorted({d.index for d in self.damage if d.index is not None})
+        if not marked:
+            return
+        status = self._writable("status")
+        error = self._writable("error") if "error" in self.arrays else None
+        for d in (d for d in self.damage if d.index is not None):
+            status[d.index] = PENDING
+            if error is not None and d.experiment is not None:
+                error[d.index] = f"damaged, marked pending by farm sweep verify: {d.reason}"[:500]
+        ids = sorted({d.experiment for d in self.damage if d.experiment is not None})
+        self.repaired.append(
+            f"{self.group}: {len(marked)} slot(s) marked pending"
+            + (f" ({_few(ids)})" if ids else "")
+            + ": `farm sweep resume STUDY` re-solves them")
+
+    def _writable(self, name: str) -> zarr.Array:
+        return zarr.open_array(store=self.zs, path=f"{self.group}/{name}", mode="r+")
+
+    # reading -----------------------------------------------------------------------------
+
+    def _read_1d(self, name: str, k: int) -> tuple[list, set[int]]:
+        """Values of a 1-d array over ``k`` slots, and the slots whose chunk does not
+        decode (those are named once per chunk)."""
+        a = self.arrays[name]
+        chunk = a.chunks[0]
+        block = max(chunk, CLIENT_CHUNK)
+        values: list = [None] * k
+        bad: set[int] = set()
+        for lo in range(0, min(k, a.shape[0]), block):
+            hi = min(lo + block, k, a.shape[0])
+            try:
+                values[lo:hi] = a[lo:hi].tolist()
+                continue
+            except Exception:  # find the chunk(s) that do not decode
+                pass
+            for c in range(lo, hi, chunk):
+                try:
+                    values[c:c + chunk] = a[c:min(c + chunk, hi)].tolist()
+                except Exception as e:
+                    self.key_damage(f"{self.group}/{name}/c/{c // chunk}",
+                                    f"the chunk does not decode ({_short(e)})")
+                    bad.update(range(c, min(c + chunk, hi)))
+        fill = "" if a.dtype.kind in "OTU" else a.fill_value
+        values = [fill if v is None and i not in bad else v for i, v in enumerate(values)]
+        return values, bad
+
+
+def _dims(a: zarr.Array) -> tuple[str, ...]:
+    return tuple(a.metadata.dimension_names or ())
+
+
+def _few(items: list, n: int = 10) -> str:
+    shown = ", ".join(str(x) for x in items[:n])
+    return shown + (f" and {len(items) - n} more" if len(items) > n else "")
+
+
+def _short(e: BaseException) -> str:
+    return f"{type(e).__name__}: {' '.join(str(e).split())[:160]}"
