@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import os
 import stat
 import textwrap
+import uuid
 from pathlib import Path
 
 import pytest
@@ -58,16 +60,24 @@ def ccx_runs(log: Path) -> int:
     return len(log.read_text().splitlines()) if log.exists() else 0
 
 
+# Every process this test session starts (workers, schedulers, ccx) inherits this mark,
+# so that ccx_processes() sees this session's solvers only, not those of other jobs
+# on a shared machine - even after a killed worker's ccx was re-parented to init.
+SESSION_MARK = ("FARM_TEST_SESSION", uuid.uuid4().hex)
+os.environ[SESSION_MARK[0]] = SESSION_MARK[1]
+
+
 def ccx_processes() -> list:
-    """Live ccx processes started from this machine's scratch dirs (psutil)."""
+    """Live ccx processes started by this test session (psutil)."""
     import psutil
 
     found = []
     for p in psutil.process_iter(["name", "status"]):
         try:
-            if p.info["name"] == "ccx" and p.info["status"] != psutil.STATUS_ZOMBIE:
+            if (p.info["name"] == "ccx" and p.info["status"] != psutil.STATUS_ZOMBIE
+                    and p.environ().get(SESSION_MARK[0]) == SESSION_MARK[1]):
                 found.append(p)
-        except psutil.NoSuchProcess:
+        except (psutil.NoSuchProcess, psutil.AccessDenied):
             continue
     return found
 
