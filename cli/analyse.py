@@ -19,7 +19,8 @@ import numpy as np
 import typer
 
 from analysis.errors import ParameterError
-from cli.options import check_scheduler
+from cli.errors import usage
+from cli.options import APP_SETTINGS, SCHEDULER_HELP, check_scheduler
 from jobs import validate
 from jobs.errors import StudyError
 
@@ -44,21 +45,31 @@ app = typer.Typer(
     help="PCA / PCR / PLSR / noise studies over a store (thesis chapter 5).",
     no_args_is_help=True,
     pretty_exceptions_enable=False,
+    **APP_SETTINGS,
 )
 
 Store = Annotated[str, typer.Argument(help="Zarr store: directory or fsspec URL.")]
 Group = Annotated[
-    str | None, typer.Option("--group", "-g", help="Group (mesh); optional if the store has one.")
+    str | None,
+    typer.Option("--group", "-g", help="Group (mesh) [default: the store's only group]."),
 ]
 Out = Annotated[
-    Path | None, typer.Option(help="Output folder (default: ./analysis-out/<command>).")
+    Path | None, typer.Option(help="Output folder [default: ./analysis-out/<command>].")
 ]
-Pressure = Annotated[float | None, typer.Option(help="Only experiments at this pressure (MPa).")]
-Deflection = Annotated[float | None, typer.Option(help="Only experiments at this deflection (mm).")]
+Pressure = Annotated[
+    float | None,
+    typer.Option(help="Only experiments at this inflation pressure, kPa, as in study files "
+                 "and `farm run` (the store keeps MPa) [default: all pressures]."),
+]
+Deflection = Annotated[
+    float | None,
+    typer.Option(help="Only experiments at this deflection, mm [default: all deflections]."),
+]
 Inputs = Annotated[
     str | None,
     typer.Option(
-        help="Comma list of input sets or directions (displacement,strain; Uz,exx; Uz+Uy)."
+        help="Comma list of input sets or directions (displacement,strain; Uz,exx; Uz+Uy) "
+        "[default: the study's own sets]."
     ),
 ]
 Force = Annotated[
@@ -66,26 +77,29 @@ Force = Annotated[
 ]
 Reference = Annotated[
     float | None,
-    typer.Option(help="Deflection (mm) of the reference experiment (default: median)."),
+    typer.Option(help="Deflection (mm) of the reference experiment [default: the median]."),
 ]
 Scheduler = Annotated[
     str | None,
-    typer.Option(help="Dask scheduler address, e.g. tcp://host:8786.", callback=check_scheduler),
+    typer.Option(help=SCHEDULER_HELP, callback=check_scheduler),
 ]
 
 
 def _load(store: str, group: str | None, pressure: float | None, deflection: float | None):
+    """The selection; ``pressure`` in kPa (the CLI's unit), converted to the store's MPa."""
     from analysis import data
 
-    return data.load(store, group, pressure=pressure, deflection=deflection)
+    mpa = None if pressure is None else pressure / 1000.0
+    return data.load(store, group, pressure=mpa, deflection=deflection)
 
 
 def _out(out: Path | None, command: str) -> Path:
     folder = out if out is not None else Path("analysis-out") / command
-    try:
-        return validate.output_folder(folder, "--out")
-    except StudyError as e:
-        raise ParameterError(str(e)) from e
+    with usage():
+        try:
+            return validate.output_folder(folder, "--out")
+        except StudyError as e:  # the analyses' own error type, for callers of the app
+            raise ParameterError(str(e)) from e
 
 
 def _reference(ds, deflection: float | None) -> float | None:
@@ -147,7 +161,8 @@ def pcr(
     folder = _out(out, "pcr")
     with dask_scheduler(scheduler):
         ds = _load(store, group, pressure, deflection)
-        reference_deflection = _reference(ds, reference_deflection)
+        with usage():  # a deflection the user typed that the selection lacks
+            reference_deflection = _reference(ds, reference_deflection)
         _done(
             _study("pcr").run(
                 ds,
@@ -170,12 +185,15 @@ def plsr(
     inputs: Inputs = None,
     components: Annotated[int, typer.Option(help="Largest number of components shown.")] = 5,
     cv: Annotated[
-        int | None, typer.Option(help="Choose components by k-fold CV with k folds.")
+        int | None,
+        typer.Option(help="Choose components by k-fold CV with k folds [default: no CV]."),
     ] = None,
     nipals: Annotated[
         bool, typer.Option(help="Also fit scikit-learn's NIPALS (needs X in memory).")
     ] = True,
-    seed: Annotated[int | None, typer.Option(help="Shuffle CV folds with this seed.")] = None,
+    seed: Annotated[
+        int | None, typer.Option(help="Shuffle CV folds with this seed [default: no shuffle].")
+    ] = None,
     reference_deflection: Reference = None,
     force_component: Force = "z",
     scheduler: Scheduler = None,
@@ -184,7 +202,8 @@ def plsr(
     folder = _out(out, "plsr")
     with dask_scheduler(scheduler):
         ds = _load(store, group, pressure, deflection)
-        reference_deflection = _reference(ds, reference_deflection)
+        with usage():  # a deflection the user typed that the selection lacks
+            reference_deflection = _reference(ds, reference_deflection)
         _done(
             _study("plsr").run(
                 ds,
@@ -211,22 +230,23 @@ def noise(
     components: Annotated[
         int | None,
         typer.Option(
-            help="PLS components of each model (default: chosen per input set by "
-            "cross-validation over the experiments, see --cv; reported in models.csv)."
+            help="PLS components of each model [default: chosen per input set by "
+            "cross-validation over the experiments, see --cv; reported in models.csv]."
         ),
     ] = None,
     cv: Annotated[
         int | None,
         typer.Option(
-            help="Folds of the cross-validation that chooses --components (default: "
-            "leave-one-out up to 10 experiments, else 10)."
+            help="Folds of the cross-validation that chooses --components [default: "
+            "leave-one-out up to 10 experiments, else 10]."
         ),
     ] = None,
     draws: Annotated[int, typer.Option(help="Monte Carlo draws per noise level.")] = 100,
     noise_levels: Annotated[
         str | None,
         typer.Option(
-            help="Comma list of multiples of the thesis level (1 mm, 4e-4) (default: 0,0.1,...,2)."
+            help="Comma list of multiples of the thesis level (1 mm, 4e-4) "
+            "[default: 0,0.1,...,2]."
         ),
     ] = None,
     seed: Annotated[int, typer.Option(help="Seed of the noise draws.")] = 0,
@@ -241,12 +261,14 @@ def noise(
     scheduler: Scheduler = None,
 ) -> None:
     """Monte Carlo measurement noise on PLSR: node maps, Table 5.1, sweep (§5.6)."""
-    levels = _levels(noise_levels)
-    _draws(draws)
+    with usage():
+        levels = _levels(noise_levels)
+        _draws(draws)
     folder = _out(out, "noise")
     with dask_scheduler(scheduler):
         ds = _load(store, group, pressure, deflection)
-        reference_deflection = _reference(ds, reference_deflection)
+        with usage():  # a deflection the user typed that the selection lacks
+            reference_deflection = _reference(ds, reference_deflection)
         _done(
             _study("noise").run(
                 ds,

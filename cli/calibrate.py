@@ -9,29 +9,44 @@ from pathlib import Path
 import typer
 from rich.console import Console
 
+from cli.errors import usage
 from cli.frames import print_frame
 from cli.options import SCHEDULER, WORKERS
+from cli.progress import LogLines, interactive
+from cli.progress import console as stderr_console
 
 
 class CalibrationLines:
-    """Progress of a calibration (:class:`jobs.driver.Progress`): one line per new
-    parameter set - budget, rounds, best cost, worst point."""
+    """Progress of a calibration (:class:`jobs.driver.Progress`) on stderr: one line per
+    new parameter set - budget, rounds, best cost, worst point. On a terminal every one;
+    elsewhere timestamped and rate-limited (:class:`cli.progress.LogLines`)."""
 
-    def __init__(self, console: Console) -> None:
-        self.console, self.last = console, -1
+    def __init__(self, console: Console | None = None, lines: LogLines | None = None) -> None:
+        self.last = -1
+        self.console = console if console is not None else (
+            stderr_console() if interactive() and lines is None else None)
+        self.lines = lines or LogLines()
 
     def started(self, session, state) -> None:
-        self.console.print(f"dashboard: {session.dashboard}   workers: {session.workers}")
+        self._say(f"dashboard: {session.dashboard}   workers: {session.workers}", now=True)
 
-    def finished(self, report) -> None: ...
+    def finished(self, report) -> None:
+        self.lines.flush()
 
     def advanced(self, state) -> None:
         if state.parameter_sets != self.last:
             self.last = state.parameter_sets
-            self.console.print(
-                f"parameter sets {state.parameter_sets}/{state.budget}  load paths "
-                f"{state.stats.evaluations}  rounds {state.stats.rounds}  best cost "
-                f"{state.best:.4g}  worst point {100 * state.worst_point:.2f} %")
+            self._say(f"parameter sets {state.parameter_sets}/{state.budget}  load paths "
+                      f"{state.stats.evaluations}  rounds {state.stats.rounds}  best cost "
+                      f"{state.best:.4g}  worst point {100 * state.worst_point:.2f} %")
+
+    def _say(self, text: str, now: bool = False) -> None:
+        if self.console is not None:
+            self.console.print(text, markup=False)
+        elif now:
+            self.lines.log(f"calibrate: {text}")
+        else:
+            self.lines.progress(f"calibrate: {text}")
 
 
 def calibrate(
@@ -74,24 +89,29 @@ def calibrate(
     from jobs.calibrate.references import read_points, thesis_points
     from jobs.calibrate.run import run_calibration
 
-    if model not in ("reduced", "full"):
-        raise SpecError(f"unknown model {validate.shown(model)}: choose 'reduced' or 'full'")
-    base = build_model(model, materials, None, overrides)
-    names = (tuple(s.strip() for s in parameters.split(",") if s.strip()) if parameters
-             else default_parameters(model, thickness))
-    params = Parameters(names, base)
+    with usage():
+        if model not in ("reduced", "full"):
+            raise SpecError(f"unknown model {validate.shown(model)}: choose 'reduced' or "
+                            "'full'")
+        base = build_model(model, materials, None, overrides)
+        names = (tuple(s.strip() for s in parameters.split(",") if s.strip()) if parameters
+                 else default_parameters(model, thickness))
+        params = Parameters(names, base)
+    # the references file's content is data, not usage (exit 1, see cli's docstring)
     points = read_points(references, base) if references else thesis_points(model)
-    validate.integer(max_evaluations, "--max-evaluations", low=2, high=validate.MAX_EVALUATIONS)
-    validate.number(prior_weight, "--prior-weight", low=0)
-    validate.output_folder(out, "--out")
-    if cache is not None:
-        validate.output_folder(cache, "--cache")
+    with usage():
+        validate.integer(max_evaluations, "--max-evaluations", low=2,
+                         high=validate.MAX_EVALUATIONS)
+        validate.number(prior_weight, "--prior-weight", low=0)
+        validate.output_folder(out, "--out")
+        if cache is not None:
+            validate.output_folder(cache, "--cache")
     if scheduler is None:
         find_ccx()
     console = Console(width=None if sys.stdout.isatty() else 160)
     report = run_calibration(
         params, points, str(cache or out / "evaluations"), scheduler=scheduler,
-        workers=workers, progress=CalibrationLines(console),
+        workers=workers, progress=CalibrationLines(),
         cal=CalibrationSettings(max_evaluations=max_evaluations, prior_weight=prior_weight))
     _report(console, report, params, points, out)
     raise typer.Exit(0 if report.ok else 1)
@@ -123,8 +143,9 @@ def _report(console: Console, report, params, points, out: Path) -> None:
                          out / "force_deflection.png")
         failed = report.curves[report.curves["fz_n"].isna()]
         for (label, kpa), _ in failed.groupby(["model", "pressure_kpa"]):
-            console.print(f"[yellow]warning: the {label} model did not converge along the "
-                          f"{kpa:g} kPa curve (see {out / 'curves.csv'})")
+            stderr_console().print(f"warning: the {label} model did not converge along the "
+                                   f"{kpa:g} kPa curve (see {out / 'curves.csv'})",
+                                   style="yellow", markup=False)
     spec = result.spec()
     preset = {region: {"youngs_modulus": m.youngs_modulus, "poisson_ratio": m.poisson_ratio}
               for region, m in spec.materials.by_region().items()}

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 from farm.errors import FarmError
 
@@ -26,3 +28,26 @@ def fail(message: str, code: int = 1) -> None:
     line = " ".join(str(message).split())
     print(f"farm: error: {line}", file=sys.stderr)
     raise SystemExit(code)
+
+
+USAGE = "farm_usage_error"  # the mark of an error that :func:`usage` let through
+
+
+@contextmanager
+def usage() -> Iterator[None]:
+    """Checks of command-line values: their errors are marked as usage errors (exit 2),
+    their type unchanged (callers and tests still catch e.g. ``ParameterError``).
+
+    Wrap only what checks what the user typed; a study file's content and the world
+    (the store, the solver) are not usage errors (exit 1).
+    """
+    try:
+        yield
+    except USER_ERRORS as e:
+        setattr(e, USAGE, True)
+        raise
+
+
+def exit_code(error: BaseException) -> int:
+    """2 for an error marked by :func:`usage`, else 1."""
+    return 2 if getattr(error, USAGE, False) else 1

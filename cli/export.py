@@ -9,6 +9,7 @@ import numpy as np
 import typer
 from rich.console import Console
 
+from cli.errors import usage
 from farm.errors import SpecError
 
 
@@ -26,14 +27,16 @@ def export(
     from farm.specs import ModelSpec
     from jobs import validate
 
-    validate.output_folder(out, "--out")  # before reading the store or meshing
+    with usage():
+        validate.output_folder(out, "--out")  # before reading the store or meshing
     groups = [group] if group else storage.list_groups(store)
     if len(groups) != 1:
         raise SpecError(f"the store has groups {', '.join(groups) or 'none'}: choose one with "
                         "--group")
     ds = storage.done(storage.open_dataset(store, groups[0]))
     ids = [str(i) for i in ds["experiment"].values]
-    chosen = [_match(ids, e) for e in experiment] if experiment else ids
+    with usage():  # an id the user typed that no done experiment has
+        chosen = [_match(ids, e) for e in experiment] if experiment else ids
     mesh = mesh_for(ModelSpec.from_dict(json.loads(ds.attrs["model_spec"])))
     if not np.array_equal(ds["inner_node"].values, mesh.inner_nodes):
         raise SpecError("the store's inner nodes do not match the model's mesh")
@@ -53,5 +56,5 @@ def _match(ids: list[str], prefix: str) -> str:
     if len(found) != 1:
         what = "no done experiment" if not found else f"{len(found)} experiments"
         raise SpecError(f"{what} matches {prefix!r}: give a longer id prefix "
-                        "(see `farm sweep status`)")
+                        "(see `farm sweep list STORE --status done`)")
     return found[0]

@@ -9,18 +9,22 @@ import typer
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
+from cli.errors import usage
 from cli.frames import print_frame
 from cli.options import SCHEDULER, WORKERS
+from cli.progress import LogLines, interactive
+from cli.progress import console as stderr_console
 
 STUDY = typer.Argument(..., help="Inverse study file (TOML), e.g. examples/inverse_thesis.toml.")
 OUT = typer.Option(None, "--out", help="Folder for the tables (CSV) and histograms (PNG) "
                    "[default: <store>-<group>-report next to the store].")
-REPEATS = typer.Option(None, "--repeats", help="Cap every condition's repeats (quick runs).")
+REPEATS = typer.Option(None, "--repeats", help="Cap every condition's repeats (quick runs) "
+                       "[default: the study's repeats].")
 
 
 class RichLoops:
     """One progress bar per loop (evaluations of its budget, best objective), and a line
-    when a loop ends."""
+    when a loop ends: on a terminal's stderr."""
 
     def __init__(self, console: Console) -> None:
         self.console, self.bar, self.tasks = console, None, []
@@ -48,18 +52,49 @@ class RichLoops:
                 self._ended(s)
 
     def _ended(self, state) -> None:
-        result = state.result
-        if result is None:
-            self.console.print(f"[red]{state.label}: failed: {state.error}")
-            return
-        self.console.print(f"{state.label}: {result.status}, Fz {result.x.sum():.1f} N, "
-                           f"objective {result.objective:.3g}, {len(result.f_history)} "
-                           f"evaluations, {result.stats.rounds} rounds, "
-                           f"{result.wall_seconds:.0f} s")
+        self.console.print(_ended_text(state), style="red" if state.result is None else None,
+                           markup=False)
 
     def finished(self, report) -> None:
         if self.bar is not None:
             self.bar.stop()
+
+
+class LoopLines:
+    """Progress of the loops off a terminal: a rate-limited timestamped line when the
+    evaluations advance, and one (never held back) when a loop ends."""
+
+    def __init__(self, lines: LogLines | None = None) -> None:
+        self.lines, self.evaluations = lines or LogLines(), -1
+        self.reported: set[str] = set()
+
+    def started(self, session, loops) -> None:
+        self.lines.log(f"invert: dashboard {session.dashboard}, {session.workers} workers, "
+                       f"{len(loops)} loops")
+
+    def advanced(self, loops) -> None:
+        evaluations = sum(min(s.stats.evaluations, s.budget) for s in loops)
+        ended = [s for s in loops if (s.result is not None or s.error)]
+        if evaluations != self.evaluations:
+            self.evaluations = evaluations
+            self.lines.progress(f"invert: {len(ended)}/{len(loops)} loops ended, "
+                                f"{evaluations}/{sum(s.budget for s in loops)} evaluations")
+        for s in ended:
+            if s.label not in self.reported:
+                self.reported.add(s.label)
+                self.lines.log(f"invert: {_ended_text(s)}")
+
+    def finished(self, report) -> None:
+        self.lines.flush()
+
+
+def _ended_text(state) -> str:
+    result = state.result
+    if result is None:
+        return f"{state.label}: failed: {state.error}"
+    return (f"{state.label}: {result.status}, Fz {result.x.sum():.1f} N, objective "
+            f"{result.objective:.3g}, {len(result.f_history)} evaluations, "
+            f"{result.stats.rounds} rounds, {result.wall_seconds:.0f} s")
 
 
 def _default_out(study) -> Path:
@@ -82,16 +117,17 @@ def invert(study_file: Path = STUDY, scheduler: str = SCHEDULER, workers: int = 
     from jobs.inverse.study import load_inverse_study, with_repeats
 
     study = load_inverse_study(study_file)  # everything is validated before anything runs
-    if repeats is not None:
-        validate.integer(repeats, "--repeats", low=1, high=validate.MAX_REPEATS)
-        study = with_repeats(study, repeats)
-    if out is not None:
-        validate.output_folder(out, "--out")
+    with usage():
+        if repeats is not None:
+            validate.integer(repeats, "--repeats", low=1, high=validate.MAX_REPEATS)
+            study = with_repeats(study, repeats)
+        if out is not None:
+            validate.output_folder(out, "--out")
     if scheduler is None:
         find_ccx()
     console = Console(width=None if sys.stdout.isatty() else 180)
-    report = run_inverse(study, scheduler=scheduler, workers=workers,
-                         progress=RichLoops(console))
+    progress = RichLoops(stderr_console()) if interactive() else LoopLines()
+    report = run_inverse(study, scheduler=scheduler, workers=workers, progress=progress)
     folder = (out or _default_out(study)).expanduser()
     figures = _report(console, study.store, study.group, folder) if report.results else []
     console.print(report.summary())
@@ -99,7 +135,7 @@ def invert(study_file: Path = STUDY, scheduler: str = SCHEDULER, workers: int = 
                   f"{len(figures)} histograms in {folder}" if report.results else
                   "no solve finished: nothing stored, no tables")
     for label, error in report.errors.items():
-        console.print(f"[red]{label}: {error}")
+        stderr_console().print(f"{label}: {error}", style="red", markup=False)
     raise typer.Exit(0 if report.ok else 1)
 
 

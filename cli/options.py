@@ -31,9 +31,15 @@ def checked(check: Callable[[Any, str], Any], name: str) -> Callable[[Any], Any]
 check_scheduler = checked(validate.scheduler_address, "--scheduler")
 check_workers = checked(validate.workers, "--workers")
 
-SCHEDULER = typer.Option(None, "--scheduler", callback=check_scheduler,
-                         help="Address of a running Dask scheduler, e.g. tcp://host:8786 "
-                         "[default: an embedded LocalCluster].")
+#: Settings of every typer app of the CLI. Without rich markup: in rich mode, help texts
+#: lose every ``[...]``, the ``[default: ...]`` of options whose default is computed
+#: among them (issue 12); typer shows the other defaults itself.
+APP_SETTINGS = {"rich_markup_mode": None}
+
+SCHEDULER_HELP = ("Address of a running Dask scheduler, e.g. tcp://host:8786 [default: "
+                  "$FARM_SCHEDULER, then $DASK_SCHEDULER_ADDRESS, else an embedded "
+                  "LocalCluster].")  # the order of jobs.cluster.resolve_scheduler
+SCHEDULER = typer.Option(None, "--scheduler", callback=check_scheduler, help=SCHEDULER_HELP)
 WORKERS = typer.Option(None, "--workers", callback=check_workers,
                        help="Embedded cluster: worker processes [default: one per core]. "
                        f"External: wait for this many workers. 1-{validate.MAX_WORKERS}.")

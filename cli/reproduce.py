@@ -15,7 +15,10 @@ from pathlib import Path
 import typer
 from rich.console import Console
 
+from cli.errors import usage
 from cli.options import SCHEDULER, WORKERS
+from cli.progress import LogLines, interactive
+from cli.progress import console as stderr_console
 
 
 def reproduce(
@@ -37,29 +40,40 @@ def reproduce(
     from jobs import validate
     from jobs.reproduce import Options
 
-    if materials not in MATERIAL_PRESETS:
-        raise SpecError(f"unknown material preset {validate.shown(materials)}: choose one of "
-                        f"{', '.join(MATERIAL_PRESETS)}")
-    validate.output_folder(out, "--out")
-    if store is not None:
-        store = validate.store_location(store, "--store")
+    with usage():
+        if materials not in MATERIAL_PRESETS:
+            raise SpecError(f"unknown material preset {validate.shown(materials)}: choose "
+                            f"one of {', '.join(MATERIAL_PRESETS)}")
+        validate.output_folder(out, "--out")
+        if store is not None:
+            store = validate.store_location(store, "--store")
     find_ccx()
     out = out.resolve()
     opts = Options(out=out, store=store or str(out / "thesis.zarr"), quick=quick,
                    coarse=coarse, materials=materials, scheduler=scheduler, workers=workers)
-    console = Console()
     done = []
     for name, stage in (("chapter 3: validation", _validation),
                         ("chapter 5: dataset analyses", _dataset),
                         ("chapter 4: inverse problems", _inverse)):
-        console.rule(name)
+        _stage_log(f"reproduce: {name}", rule=True)
         done.append(stage(opts))
     provenance = reproduction.provenance(
         solver=f"CalculiX {ccx_version()}", store=opts.store, quick=opts.quick,
         meshes=opts.mesh_tag(), materials=opts.materials, scheduler=opts.scheduler,
         workers=opts.workers)
     path = reproduction.write(opts.out, done, provenance, opts.quick)
-    console.print(f"report: {path}")
+    Console().print(f"report: {path}")  # the result, on stdout
+
+
+def _stage_log(text: str, rule: bool = False) -> None:
+    """A progress line on stderr: a rule or a plain line on a terminal, else a
+    timestamped line flushed at once (``farm reproduce 2>log`` shows it as it happens)."""
+    if not interactive():
+        LogLines().log(text)
+    elif rule:
+        stderr_console().rule(text)
+    else:
+        stderr_console().print(text, markup=False)
 
 
 def _validation(opts):
@@ -68,7 +82,7 @@ def _validation(opts):
     from jobs.reproduce import validation
 
     start = time.perf_counter()
-    run = validation.run(opts, log=print)
+    run = validation.run(opts, log=_stage_log)
     stage = ch3.validation(opts.store, run.studies["ch3-full"].group_name,
                            run.studies["ch3-reduced"].group_name, opts.out / "figures")
     stage.notes += run.notes
@@ -94,7 +108,7 @@ def _inverse(opts):
     from storage.solves import open_solves
 
     start = time.perf_counter()
-    run = inverse.run(opts, log=print)
+    run = inverse.run(opts, log=_stage_log)
     stage = StageResult("inverse", notes=list(run.notes), ccx_runs=run.ccx_runs,
                         solver_seconds=run.solver_seconds, studies=dict(run.texts))
     study = run.studies["ch4"]

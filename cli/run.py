@@ -14,6 +14,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from cli.errors import usage
 from cli.params import build_model, parse_range
 from farm.ccx.runner import find_ccx
 from farm.errors import SpecError
@@ -31,27 +32,30 @@ def run(
     deflection: str = typer.Option(
         "10:40:5", "--deflection", "-d", help="Deflections, mm: start:stop:step or a list."),
     road: str = typer.Option(
-        None, "--road", help="Road boundary: iterative (reduced default) or contact."),
+        None, "--road", help="Road boundary: iterative or contact [default: contact for the full "
+        "model, iterative for the reduced one]."),
     materials: str = typer.Option("table-3.1", "--materials", help="Material preset."),
     overrides: list[str] = typer.Option(
         [], "--set", help="Override a model setting, e.g. --set mesh.circumferential=80."),
     threads: int = typer.Option(1, "--threads", help="Solver threads."),
     timeout: float = typer.Option(1800.0, "--timeout", help="Seconds per ccx run."),
-    out: Path = typer.Option(None, "--out", help="Save the arrays to this .npz file."),
+    out: Path = typer.Option(None, "--out", help="Save the arrays to this .npz file "
+                             "[default: none saved]."),
     keep: bool = typer.Option(False, "--keep", help="Keep the solver's scratch directories."),
     vtu: Path = typer.Option(None, "--vtu", help="Write the deformed tyre per deflection "
-                             "as ParaView VTU files into this folder."),
+                             "as ParaView VTU files into this folder [default: none]."),
 ) -> None:
     """Solve one load path (one model, one pressure, several deflections) and print a table."""
-    spec = build_model(model, materials, road, overrides)
-    kpa = (200.0 if spec.inflated else 0.0) if pressure is None else pressure
-    path, settings = _checked(spec, kpa, deflection, threads, timeout, keep, out, vtu)
+    with usage():
+        spec = build_model(model, materials, road, overrides)
+        kpa = (200.0 if spec.inflated else 0.0) if pressure is None else pressure
+        path, settings = _checked(spec, kpa, deflection, threads, timeout, keep, out, vtu)
     find_ccx()  # fail before meshing if the solver is missing
     if keep:
         scratch = Path(f"farm-run-{time.strftime('%Y%m%d-%H%M%S')}").resolve()
         os.environ["FARM_SCRATCH_DIR"] = str(scratch)
     result = run_load_path(spec, path, settings)
-    _print_table(result, kpa)
+    _print_table(result, kpa)  # the result on stdout; the notes below on stderr
     if keep:
         Console(stderr=True).print(f"solver files kept in {scratch}")
     if out is not None:

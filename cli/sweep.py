@@ -1,7 +1,9 @@
-"""``farm sweep submit|resume|status``: sweeps of virtual experiments on Dask."""
+"""``farm sweep submit|resume|status|verify``: sweeps of virtual experiments on Dask."""
 
 from __future__ import annotations
 
+import json
+import sys
 from pathlib import Path
 
 import typer
@@ -16,17 +18,26 @@ from rich.progress import (
 )
 from rich.table import Table
 
-from cli.options import SCHEDULER, WORKERS
+from cli.options import APP_SETTINGS, SCHEDULER, WORKERS
+from cli.progress import LogLines, interactive
+from cli.progress import console as stderr_console
 
-app = typer.Typer(help="Sweeps of virtual experiments on Dask: submit, resume, status.",
-                    no_args_is_help=True)
+app = typer.Typer(help="Sweeps of virtual experiments on Dask: submit, resume, status, list, "
+                  "verify.", no_args_is_help=True, **APP_SETTINGS)
 
 STUDY = typer.Argument(..., help="Study file (TOML), e.g. examples/thesis_ch5_dataset.toml.")
 RETRY = typer.Option(False, "--retry-failed", help="Run experiments that failed before again.")
+JSON = typer.Option(False, "--json", help="Print one JSON document on stdout, nothing else.")
+STATUSES = ("done", "failed", "pending")
+
+
+def _dump(document) -> None:
+    typer.echo(json.dumps(document, indent=2, allow_nan=False))
 
 
 class RichProgress:
-    """Progress bar (done / failed / running / ETA) and the dashboard address."""
+    """Progress bar (done / failed / running / ETA) and the dashboard address, on a
+    terminal's stderr."""
 
     def __init__(self, console: Console) -> None:
         self.console, self.bar, self.task = console, None, None
@@ -54,6 +65,52 @@ class RichProgress:
             self.bar.stop()
 
 
+class SweepLines:
+    """Progress of a sweep off a terminal: timestamped, rate-limited lines on stderr."""
+
+    def __init__(self, name: str, lines: LogLines | None = None) -> None:
+        self.name, self.lines, self.seen = name, lines or LogLines(), None
+
+    def started(self, session, state) -> None:
+        self.lines.log(f"sweep {self.name}: dashboard {session.dashboard}, {session.workers} "
+                       f"workers, {state.total} experiments ({state.skipped} already done)")
+
+    def advanced(self, state) -> None:
+        ended = (state.done, state.failed)
+        if ended != self.seen:
+            self.seen = ended
+            self.lines.progress(self._text(state))
+
+    def finished(self, report) -> None:
+        self.lines.flush()
+
+    def _text(self, state) -> str:
+        return (f"sweep {self.name}: {state.skipped + state.done + state.failed}/{state.total} "
+                f"done, {state.failed} failed")
+
+
+def sweep_progress(name: str):
+    """A bar on a terminal, else log lines: on stderr either way."""
+    return RichProgress(stderr_console()) if interactive() else SweepLines(name)
+
+
+def _summary_dict(report) -> dict:
+    return {"study": report.study.name, "store": str(report.study.store),
+            "group": report.study.group_name, "ok": report.ok, "experiments": report.total,
+            "already_done": report.skipped, "done_now": len(report.done),
+            "failed": [_row(i, report.experiments[i], "failed", r)
+                       for i, r in report.failed.items()],
+            "ccx_runs": report.ccx_runs, "solver_seconds": round(report.solve_seconds, 3),
+            "wall_seconds": round(report.wall_seconds, 3)}
+
+
+def _row(experiment: str, case, status: str, error: str) -> dict:
+    """One experiment for JSON: id, load case (pressure in kPa), status, error."""
+    return {"experiment": experiment, "deflection_mm": float(case.deflection),
+            "pressure_kpa": round(1000 * float(case.pressure), 9), "status": status,
+            "error": error}
+
+
 def _summary(report, console: Console) -> None:
     table = Table(title=f"sweep {report.study.name}: {report.study.store} "
                         f"(group {report.study.group_name})")
@@ -78,49 +135,136 @@ def _failure_table(rows, console: Console) -> None:
     console.print(table)
 
 
-def _run(study_file: Path, scheduler, workers, retry_failed) -> None:
+def _run(study_file: Path, scheduler, workers, retry_failed, as_json: bool) -> None:
     from jobs.study import load_study
     from jobs.sweep import run_sweep
 
     study = load_study(study_file)  # everything is validated before anything starts
-    console = Console()
     report = run_sweep(study, scheduler=scheduler, workers=workers, retry_failed=retry_failed,
-                       progress=RichProgress(console))
-    _summary(report, console)
+                       progress=sweep_progress(study.name))
+    if as_json:
+        _dump(_summary_dict(report))
+    else:
+        _summary(report, Console())
     raise typer.Exit(0 if report.ok else 1)
 
 
 @app.command("submit")
 def submit(study: Path = STUDY, scheduler: str = SCHEDULER, workers: int = WORKERS,
-           retry_failed: bool = RETRY) -> None:
+           retry_failed: bool = RETRY, as_json: bool = JSON) -> None:
     """Run every experiment of a study that the store does not hold as done yet."""
-    _run(study, scheduler, workers, retry_failed)
+    _run(study, scheduler, workers, retry_failed, as_json)
 
 
 @app.command("resume")
 def resume(study: Path = STUDY, scheduler: str = SCHEDULER, workers: int = WORKERS,
-           retry_failed: bool = RETRY) -> None:
+           retry_failed: bool = RETRY, as_json: bool = JSON) -> None:
     """Finish an interrupted sweep (the same idempotent operation as submit)."""
-    _run(study, scheduler, workers, retry_failed)
+    _run(study, scheduler, workers, retry_failed, as_json)
 
 
-@app.command("status")
-def status(target: str = typer.Argument(..., help="A study file (.toml) or a store path/URL."),
-           group: str = typer.Option(None, "--group", help="One group of the store.")) -> None:
-    """Counts of pending, done and failed experiments, and why the failed ones failed."""
-    from jobs.status import store_status
+def _target(target: str, group: str | None) -> tuple[str, str | None]:
+    """The store and group of a study file, or the store given (and ``group``)."""
     from jobs.study import load_study
 
     if target.endswith(".toml"):
         study = load_study(target)
-        store, group = study.store, group or study.group_name
-    else:
-        store = target
+        return study.store, group or study.group_name
+    return target, group
+
+
+TARGET = typer.Argument(..., help="A study file (.toml) or a store path/URL.")
+GROUP = typer.Option(None, "--group", help="One group of the store [default: every group; "
+                     "a study file's own group].")
+
+
+@app.command("status")
+def status(target: str = TARGET, group: str = GROUP, as_json: bool = JSON) -> None:
+    """Counts of pending, done and failed experiments, and why the failed ones failed."""
+    from jobs.status import store_status
+    from storage.errors import reading
+
+    store, group = _target(target, group)
+    with reading("the store's groups and statuses", str(store)):
+        groups = store_status(store, group)
+    if as_json:
+        _dump({"store": str(store), "groups": [
+            {"group": g.group, "counts": {k: g.counts.get(k, 0) for k in STATUSES},
+             "failed": [_row(f.experiment, f, "failed", f.reason) for f in g.failures]}
+            for g in groups]})
+        return
     console = Console()
-    for g in store_status(store, group):
+    for g in groups:
         c = g.counts
         console.print(f"group {g.group}: {c.get('done', 0)} done, {c.get('failed', 0)} failed, "
                       f"{c.get('pending', 0)} pending")
         if g.failures:
             _failure_table([(f.experiment, f.deflection, f.pressure, f.reason)
                             for f in g.failures], console)
+
+
+def _status_option(value: str | None) -> str | None:
+    if value is not None and value not in STATUSES:
+        raise typer.BadParameter(f"{value!r}: choose one of {', '.join(STATUSES)}")
+    return value
+
+
+@app.command("list")
+def list_experiments(
+    target: str = TARGET, group: str = GROUP,
+    status: str = typer.Option(None, "--status", callback=_status_option,
+                               help="Only experiments with this status: done, failed or "
+                               "pending [default: all]."),
+    as_json: bool = JSON,
+) -> None:
+    """Experiment ids with their load case (deflection mm, pressure kPa, ...), status and
+    error: the ids `farm export --experiment` takes."""
+    from cli.listing import experiments
+    from storage.errors import reading
+
+    store, group = _target(target, group)
+    with reading("the store's experiments", str(store)):
+        rows = experiments(store, group, status)
+    if as_json:
+        _dump({"store": str(store), "experiments": rows})
+        return
+    _list_table(rows, Console(width=None if sys.stdout.isatty() else 240))
+
+
+def _list_table(rows: list[dict], console: Console) -> None:
+    columns = list(dict.fromkeys(k for row in rows for k in row)) or ["experiment"]
+    table = Table(title=f"{len(rows)} experiments")
+    for col in columns:
+        table.add_column(col.replace("_mm", " mm").replace("_kpa", " kPa"))
+    for row in rows:
+        table.add_row(*(_cell(row.get(c)) for c in columns))
+    console.print(table)
+
+
+def _cell(value) -> str:
+    if value is None:
+        return "-"
+    return f"{value:g}" if isinstance(value, float) else str(value)[:160]
+
+
+@app.command("verify")
+def verify(store: str = typer.Argument(..., help="The store: a directory or fsspec URL."),
+           group: str = typer.Option(None, "--group", help="Only this group of the store "
+                                     "[default: every group]."),
+           repair: bool = typer.Option(
+               False, "--repair", help="Mark damaged experiments pending (`farm sweep resume` "
+               "re-solves them) and restore damaged metadata from the consolidated copy."),
+           as_json: bool = JSON) -> None:
+    """Check a store for damage: metadata, ids, statuses, chunks, per-experiment checksums.
+
+    Exit code 0 when nothing is damaged, 1 when something is (even if --repair fixed it).
+    """
+    from storage.verify import verify as verify_store
+
+    report = verify_store(store, group, repair=repair)
+    if as_json:
+        typer.echo(json.dumps(report.to_dict(), indent=2))
+    else:
+        for line in report.lines():
+            typer.echo(line)
+    raise typer.Exit(0 if report.ok else 1)

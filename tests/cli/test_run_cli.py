@@ -84,7 +84,7 @@ def test_absurd_values_are_refused_before_solving(argv, needle, capsys, monkeypa
 
     monkeypatch.setattr(cli.run, "run_load_path", lambda *a, **k: pytest.fail("solved"))
     code, _, err = _run(["run", "--model", "reduced", *COARSE, *argv], capsys)
-    assert code == 1 and err.count("\n") == 1 and needle in err, err
+    assert code == 2 and err.count("\n") == 1 and needle in err, err  # usage (cli docstring)
 
 
 @pytest.mark.parametrize("out", ["missing/x.npz", "folder", "afile/x.npz"])
@@ -97,4 +97,4 @@ def test_out_is_checked_before_the_solve_not_after(out, tmp_path, capsys, monkey
     monkeypatch.chdir(tmp_path)
     monkeypatch.setattr(cli.run, "run_load_path", lambda *a, **k: pytest.fail("solved"))
     code, _, err = _run(["run", "--model", "reduced", *COARSE, "--out", out], capsys)
-    assert code == 1 and err.startswith("farm: error: --out: ") and err.count("\n") == 1, err
+    assert code == 2 and err.startswith("farm: error: --out: ") and err.count("\n") == 1, err

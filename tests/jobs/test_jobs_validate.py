@@ -89,7 +89,7 @@ def test_a_huge_cli_range_is_one_line_not_a_memory_error(capsys):
     with pytest.raises(SystemExit) as info:
         main(["run", "--model", "reduced", "--deflection", "1:1e12:1"])
     err = capsys.readouterr().err
-    assert info.value.code == 1 and err.count("\n") == 1
+    assert info.value.code == 2 and err.count("\n") == 1
     assert err.startswith("farm: error: deflection: ") and "at most 100000" in err
 
 
