@@ -60,6 +60,11 @@ class RichLoops:
             self.bar.stop()
 
 
+def loop_progress(name: str = "invert"):
+    """Bars on a terminal, else log lines: on stderr either way."""
+    return RichLoops(stderr_console()) if interactive() else LoopLines()
+
+
 class LoopLines:
     """Progress of the loops off a terminal: a rate-limited timestamped line when the
     evaluations advance, and one (never held back) when a loop ends."""
@@ -126,7 +131,7 @@ def invert(study_file: Path = STUDY, scheduler: str = SCHEDULER, workers: int = 
     if scheduler is None:
         find_ccx()
     console = Console(width=None if sys.stdout.isatty() else 180)
-    progress = RichLoops(stderr_console()) if interactive() else LoopLines()
+    progress = loop_progress()
     report = run_inverse(study, scheduler=scheduler, workers=workers, progress=progress)
     folder = (out or _default_out(study)).expanduser()
     figures = _report(console, study.store, study.group, folder) if report.results else []

@@ -16,9 +16,11 @@ import typer
 from rich.console import Console
 
 from cli.errors import usage
+from cli.invert import loop_progress
 from cli.options import SCHEDULER, WORKERS
 from cli.progress import LogLines, interactive
 from cli.progress import console as stderr_console
+from cli.sweep import sweep_progress
 
 
 def reproduce(
@@ -82,7 +84,7 @@ def _validation(opts):
     from jobs.reproduce import validation
 
     start = time.perf_counter()
-    run = validation.run(opts, log=_stage_log)
+    run = validation.run(opts, log=_stage_log, progress=sweep_progress)
     stage = ch3.validation(opts.store, run.studies["ch3-full"].group_name,
                            run.studies["ch3-reduced"].group_name, opts.out / "figures")
     stage.notes += run.notes
@@ -108,7 +110,7 @@ def _inverse(opts):
     from storage.solves import open_solves
 
     start = time.perf_counter()
-    run = inverse.run(opts, log=_stage_log)
+    run = inverse.run(opts, log=_stage_log, progress=loop_progress)
     stage = StageResult("inverse", notes=list(run.notes), ccx_runs=run.ccx_runs,
                         solver_seconds=run.solver_seconds, studies=dict(run.texts))
     study = run.studies["ch4"]

@@ -15,7 +15,7 @@ from __future__ import annotations
 import time
 
 from jobs.reproduce.options import COARSE_MESH, Options
-from jobs.reproduce.stage import Log, StageRun, logger
+from jobs.reproduce.stage import Log, ProgressFor, StageRun, logger
 
 MATERIALS = "thesis-calibrated"
 
@@ -50,8 +50,11 @@ def study_text(opts: Options) -> str:
     return "\n".join(lines)
 
 
-def run(opts: Options, log: Log | None = None) -> StageRun:
-    """Run the chapter-4 study on the farm; its report is ``reports["ch4"]``."""
+def run(opts: Options, log: Log | None = None, progress: ProgressFor | None = None) -> StageRun:
+    """Run the chapter-4 study on the farm; its report is ``reports["ch4"]``.
+
+    ``progress("ch4")`` gives the loops their progress display (none by default).
+    """
     from jobs.inverse.run import run_inverse
     from jobs.inverse.study import parse_inverse_study
 
@@ -60,7 +63,8 @@ def run(opts: Options, log: Log | None = None) -> StageRun:
     text = study_text(opts)
     study = parse_inverse_study(text, "ch4.toml", opts.out)
     stage.texts["ch4"], stage.studies["ch4"] = text, study
-    report = run_inverse(study, scheduler=opts.scheduler, workers=opts.workers)
+    report = run_inverse(study, scheduler=opts.scheduler, workers=opts.workers,
+                         progress=progress("ch4") if progress else None)
     stage.reports["ch4"] = report
     log(f"ch4: {report.summary()}")
     stage.ccx_runs, stage.solver_seconds = report.totals.solved, report.totals.solver_seconds

@@ -9,7 +9,7 @@ from __future__ import annotations
 import time
 
 from jobs.reproduce.options import COARSE_MESH, Options
-from jobs.reproduce.stage import Log, StageRun, logger
+from jobs.reproduce.stage import Log, ProgressFor, StageRun, logger
 
 STEPS = "deflection_mm = { start = 5, stop = 40, step = 5 }"
 
@@ -30,8 +30,11 @@ def studies(opts: Options) -> dict[str, str]:
             "ch3-reduced": study_text(opts, "ch3-reduced", "reduced", STEPS)}
 
 
-def run(opts: Options, log: Log | None = None) -> StageRun:
-    """Run the chapter-3 sweeps on the farm; the 200 kPa ones are chapter 5's dataset too."""
+def run(opts: Options, log: Log | None = None, progress: ProgressFor | None = None) -> StageRun:
+    """Run the chapter-3 sweeps on the farm; the 200 kPa ones are chapter 5's dataset too.
+
+    ``progress(name)`` gives each sweep its progress display (none by default).
+    """
     from jobs.study import parse_study
     from jobs.sweep import run_sweep
 
@@ -40,7 +43,8 @@ def run(opts: Options, log: Log | None = None) -> StageRun:
     for name, text in studies(opts).items():
         study = parse_study(text, f"{name}.toml")
         stage.texts[name], stage.studies[name] = text, study
-        report = run_sweep(study, scheduler=opts.scheduler, workers=opts.workers)
+        report = run_sweep(study, scheduler=opts.scheduler, workers=opts.workers,
+                           progress=progress(name) if progress else None)
         stage.reports[name] = report
         log(f"{name}: {report.total} experiments ({report.skipped} already done), "
             f"{report.ccx_runs} ccx runs, {report.wall_seconds:.1f} s")
