@@ -11,6 +11,15 @@ it prints the figures and their ratio to the targets of the store issue,
 
 The 10,000 read experiments are filled by bulk zarr writes, not ``write_experiment``
 (that would time the writes again, for minutes); their layout is the same.
+
+``--layouts`` compares, side by side on local disk and on an S3 server (moto's, started
+here in its own process: ``pip install -e '.[s3]'``), the present layout (one object
+per experiment and worker variable) with a sharded copy of it (zarr v3 sharding codec,
+shards of ``--shard`` experiments, inner chunks of one experiment): writes as a worker
+makes them, the cost of making the copy, and reads of every displacement. The copy is a
+post-processing idea (an export after the sweep), not the live layout: a worker writes
+one experiment, which in a shard is a read-modify-write of an object shared with other
+workers.
 """
 
 from __future__ import annotations
@@ -18,7 +27,10 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import socket
 import statistics
+import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -53,11 +65,11 @@ def _ids(n: int) -> list[str]:
 
 
 def bench_write(
-    root: Path, n_writes: int, n_inner: int, n_tread: int
+    root: Path, n_writes: int, n_inner: int, n_tread: int, path=None
 ) -> tuple[list[float], float]:
     """Wall seconds of each ``write_experiment`` call (after one warm-up write), and the
     process CPU seconds per write (all threads: zarr's event loop and I/O pool)."""
-    path = root / "write.zarr"
+    path = root / "write.zarr" if path is None else path
     _group(path, n_inner, n_tread)
     ids = _ids(n_writes + 1)
     storage.reserve(path, "g", ids, {"deflection": np.linspace(1, 40, len(ids)), "pressure": 0.2})
@@ -81,13 +93,13 @@ def bench_write(
     return times, (time.process_time() - cpu) / n_writes
 
 
-def fill_for_read(root: Path, n_exp: int, n_inner: int, block: int = 1000) -> Path:
+def fill_for_read(root: Path, n_exp: int, n_inner: int, block: int = 1000, path=None):
     """A group of ``n_exp`` done experiments with synthetic displacements (bulk writes)."""
-    path = root / "read.zarr"
+    path = root / "read.zarr" if path is None else path
     _group(path, n_inner, 400)
     ids = _ids(n_exp)
     storage.reserve(path, "g", ids, {"deflection": np.linspace(1, 40, n_exp), "pressure": 0.2})
-    g = zarr.open_group(path, path="g", mode="r+", use_consolidated=False)
+    g = zarr.open_group(storage.open_store(path), path="g", mode="r+", use_consolidated=False)
     rng = np.random.default_rng(2)
     for start in range(0, n_exp, block):
         stop = min(start + block, n_exp)
@@ -121,6 +133,122 @@ def bench_read(path: Path, repeat: int) -> dict[str, list[float]]:
     return out
 
 
+# ------------------------------------------------- layouts: present vs sharded, local vs S3
+
+
+def _free_port() -> int:
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return sock.getsockname()[1]
+
+
+def start_moto() -> tuple[subprocess.Popen, str]:
+    """moto's S3 server in its own process (not a thread: it would share our GIL)."""
+    port = _free_port()
+    proc = subprocess.Popen([sys.executable, "-m", "moto.server", "-H", "127.0.0.1", "-p",
+                             str(port)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    endpoint = f"http://127.0.0.1:{port}"
+    for _ in range(200):
+        try:
+            socket.create_connection(("127.0.0.1", port), timeout=0.1).close()
+            return proc, endpoint
+        except OSError:
+            time.sleep(0.05)
+    proc.kill()
+    raise RuntimeError(f"moto's server did not start on {endpoint}")
+
+
+def s3_root(endpoint: str) -> tuple[dict, str]:
+    import s3fs
+
+    for key in ("AWS_ACCESS_KEY_ID", "AWS_SECRET_ACCESS_KEY"):
+        os.environ.setdefault(key, "testing")
+    options = {"endpoint_url": endpoint}
+    s3fs.S3FileSystem(skip_instance_cache=True, **options).mkdir("bench")
+    return options, "s3://bench"
+
+
+def reshard(source, target, n_exp: int, n_inner: int, shard: int) -> None:
+    """Copy ``displacement`` into a sharded array: shards of ``shard`` experiments, inner
+    chunks of one (a single experiment still reads alone), one shard written at a time."""
+    src = zarr.open_array(source, path="g/displacement", mode="r")
+    dst = zarr.create_array(target, name="displacement", shape=src.shape, dtype=src.dtype,
+                            chunks=(1, n_inner, 3), shards=(shard, n_inner, 3),
+                            compressors=None, dimension_names=("experiment", "inner_node",
+                                                               "component"))
+    for start in range(0, n_exp, shard):
+        stop = min(start + shard, n_exp)
+        dst[start:stop] = src[start:stop]
+
+
+def _objects(store) -> int:
+    """Files (local) or objects (S3) of a store: each one a request to read or write."""
+    from zarr.storage import FsspecStore
+
+    if isinstance(store, FsspecStore):
+        import s3fs
+
+        fs = s3fs.S3FileSystem(skip_instance_cache=True, **store.fs.storage_options
+                               | {"asynchronous": False})
+        return len(fs.find(store.path))
+    return sum(1 for f in Path(store.root).rglob("*") if f.is_file())
+
+
+def bench_layouts(args, root: Path) -> None:
+    proc, endpoint = start_moto()
+    try:
+        options, bucket = s3_root(endpoint)
+        places = {"local": (lambda name: storage.open_store(root / name)),
+                  "s3 (moto)": (lambda name: storage.open_store(
+                      f"{bucket}/{name}", storage_options=options))}
+        rows: dict[str, dict[str, float]] = {}
+        n, size = args.experiments, args.experiments * args.inner * 3 * 8 / 1e6
+        for place, make in places.items():
+            r = rows[place] = {}
+            wall, _ = bench_write(root, args.writes, args.inner, args.tread,
+                                  path=make("write.zarr"))
+            r["write_experiment ms (median)"] = statistics.median(wall) * 1e3
+            present = make("read.zarr")
+            t = time.perf_counter()
+            fill_for_read(root, n, args.inner, path=present)
+            r["fill present s (bulk)"] = time.perf_counter() - t
+            times, a = _timed(lambda s=present: zarr.open_array(
+                s, path="g/displacement", mode="r")[...], args.repeat)
+            r["read present s"] = statistics.median(times)
+            sharded = make("sharded.zarr")
+            t = time.perf_counter()
+            reshard(present, sharded, n, args.inner, args.shard)
+            r["reshard s"] = time.perf_counter() - t
+            times, b = _timed(lambda s=sharded: zarr.open_array(
+                s, path="displacement", mode="r")[...], args.repeat)
+            r["read sharded s"] = statistics.median(times)
+            assert np.array_equal(a, b)
+            times, _ = _timed(lambda s=sharded: zarr.open_array(
+                s, path="displacement", mode="r")[n // 2], args.repeat)
+            r["read 1 exp sharded ms"] = statistics.median(times) * 1e3
+            r["objects present"] = _objects(present)
+            r["objects sharded"] = _objects(sharded)
+        _print_layouts(rows, n, size, args.shard)
+    finally:
+        proc.kill()
+        proc.wait()
+
+
+def _print_layouts(rows: dict, n: int, size: float, shard: int) -> None:
+    names = list(rows)
+    print(f"layouts: {n} experiments, displacement {size:.0f} MB; shards of {shard}")
+    print(f"  {'':34s}" + "".join(f"{p:>14s}" for p in names) + f"{'s3 / local':>12s}")
+    local, s3 = (rows[p] for p in names)
+    for key in local:
+        print(f"  {key:34s}" + "".join(f"{rows[p][key]:14.2f}" for p in names)
+              + f"{s3[key] / local[key]:12.2f}")
+    for p in names:
+        r = rows[p]
+        print(f"  {p}: read sharded / present = {r['read sharded s'] / r['read present s']:.3f}"
+              f" ({size / r['read present s']:.0f} -> {size / r['read sharded s']:.0f} MB/s); "
+              f"reshard costs {r['reshard s'] / r['fill present s (bulk)']:.2f} x the bulk fill")
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--writes", type=int, default=200, help="timed experiment writes")
@@ -129,11 +257,17 @@ def main() -> None:
     p.add_argument("--tread", type=int, default=400, help="tread nodes")
     p.add_argument("--repeat", type=int, default=3, help="repeats of each read")
     p.add_argument("--dir", type=Path, default=None, help="where to put the stores (tmp)")
+    p.add_argument("--layouts", action="store_true",
+                   help="present vs sharded layout, local disk vs S3 (moto), side by side")
+    p.add_argument("--shard", type=int, default=64, help="experiments per shard (--layouts)")
     args = p.parse_args()
     with tempfile.TemporaryDirectory(dir=args.dir, prefix="bench_store_") as tmp:
         root = Path(tmp)
         print(f"machine: {os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f} "
               "(wall-clock figures below are only as quiet as the machine)")
+        if args.layouts:
+            bench_layouts(args, root)
+            return
         wall, cpu = bench_write(root, args.writes, args.inner, args.tread)
         times = np.array(wall) * 1e3
         med, p90 = statistics.median(times), np.percentile(times, 90)

@@ -7,6 +7,9 @@ A study names a store, a model and its load cases::
     store = "results/thesis.zarr"     # a directory or an fsspec URL
     group = "full-table-3.1"          # optional: default "<kind>-<model hash>"
 
+    [study.storage_options]           # optional, URL stores only: fsspec options
+    endpoint_url = "http://minio:9000" # (s3fs: endpoint_url, anon, client_kwargs, ...)
+
     [model]                           # as farm.specs.ModelSpec; units mm, MPa
     kind = "full"
     materials = "table-3.1"           # a preset, or a table per region
@@ -31,21 +34,27 @@ A study names a store, a model and its load cases::
 
 Every key is checked: an unknown key, a wrong type or an out-of-range value is one
 :class:`~jobs.errors.StudyError` naming the key, the value given and what is allowed.
+Storage options reach every storage call of the client and of the workers: the study's
+``store`` is then the zarr store opened with them, which Dask pickles into each task,
+options included. Credentials are refused there (:data:`jobs.validate.SECRET_OPTIONS`):
+they stay in the environment of the client and the workers (``AWS_ACCESS_KEY_ID``...).
 The study's experiment count is computed from its lists before anything is expanded and
 is at most :data:`jobs.validate.EXPERIMENTS` (docs/limits.md).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+import storage
 from farm.errors import SpecError
 from farm.specs import MAX_PRESSURE_MPA, LoadPath, ModelSpec, SolverSettings
 from jobs import validate as v
 from jobs.errors import StudyError
 from jobs.identity import model_hash
+from storage.paths import describe
 
 SAMPLING_METHODS = ("lhs", "sobol")
 LOAD_KEYS = {"pressure_kpa", "deflection_mm", "sample"}
@@ -66,11 +75,14 @@ class Sampling:
 class Study:
     """A validated study: where results go, which model, which load cases, how to solve.
 
-    Pressures are in MPa and deflections in mm (the file says kPa and mm).
+    Pressures are in MPa and deflections in mm (the file says kPa and mm). ``store`` is
+    what every storage call gets: the location as text, or, with ``storage_options``,
+    the zarr store opened with them (picklable: each Dask task gets a copy, options
+    included); :attr:`location` is the text either way.
     """
 
     name: str
-    store: str
+    store: storage.StoreLike
     group: str | None
     model: ModelSpec
     pressures: tuple[float, ...]
@@ -80,6 +92,12 @@ class Study:
     max_path_length: int
     retry_smaller_increments: bool
     source: str
+    storage_options: dict[str, Any] | None = field(default=None, hash=False)
+
+    @property
+    def location(self) -> str:
+        """Where the store is, as text (a path or URL), for messages and reports."""
+        return self.store if isinstance(self.store, str) else describe(self.store)
 
     @property
     def group_name(self) -> str:
@@ -160,9 +178,12 @@ def parse_study(text: str, source: str = "<study>") -> Study:
     with v.located(source):
         v.table(data, "study file", {"study", "model", "loads", "solver"},
                 {"study", "model", "loads"})
-        head = v.table(data["study"], "study", {"name", "store", "group"}, {"store"})
+        head = v.table(data["study"], "study", {"name", "store", "group", "storage_options"},
+                       {"store"})
         store = v.string(head["store"], "study.store", "a path or URL string", blank=False)
         v.store_location(store, "study.store")  # checked here, resolved by load_study
+        options = (v.storage_options(head["storage_options"], "study.storage_options", store)
+                   if "storage_options" in head else None)
         group = head.get("group")
         if group is not None:
             v.identifier(group, "study.group")
@@ -172,9 +193,18 @@ def parse_study(text: str, source: str = "<study>") -> Study:
         solver = v.solver(data.get("solver", {}))
         study = Study(name, store, group, model, pressures, deflections, sampling,
                       solver.settings, solver.max_path_length, solver.retry_smaller_increments,
-                      source)
+                      source, options)
         _check_loads(study)
-    return study
+        return with_storage_options(study) if options else study
+
+
+def with_storage_options(study: Study) -> Study:
+    """The study whose ``store`` is its URL opened with its storage options (no I/O)."""
+    try:
+        opened = storage.open_store(study.location, storage_options=study.storage_options)
+    except storage.StoreError as e:
+        raise v.fail("study.storage_options", str(e)) from e
+    return replace(study, store=opened)
 
 
 def _check_loads(study: Study) -> None:
@@ -197,5 +227,7 @@ def load_study(path: str | Path) -> Study:
     directory, like any path given on the command line."""
     path = Path(path)
     study = parse_study(v.read_text(path), str(path))
+    if not isinstance(study.store, str):  # a URL opened with its options: nothing to resolve
+        return study
     with v.located(str(path)):
         return replace(study, store=v.store_location(study.store, "study.store"))

@@ -26,12 +26,17 @@ from jobs.guard import Failed, Solved, cancellation_check, guarded
 
 @dataclass(frozen=True)
 class PathTask:
-    """Everything a worker needs, as plain picklable values."""
+    """Everything a worker needs, as plain picklable values.
+
+    ``store`` is a location (path or URL), or a zarr store opened with storage options
+    (:attr:`jobs.study.Study.store`): an fsspec store pickles with its options, so the
+    worker's copy reaches the same endpoint as the client without any environment.
+    """
 
     path: PathPlan
     model: ModelSpec
     settings: SolverSettings
-    store: str
+    store: storage.StoreLike
     group: str
     retry_smaller_increments: bool = True
 

@@ -517,6 +517,49 @@ def store_location(value: Any, where: str, base: Path | None = None) -> str:
     return text
 
 
+#: Keys of fsspec/s3fs/gcsfs/adlfs options that hold secrets: refused in study files,
+#: which get copied, committed and shared. Credentials come from the environment
+#: (``AWS_ACCESS_KEY_ID``/``AWS_SECRET_ACCESS_KEY``, a profile, an instance role).
+SECRET_OPTIONS = frozenset({"key", "secret", "token", "password", "session_token",
+                            "aws_access_key_id", "aws_secret_access_key", "aws_session_token",
+                            "account_key", "sas_token", "client_secret", "connection_string"})
+MAX_OPTIONS_DEPTH = 3  # client_kwargs.config.x: deeper tables are no fsspec option
+
+
+def storage_options(data: Any, where: str, store: str) -> dict[str, Any]:
+    """fsspec options of a URL store (``[study.storage_options]``): endpoint, region,
+    ``anon``, ``client_kwargs``... as strings, numbers, booleans and nested tables.
+    Refused: options for a local directory (they would be ignored), and secrets
+    (:data:`SECRET_OPTIONS`: credentials stay in environment variables)."""
+    if "://" not in store:
+        raise fail(where, f"are for object-store URLs (s3://...), but the store is the "
+                   f"local path {shown(store)}: drop the table")
+    return _options(data, where, 1)
+
+
+def _options(data: Any, where: str, depth: int) -> dict[str, Any]:
+    if not isinstance(data, dict):
+        raise fail(where, f"must be a table, got {type(data).__name__} {shown(data)}")
+    if depth > MAX_OPTIONS_DEPTH:
+        raise fail(where, f"nests deeper than {MAX_OPTIONS_DEPTH} tables")
+    out: dict[str, Any] = {}
+    for name, value in data.items():
+        at = f"{where}.{name}"
+        if name.lower() in SECRET_OPTIONS:
+            raise fail(at, "credentials do not belong in a study file: set them in the "
+                       "environment (AWS_ACCESS_KEY_ID and AWS_SECRET_ACCESS_KEY for S3, "
+                       "or a profile) on the client and on every worker")
+        if isinstance(value, dict):
+            out[name] = _options(value, at, depth + 1)
+        elif isinstance(value, str | bool | int | float):
+            if isinstance(value, float) and not math.isfinite(value):
+                raise fail(at, f"must be finite, got {shown(value)}")
+            out[name] = value
+        else:
+            raise fail(at, f"must be a string, number, boolean or table, got {shown(value)}")
+    return out
+
+
 def output_file(path: Path, where: str) -> Path:
     """A file to write later: not a directory, in an existing, writable folder.
     Checked before any work, so that a finished solve is never lost to a bad path."""

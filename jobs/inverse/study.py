@@ -8,6 +8,9 @@
     cache = "results/inverse-evaluations" # optional: default "<store>.evaluations"
     seed = 0
 
+    [study.storage_options]               # optional, URL stores only (as in sweep studies)
+    endpoint_url = "http://minio:9000"
+
     [model]                               # the reduced model, as in sweep studies
     kind = "reduced"
     materials = "thesis-calibrated"
@@ -49,14 +52,16 @@ sizes have bounds (docs/limits.md): repeats, evaluations, loops, noise levels, s
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+import storage
 from farm.errors import SpecError
 from farm.specs import LoadPath, ModelSpec, SolverSettings
 from jobs import validate as v
 from jobs.identity import value_key
+from storage.paths import describe
 
 METHODS = ("displacement", "strain", "combined")
 OPTIMIZERS = ("nelder-mead", "least-squares")
@@ -130,10 +135,14 @@ class MaskSpec:
 
 @dataclass(frozen=True)
 class InverseStudy:
-    """A validated inverse study (units: mm, N, MPa)."""
+    """A validated inverse study (units: mm, N, MPa).
+
+    ``store`` is what storage calls get: the location, or the store opened with
+    ``storage_options`` (as :attr:`jobs.study.Study.store`); :attr:`location` is text.
+    """
 
     name: str
-    store: str
+    store: storage.StoreLike
     group: str
     cache: str
     seed: int
@@ -145,6 +154,12 @@ class InverseStudy:
     mask: MaskSpec | None
     settings: SolverSettings
     source: str
+    storage_options: dict[str, Any] | None = field(default=None, hash=False)
+
+    @property
+    def location(self) -> str:
+        """Where the store is, as text (a path or URL)."""
+        return self.store if isinstance(self.store, str) else describe(self.store)
 
     def optimizer(self, name: str) -> OptimizerSettings:
         return next(o for o in self.optimizers if o.name == name)
@@ -260,8 +275,8 @@ def _paths(head: dict, base: Path) -> tuple[str, str]:
 def _parse(data: dict, source: str, base: Path) -> InverseStudy:
     v.table(data, "study file", {"study", "model", "reference", "noise", "optimizers", "mask",
                                  "conditions", "solver"}, {"study", "model"})
-    head = v.table(data["study"], "study", {"name", "store", "group", "cache", "seed"},
-                   {"store"})
+    head = v.table(data["study"], "study",
+                   {"name", "store", "group", "cache", "seed", "storage_options"}, {"store"})
     name = v.identifier(head.get("name", Path(source).stem), "study.name")
     group = v.identifier(head.get("group", f"inverse-{name}"), "study.group")
     store, cache = _paths(head, base)
@@ -295,10 +310,21 @@ def _parse(data: dict, source: str, base: Path) -> InverseStudy:
     settings = v.solver(data.get("solver", {})).settings
     seed = v.integer(head.get("seed", 0), "study.seed", low=0, high=v.MAX_SEED)
     mask = _mask(data["mask"], base) if "mask" in data else None
+    options = (v.storage_options(head["storage_options"], "study.storage_options", store)
+               if "storage_options" in head else None)
     study = InverseStudy(name, store, group, cache, seed, model, deflection, noise, optimizers,
-                         conditions, mask, settings, source)
+                         conditions, mask, settings, source, options)
     _check_deflection(study)
+    if options:  # the results group is written by the client only: one store object
+        study = replace(study, store=_opened(store, options))
     return study
+
+
+def _opened(url: str, options: dict[str, Any]) -> storage.StoreLike:
+    try:
+        return storage.open_store(url, storage_options=options)
+    except storage.StoreError as e:
+        raise v.fail("study.storage_options", str(e)) from e
 
 
 def _check_deflection(study: InverseStudy) -> None:
