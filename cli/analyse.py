@@ -20,7 +20,13 @@ import typer
 
 from analysis.errors import ParameterError
 from cli.errors import usage
-from cli.options import APP_SETTINGS, SCHEDULER_HELP, check_scheduler
+from cli.options import (
+    APP_SETTINGS,
+    SCHEDULER_HELP,
+    STORAGE_OPTION_HELP,
+    check_scheduler,
+    open_target,
+)
 from jobs import validate
 from jobs.errors import StudyError
 
@@ -49,6 +55,8 @@ app = typer.Typer(
 )
 
 Store = Annotated[str, typer.Argument(help="Zarr store: directory or fsspec URL.")]
+StorageOption = Annotated[list[str] | None,
+                         typer.Option("--storage-option", help=STORAGE_OPTION_HELP)]
 Group = Annotated[
     str | None,
     typer.Option("--group", "-g", help="Group (mesh) [default: the store's only group]."),
@@ -85,7 +93,7 @@ Scheduler = Annotated[
 ]
 
 
-def _load(store: str, group: str | None, pressure: float | None, deflection: float | None):
+def _load(store, group: str | None, pressure: float | None, deflection: float | None):
     """The selection; ``pressure`` in kPa (the CLI's unit), converted to the store's MPa."""
     from analysis import data
 
@@ -132,11 +140,12 @@ def pca(
     components: Annotated[int, typer.Option(help="Modes written to the eigen-vector tables.")] = 3,
     force_component: Force = "z",
     scheduler: Scheduler = None,
+    storage_option: StorageOption = None,
 ) -> None:
     """Cross-covariance PCA per direction: singular values, eigen-maps, importance (§5.3)."""
     folder = _out(out, "pca")
     with dask_scheduler(scheduler):
-        ds = _load(store, group, pressure, deflection)
+        ds = _load(open_target(store, storage_option), group, pressure, deflection)
         _done(
             _study("crosscov").run(
                 ds, folder, inputs=inputs, n_modes=components, component=force_component
@@ -156,11 +165,12 @@ def pcr(
     reference_deflection: Reference = None,
     force_component: Force = "z",
     scheduler: Scheduler = None,
+    storage_option: StorageOption = None,
 ) -> None:
     """Principal component regression with 1..N modes (§5.4, Figs. 5.5-5.7)."""
     folder = _out(out, "pcr")
     with dask_scheduler(scheduler):
-        ds = _load(store, group, pressure, deflection)
+        ds = _load(open_target(store, storage_option), group, pressure, deflection)
         with usage():  # a deflection the user typed that the selection lacks
             reference_deflection = _reference(ds, reference_deflection)
         _done(
@@ -197,11 +207,12 @@ def plsr(
     reference_deflection: Reference = None,
     force_component: Force = "z",
     scheduler: Scheduler = None,
+    storage_option: StorageOption = None,
 ) -> None:
     """PLS regression, SIMPLS beside scikit-learn's NIPALS, PCTVAR (§5.5, Figs. 5.8-5.10)."""
     folder = _out(out, "plsr")
     with dask_scheduler(scheduler):
-        ds = _load(store, group, pressure, deflection)
+        ds = _load(open_target(store, storage_option), group, pressure, deflection)
         with usage():  # a deflection the user typed that the selection lacks
             reference_deflection = _reference(ds, reference_deflection)
         _done(
@@ -259,6 +270,7 @@ def noise(
     reference_deflection: Reference = None,
     force_component: Force = "z",
     scheduler: Scheduler = None,
+    storage_option: StorageOption = None,
 ) -> None:
     """Monte Carlo measurement noise on PLSR: node maps, Table 5.1, sweep (§5.6)."""
     with usage():
@@ -266,7 +278,7 @@ def noise(
         _draws(draws)
     folder = _out(out, "noise")
     with dask_scheduler(scheduler):
-        ds = _load(store, group, pressure, deflection)
+        ds = _load(open_target(store, storage_option), group, pressure, deflection)
         with usage():  # a deflection the user typed that the selection lacks
             reference_deflection = _reference(ds, reference_deflection)
         _done(

@@ -103,9 +103,9 @@ def _ended_text(state) -> str:
 
 
 def _default_out(study) -> Path:
-    if "://" in study.store:
+    if "://" in study.location:
         return Path(f"{study.group}-report").resolve()
-    return Path(f"{study.store.rstrip('/')}-{study.group}-report")
+    return Path(f"{study.location.rstrip('/')}-{study.group}-report")
 
 
 def invert(study_file: Path = STUDY, scheduler: str = SCHEDULER, workers: int = WORKERS,
@@ -136,7 +136,7 @@ def invert(study_file: Path = STUDY, scheduler: str = SCHEDULER, workers: int = 
     folder = (out or _default_out(study)).expanduser()
     figures = _report(console, study.store, study.group, folder) if report.results else []
     console.print(report.summary())
-    console.print(f"results: {study.store} (group {study.group}); tables and "
+    console.print(f"results: {study.location} (group {study.group}); tables and "
                   f"{len(figures)} histograms in {folder}" if report.results else
                   "no solve finished: nothing stored, no tables")
     for label, error in report.errors.items():

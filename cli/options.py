@@ -43,3 +43,34 @@ SCHEDULER = typer.Option(None, "--scheduler", callback=check_scheduler, help=SCH
 WORKERS = typer.Option(None, "--workers", callback=check_workers,
                        help="Embedded cluster: worker processes [default: one per core]. "
                        f"External: wait for this many workers. 1-{validate.MAX_WORKERS}.")
+
+STORAGE_OPTION_HELP = ("fsspec option of a store URL, KEY=VALUE, repeatable (e.g. "
+                       "endpoint_url=http://minio:9000); credentials stay in the environment "
+                       "[default: none; a study file's [study.storage_options]].")
+STORAGE_OPTION = typer.Option(None, "--storage-option", help=STORAGE_OPTION_HELP)
+
+
+def _option_value(text: str) -> Any:
+    lowered = text.lower()
+    return {"true": True, "false": False}.get(lowered, text)
+
+
+def open_target(store: str, options: list[str] | None) -> Any:
+    """``store`` as given, or opened with the ``--storage-option`` pairs (checked as a
+    study file's table is: URL stores only, no secrets); bad pairs are usage errors."""
+    if not options:
+        return store
+    import storage
+
+    pairs = {}
+    for text in options:
+        key, sep, value = text.partition("=")
+        if not sep or not key:
+            raise typer.BadParameter(f"{text!r}: give KEY=VALUE", param_hint="--storage-option")
+        pairs[key.strip()] = _option_value(value.strip())
+    try:
+        checked_options = validate.storage_options(pairs, "--storage-option", store)
+    except StudyError as e:
+        raise typer.BadParameter(str(e).removeprefix("--storage-option: "),
+                                 param_hint="--storage-option") from e
+    return storage.open_store(store, storage_options=checked_options)

@@ -18,7 +18,7 @@ from rich.progress import (
 )
 from rich.table import Table
 
-from cli.options import APP_SETTINGS, SCHEDULER, WORKERS
+from cli.options import APP_SETTINGS, SCHEDULER, STORAGE_OPTION, WORKERS, open_target
 from cli.progress import LogLines, interactive
 from cli.progress import console as stderr_console
 
@@ -95,7 +95,7 @@ def sweep_progress(name: str):
 
 
 def _summary_dict(report) -> dict:
-    return {"study": report.study.name, "store": str(report.study.store),
+    return {"study": report.study.name, "store": report.study.location,
             "group": report.study.group_name, "ok": report.ok, "experiments": report.total,
             "already_done": report.skipped, "done_now": len(report.done),
             "failed": [_row(i, report.experiments[i], "failed", r)
@@ -112,7 +112,7 @@ def _row(experiment: str, case, status: str, error: str) -> dict:
 
 
 def _summary(report, console: Console) -> None:
-    table = Table(title=f"sweep {report.study.name}: {report.study.store} "
+    table = Table(title=f"sweep {report.study.name}: {report.study.location} "
                         f"(group {report.study.group_name})")
     for col in ("experiments", "already done", "done now", "failed", "ccx runs",
                 "solver s", "wall s"):
@@ -163,14 +163,19 @@ def resume(study: Path = STUDY, scheduler: str = SCHEDULER, workers: int = WORKE
     _run(study, scheduler, workers, retry_failed, as_json)
 
 
-def _target(target: str, group: str | None) -> tuple[str, str | None]:
-    """The store and group of a study file, or the store given (and ``group``)."""
+def _target(target: str, group: str | None,
+            options: list[str] | None = None) -> tuple[object, str | None, str]:
+    """The store, group and location (text) of a study file, or of the store given.
+
+    A study's store is opened with its ``storage_options`` when it has some; the
+    location is what the user reads.
+    """
     from jobs.study import load_study
 
     if target.endswith(".toml"):
         study = load_study(target)
-        return study.store, group or study.group_name
-    return target, group
+        return study.store, group or study.group_name, study.location
+    return open_target(target, options), group, target
 
 
 TARGET = typer.Argument(..., help="A study file (.toml) or a store path/URL.")
@@ -179,16 +184,17 @@ GROUP = typer.Option(None, "--group", help="One group of the store [default: eve
 
 
 @app.command("status")
-def status(target: str = TARGET, group: str = GROUP, as_json: bool = JSON) -> None:
+def status(target: str = TARGET, group: str = GROUP, as_json: bool = JSON,
+           storage_option: list[str] = STORAGE_OPTION) -> None:
     """Counts of pending, done and failed experiments, and why the failed ones failed."""
     from jobs.status import store_status
     from storage.errors import reading
 
-    store, group = _target(target, group)
-    with reading("the store's groups and statuses", str(store)):
+    store, group, where = _target(target, group, storage_option)
+    with reading("the store's groups and statuses", where):
         groups = store_status(store, group)
     if as_json:
-        _dump({"store": str(store), "groups": [
+        _dump({"store": where, "groups": [
             {"group": g.group, "counts": {k: g.counts.get(k, 0) for k in STATUSES},
              "failed": [_row(f.experiment, f, "failed", f.reason) for f in g.failures]}
             for g in groups]})
@@ -216,17 +222,18 @@ def list_experiments(
                                help="Only experiments with this status: done, failed or "
                                "pending [default: all]."),
     as_json: bool = JSON,
+    storage_option: list[str] = STORAGE_OPTION,
 ) -> None:
     """Experiment ids with their load case (deflection mm, pressure kPa, ...), status and
     error: the ids `farm export --experiment` takes."""
     from cli.listing import experiments
     from storage.errors import reading
 
-    store, group = _target(target, group)
-    with reading("the store's experiments", str(store)):
+    store, group, where = _target(target, group, storage_option)
+    with reading("the store's experiments", where):
         rows = experiments(store, group, status)
     if as_json:
-        _dump({"store": str(store), "experiments": rows})
+        _dump({"store": where, "experiments": rows})
         return
     _list_table(rows, Console(width=None if sys.stdout.isatty() else 240))
 
@@ -254,14 +261,14 @@ def verify(store: str = typer.Argument(..., help="The store: a directory or fssp
            repair: bool = typer.Option(
                False, "--repair", help="Mark damaged experiments pending (`farm sweep resume` "
                "re-solves them) and restore damaged metadata from the consolidated copy."),
-           as_json: bool = JSON) -> None:
+           as_json: bool = JSON, storage_option: list[str] = STORAGE_OPTION) -> None:
     """Check a store for damage: metadata, ids, statuses, chunks, per-experiment checksums.
 
     Exit code 0 when nothing is damaged, 1 when something is (even if --repair fixed it).
     """
     from storage.verify import verify as verify_store
 
-    report = verify_store(store, group, repair=repair)
+    report = verify_store(open_target(store, storage_option), group, repair=repair)
     if as_json:
         typer.echo(json.dumps(report.to_dict(), indent=2))
     else:

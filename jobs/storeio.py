@@ -41,7 +41,7 @@ def ensure_group(study: Study, solver: str) -> None:
         held = storage.open_dataset(study.store, group).attrs.get("model_spec")
         if held is not None and json.loads(held) != study.model.to_dict():
             raise StudyError(
-                f"group {group!r} of {study.store} holds another model; give the study "
+                f"group {group!r} of {study.location} holds another model; give the study "
                 "another [study] group name (or drop it to get one per model)")
     mesh = mesh_for(study.model)
     attrs = storage.GroupAttrs(model_spec=model_json(study), mesh_key=mesh.mesh_key,

@@ -61,5 +61,5 @@ def write_results(study: InverseStudy, problem: Problem, results: Sequence[LoopR
         write_solves(study.store, study.group, unknowns(problem),
                      [record(r) for r in results], attrs(study, problem))
     except StoreError as e:
-        raise JobError(f"cannot write the inverse results to {study.store} "
+        raise JobError(f"cannot write the inverse results to {study.location} "
                        f"(group {study.group}): {e}") from e

@@ -113,6 +113,16 @@ def test_sweep_status_and_pca_on_s3(bucket, endpoint, tmp_path, capsys):
     [group] = status["groups"]
     assert group["group"] == study.group_name
     assert group["counts"] == {"pending": 0, "done": 3, "failed": 0}
+    assert status["store"] == url  # the URL the user gave, not the store object
+
+    # the bare URL with the endpoint on the command line: the same counts
+    try:
+        main(["sweep", "status", url, "--storage-option", f"endpoint_url={endpoint}",
+              "--json"])
+    except SystemExit as e:
+        assert e.code in (0, None)
+    [group] = json.loads(capsys.readouterr().out)["groups"]
+    assert group["counts"] == {"pending": 0, "done": 3, "failed": 0}
 
     ds = data.load(study.store, study.group_name)
     assert sorted(ds["deflection"].values.tolist()) == [10.0, 20.0, 30.0]
