@@ -21,6 +21,7 @@ from cli.options import SCHEDULER, WORKERS
 from cli.progress import LogLines, interactive
 from cli.progress import console as stderr_console
 from cli.sweep import sweep_progress
+from jobs.cluster import resolve_scheduler
 
 
 def reproduce(
@@ -52,7 +53,9 @@ def reproduce(
     find_ccx()
     out = out.resolve()
     opts = Options(out=out, store=store or str(out / "thesis.zarr"), quick=quick,
-                   coarse=coarse, materials=materials, scheduler=scheduler, workers=workers)
+                   coarse=coarse, materials=materials,
+                   # the provenance names the scheduler the environment gave, if any
+                   scheduler=resolve_scheduler(scheduler), workers=workers)
     done = []
     for name, stage in (("chapter 3: validation", _validation),
                         ("chapter 5: dataset analyses", _dataset),

@@ -1,24 +1,53 @@
-"""The Dask cluster a sweep runs on: an embedded LocalCluster, or an existing scheduler.
+"""The Dask cluster a run uses: an embedded LocalCluster, or a scheduler already running.
 
-The embedded default runs one single-threaded worker process per core: ccx is a
-subprocess, and one ccx per core is the throughput optimum on small models
-(DESIGN.md). Workers are processes with a nanny, so a crashed worker is restarted and
-its task re-run elsewhere; ``allowed-failures`` is raised so that a task is not given up
-after three lost workers (set ``DASK_DISTRIBUTED__SCHEDULER__ALLOWED_FAILURES`` on an
-external scheduler for the same effect).
+Which one: ``--scheduler``, else ``$FARM_SCHEDULER``, else ``$DASK_SCHEDULER_ADDRESS``,
+else an embedded LocalCluster (:func:`resolve_scheduler`). The embedded cluster runs one
+single-threaded worker process per core: ccx is a subprocess, and one ccx per core is the
+throughput optimum on small models (DESIGN.md). Its dashboard is asked for on port 8787;
+when that port is taken the scheduler serves it on a free one, silently, and
+:func:`dashboard_link` gives the real address.
+
+Lost workers. A scheduler gives a task up with ``KilledWorker`` once more than its
+``distributed.scheduler.allowed-failures`` workers died running it (Dask's default is 3;
+the embedded cluster raises it to :data:`ALLOWED_FAILURES`). A client cannot change that
+setting on a scheduler already running, so the farm does not depend on it: every task
+the farm submits goes through :class:`Attempts`, which resubmits a task given up that way
+under a new key (``<key>-retry<n>``), up to :data:`LOST_WORKER_RESUBMITS` times, and logs
+each resubmission. That is safe because the farm's tasks are idempotent: a sweep task
+skips experiments already done, an evaluation is a pure function of its key. With a
+plain ``dask scheduler`` a task is thus given up only after
+``(3 + 1) x (1 + LOST_WORKER_RESUBMITS)`` = 44 lost workers, on the embedded cluster
+after 121 (a task that kills its worker every time, e.g. through the kernel's OOM killer).
 """
 
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
-from collections.abc import Iterator
+import threading
+import warnings
+from collections.abc import Callable, Iterator
+from typing import Any
 
 import dask
 
 from jobs.errors import ClusterError
 
-ALLOWED_FAILURES = 10
+ALLOWED_FAILURES = 10  # the embedded scheduler's allowed-failures (Dask's default: 3)
+EMBEDDED_CONFIG = {
+    "distributed.scheduler.allowed-failures": ALLOWED_FAILURES,
+    # A LocalCluster closes a worker's nanny when, 15 s after *any* earlier loss of that
+    # worker, no worker of that name is registered: a worker lost again just then (it is
+    # restarting) is gone for good, and the cluster a worker short (seen in
+    # tests/jobs/test_jobs_worker_loss.py). Our nannies restart their workers: keep them.
+    "distributed.deploy.lost-worker-timeout": "1 day",
+}
+LOST_WORKER_RESUBMITS = 10  # resubmissions of a task whose workers kept dying
+SCHEDULER_VARIABLES = ("FARM_SCHEDULER", "DASK_SCHEDULER_ADDRESS")  # in this order
+WAIT_FOR_WORKERS_SECONDS = 300  # for the --workers an external scheduler is asked to have
+
+log = logging.getLogger(__name__)
 
 
 def default_workers() -> int:
@@ -29,36 +58,186 @@ def default_workers() -> int:
         return max(1, os.cpu_count() or 1)
 
 
+def resolve_scheduler(scheduler: str | None) -> str | None:
+    """The scheduler address to join: ``scheduler``, else the first of
+    :data:`SCHEDULER_VARIABLES` set (blank counts as unset); ``None`` means embedded."""
+    if scheduler:
+        return scheduler
+    for name in SCHEDULER_VARIABLES:
+        value = os.environ.get(name, "").strip()
+        if value:
+            return value
+    return None
+
+
 @contextlib.contextmanager
 def connect(scheduler: str | None = None, workers: int | None = None,
-            dashboard: str = "127.0.0.1:8787") -> Iterator[object]:
-    """Yield a ``distributed.Client``: to ``scheduler`` if given, else to a new LocalCluster.
+            dashboard: str = "127.0.0.1:8787") -> Iterator[Any]:
+    """Yield a ``distributed.Client``: to the scheduler :func:`resolve_scheduler` names,
+    else to a new embedded LocalCluster of ``workers`` processes.
 
     Raises :class:`ClusterError` when the scheduler cannot be reached.
     """
-    from distributed import Client, LocalCluster
+    from distributed import Client
 
-    with dask.config.set({"distributed.scheduler.allowed-failures": ALLOWED_FAILURES}):
-        if scheduler is None:
-            n = workers or default_workers()
-            with LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                              dashboard_address=dashboard, host="127.0.0.1",
-                              silence_logs=40) as cluster, Client(cluster) as client:
-                yield client
-            return
-        try:
-            client = Client(scheduler, timeout="20s")
-        except (OSError, TimeoutError) as e:
-            raise ClusterError(
-                f"cannot reach the Dask scheduler at {scheduler}: {e}; start one with "
-                "`dask scheduler` (and workers with `dask worker ADDRESS`), or drop "
-                "--scheduler to use the embedded cluster") from e
-        with client:
-            if workers:
-                client.wait_for_workers(workers, timeout=300)
+    address = resolve_scheduler(scheduler)
+    if address is None:
+        # the settings are read while the cluster runs, not only when it starts
+        with dask.config.set(EMBEDDED_CONFIG), \
+                _embedded(workers or default_workers(), dashboard) as cluster, \
+                Client(cluster) as client:
             yield client
+        return
+    try:
+        client = Client(address, timeout="20s")
+    except (OSError, TimeoutError, ValueError) as e:
+        raise ClusterError(
+            f"cannot reach the Dask scheduler at {address!r}: {e}; give a running one as "
+            "tcp://host:8786 (--scheduler, $FARM_SCHEDULER or $DASK_SCHEDULER_ADDRESS; "
+            "start one with `dask scheduler` and workers with `dask worker ADDRESS`), or "
+            "set none of them to use the embedded cluster") from e
+    with client:
+        if workers:
+            try:
+                client.wait_for_workers(workers, timeout=WAIT_FOR_WORKERS_SECONDS)
+            except TimeoutError as e:
+                have = len(client.scheduler_info().get("workers", {}))
+                raise ClusterError(
+                    f"the scheduler at {address} has {have} of the {workers} workers asked "
+                    f"for after {WAIT_FOR_WORKERS_SECONDS} s: start more with `dask worker "
+                    "ADDRESS`, or ask for fewer with --workers") from e
+        yield client
+
+
+def _embedded(workers: int, dashboard: str):
+    """A LocalCluster; a busy dashboard port moves to a free one without a raw warning."""
+    from distributed import LocalCluster
+
+    with warnings.catch_warnings():
+        # distributed warns "Port 8787 is already in use ... Hosting the HTTP server on port
+        # N instead" - and does so; the link we print is the real one (issue 12)
+        warnings.filterwarnings("ignore", message=r"Port \d+ is already in use",
+                                category=UserWarning)
+        return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                            dashboard_address=dashboard, host="127.0.0.1", silence_logs=40)
 
 
 def dashboard_link(client) -> str:
     """The dashboard URL, or a note when the scheduler runs none."""
     return client.dashboard_link or "(no dashboard)"
+
+
+# ---------------------------------------------------------------- tasks that outlive workers
+
+def lost_worker(error: BaseException | None) -> bool:
+    """True if ``error`` says the scheduler gave a task up because its workers died."""
+    from distributed import KilledWorker
+
+    return isinstance(error, KilledWorker)
+
+
+def attempt_key(key: str, attempt: int) -> str:
+    """The task key of ``attempt`` (0: the key itself): a given-up key cannot be reused."""
+    return key if attempt == 0 else f"{key}-retry{attempt}"
+
+
+class Attempts:
+    """One task and its attempts: resubmitted under a new key when its workers are lost.
+
+    Behaves like the current attempt's future (``status``, ``result``, ``exception``,
+    ``cancel``, ``release``). ``result`` resubmits by itself; a polling caller calls
+    :meth:`resubmit` when ``status`` is ``"error"``. Thread-safe: several threads may
+    wait on one task (loops sharing an evaluation).
+    """
+
+    def __init__(self, client, function: Callable, args: tuple, key: str,
+                 limit: int = LOST_WORKER_RESUBMITS, **kwargs) -> None:
+        self._client, self._function, self._args, self._kwargs = client, function, args, kwargs
+        self.base_key, self.limit, self.attempt = key, limit, 0
+        self._lock = threading.Lock()
+        self._cancelled = False
+        self.future = self._submit()
+
+    @property
+    def key(self) -> str:
+        return attempt_key(self.base_key, self.attempt)
+
+    @property
+    def status(self) -> str:
+        return self.future.status
+
+    def _submit(self):
+        return self._client.submit(self._function, *self._args, key=self.key, pure=False,
+                                   **self._kwargs)
+
+    def resubmit(self, failed=None, error: BaseException | None = None) -> bool:
+        """Submit the next attempt if ``failed`` (default: the current one) lost its workers.
+
+        True if the task goes on (resubmitted now, or by another thread already); False
+        if it failed for another reason, ran out of attempts or was cancelled.
+        """
+        with self._lock:
+            failed = self.future if failed is None else failed
+            if self._cancelled:
+                return False
+            if self.future is not failed:
+                return True
+            if failed.status != "error" or self.attempt >= self.limit:
+                return False
+            if not lost_worker(error if error is not None else failed.exception()):
+                return False
+            self.attempt += 1
+            log.warning("the workers running task %s were lost; resubmitted as %s "
+                        "(resubmission %d of %d)", attempt_key(self.base_key, self.attempt - 1),
+                        self.key, self.attempt, self.limit)
+            self.future = self._submit()
+        failed.release()
+        return True
+
+    def result(self, timeout: float | None = None):
+        """The task's result, through as many attempts as it takes (up to the limit)."""
+        while True:
+            future = self.future
+            try:
+                return future.result(timeout)
+            except Exception as e:
+                if not (lost_worker(e) and self.resubmit(future, e)):
+                    raise
+
+    def exception(self):
+        return self.future.exception()
+
+    def stop(self) -> Any:
+        """Let no later attempt follow; return the current future (for a batch cancel)."""
+        with self._lock:
+            self._cancelled = True
+            return self.future
+
+    def cancel(self) -> None:
+        self.stop().cancel()
+
+    def release(self) -> None:
+        self.future.release()
+
+
+class ResubmittingClient:
+    """A ``distributed.Client`` whose tasks survive lost workers.
+
+    ``submit`` returns :class:`Attempts`; ``cancel`` takes them (or plain futures);
+    everything else is the wrapped client's.
+    """
+
+    def __init__(self, client, limit: int = LOST_WORKER_RESUBMITS) -> None:
+        self.client, self.limit = client, limit
+
+    def submit(self, function: Callable, *args, key: str, **kwargs) -> Attempts:
+        kwargs.pop("pure", None)  # always impure: a retry must run, never reuse a result
+        return Attempts(self.client, function, args, key, self.limit, **kwargs)
+
+    def cancel(self, futures, **kwargs) -> None:
+        plain = [f.stop() if isinstance(f, Attempts) else f for f in futures]
+        if plain:
+            self.client.cancel(plain, **kwargs)
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.client, name)

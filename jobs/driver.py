@@ -7,20 +7,26 @@ a progress display sees (:meth:`~Strategy.state`), how it stops (:meth:`~Strateg
 and the report it ends with (:meth:`~Strategy.finish`). :func:`drive` does the rest, the
 same way for all of them:
 
-1. connect (embedded LocalCluster, or ``--scheduler``) and learn the workers' solver
-   version, which is part of every key (:mod:`jobs.identity`);
-2. start the strategy, then poll it until everything ended, telling the front end;
+1. connect (an embedded LocalCluster, or the scheduler of ``--scheduler``,
+   ``$FARM_SCHEDULER`` or ``$DASK_SCHEDULER_ADDRESS``: :mod:`jobs.cluster`) and learn the
+   workers' solver version, which is part of every key (:mod:`jobs.identity`);
+2. start the strategy, then poll it until everything ended, telling the front end
+   (without one, :class:`Announce` prints where the dashboard is: every run that starts
+   or joins a cluster says where to watch it);
 3. on any interruption (Ctrl-C, an error of the client) cancel what is in flight - the
    workers' cancellation checks kill their ccx - and re-raise;
 4. fill the summary every report shares (dashboard, workers, solver, wall time).
 
 Sweeps (:mod:`jobs.sweep`) submit one task per load path; optimisation loops
 (:class:`LoopThreads`: :mod:`jobs.inverse.run`, :mod:`jobs.calibrate.run`) run in client
-threads whose evaluations go to the workers through one shared evaluator.
+threads whose evaluations go to the workers through one shared evaluator. Both submit
+through :class:`jobs.cluster.Attempts`, so a task whose workers die is resubmitted
+whatever the scheduler's ``allowed-failures``.
 """
 
 from __future__ import annotations
 
+import sys
 import time
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
@@ -28,7 +34,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from farm.ccx.runner import ccx_version
-from jobs.cluster import connect, dashboard_link
+from jobs.cluster import ResubmittingClient, connect, dashboard_link, resolve_scheduler
 from jobs.errors import ClusterError
 from jobs.loops.cache import EvaluationCache
 from jobs.loops.evaluator import Evaluator
@@ -67,6 +73,15 @@ class Progress:
     def started(self, session: Session, state: Any) -> None: ...
     def advanced(self, state: Any) -> None: ...
     def finished(self, report: RunReport) -> None: ...
+
+
+class Announce(Progress):
+    """The front end of runs that have none (``farm reproduce``'s stages, scripts): one
+    line on stderr saying where the dashboard is."""
+
+    def started(self, session: Session, state: Any) -> None:
+        print(f"dashboard: {session.dashboard}   workers: {session.workers}",
+              file=sys.stderr, flush=True)
 
 
 class Strategy:
@@ -109,12 +124,13 @@ def drive(strategy: Strategy, *, scheduler: str | None = None, workers: int | No
           progress: Progress | None = None,
           on_client: Callable[[Any], None] | None = None) -> RunReport:
     """Run ``strategy`` on a cluster to its end; return its report."""
-    progress = progress or Progress()
+    progress = progress or Announce()
     start = time.perf_counter()
+    embedded = resolve_scheduler(scheduler) is None
     with connect(scheduler, workers) as client:
         if on_client is not None:
             on_client(client)
-        session = Session(client, solver_version(client, scheduler is None),
+        session = Session(client, solver_version(client, embedded),
                           dashboard_link(client), len(client.scheduler_info()["workers"]))
         try:
             strategy.start(session)
@@ -156,7 +172,9 @@ class LoopThreads(Strategy):
         raise NotImplementedError
 
     def start(self, session: Session) -> None:
-        self.evaluator = Evaluator(session.client, EvaluationCache(self.cache))
+        # lost workers cost a resubmission, not a failed evaluation (jobs.cluster)
+        self.evaluator = Evaluator(ResubmittingClient(session.client),
+                                   EvaluationCache(self.cache))
         loops = self.loops(session)
         self._pool = ThreadPoolExecutor(max_workers=max(1, len(loops)),
                                         thread_name_prefix="loop")

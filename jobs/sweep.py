@@ -6,7 +6,9 @@ room for every experiment (the store's only metadata writer), experiments the st
 holds as done are skipped, and one task per remaining load path goes to the cluster.
 Workers write their own experiments; a task that raises (a bug, a store outage) has its
 experiments recorded as failed by the client, so a sweep always ends with every
-experiment done or failed with a reason.
+experiment done or failed with a reason. A task the scheduler gives up because its
+workers died (``KilledWorker``) is resubmitted under a new key instead
+(:class:`jobs.cluster.Attempts`): it skips what its predecessors wrote.
 """
 
 from __future__ import annotations
@@ -16,13 +18,14 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import storage
+from jobs.cluster import Attempts
 from jobs.driver import Progress, RunReport, Session, Strategy, drive
 from jobs.expand import Experiment, PathPlan, experiments, parameters, plan
 from jobs.storeio import ensure_group
 from jobs.study import Study
 from jobs.tasks import PathOutcome, PathTask, run_path
 
-TASK_RETRIES = 2  # for exceptions raised by a task; lost workers are Dask's allowed-failures
+TASK_RETRIES = 2  # for exceptions raised by a task; lost workers: jobs.cluster.Attempts
 
 
 @dataclass
@@ -37,15 +40,18 @@ class SweepReport(RunReport):
     experiments: dict[str, Experiment] = field(default_factory=dict)
     solve_seconds: float = 0.0
     ccx_runs: int = 0
+    resubmitted: int = 0  # tasks resubmitted because their workers died
 
     @property
     def ok(self) -> bool:
         return self.skipped + len(self.done) == self.total and not self.failed
 
     def summary(self) -> str:
-        """One line: experiments, solver runs and time."""
+        """One line: experiments, solver runs, resubmissions (if any) and time."""
+        lost = (f", {self.resubmitted} tasks resubmitted after lost workers"
+                if self.resubmitted else "")
         return (f"{self.total} experiments ({self.skipped} already done, {len(self.done)} "
-                f"done now, {len(self.failed)} failed), {self.ccx_runs} ccx runs, "
+                f"done now, {len(self.failed)} failed), {self.ccx_runs} ccx runs{lost}, "
                 f"{self.wall_seconds:.1f} s")
 
 
@@ -79,7 +85,7 @@ class Sweep(Strategy):
     def __init__(self, study: Study, retry_failed: bool = False) -> None:
         self.study, self.retry_failed = study, retry_failed
         self.report: SweepReport | None = None
-        self._pending: dict = {}
+        self._pending: dict[Attempts, PathPlan] = {}
         self._before: set[str] = set()
         self._client = None
         self._running, self._last = 0, 0.0
@@ -102,15 +108,17 @@ class Sweep(Strategy):
                                            if status[e.id] == storage.FAILED})
         self._pending = {self._submit(p): p for p in todo}
 
-    def _submit(self, path: PathPlan):
+    def _submit(self, path: PathPlan) -> Attempts:
         s = self.study
         task = PathTask(path, s.model, s.settings, s.store, s.group_name,
                         s.retry_smaller_increments)
-        return self._client.submit(run_path, task, key=path.key, pure=False,
-                                   retries=TASK_RETRIES)
+        return Attempts(self._client, run_path, (task,), key=path.key, retries=TASK_RETRIES)
 
     def poll(self) -> bool:
         for fut in [f for f in self._pending if f.status in ("finished", "error", "cancelled")]:
+            if fut.status == "error" and fut.resubmit():  # its workers died: next attempt
+                self.report.resubmitted += 1
+                continue
             path = self._pending.pop(fut)
             if fut.status == "finished":
                 self._record(fut.result())
@@ -130,8 +138,8 @@ class Sweep(Strategy):
         return SweepState(r.total, r.skipped, len(r.done), len(r.failed), self._running)
 
     def cancel(self) -> None:
-        if self._pending:
-            self._client.cancel(list(self._pending))  # workers' checks kill their ccx
+        if self._pending:  # no further attempts; the workers' checks kill their ccx
+            self._client.cancel([f.stop() for f in self._pending])
 
     def finish(self, session: Session) -> SweepReport:
         return self.report

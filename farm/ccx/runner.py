@@ -15,16 +15,21 @@ from __future__ import annotations
 import contextlib
 import ctypes
 import os
+import re
 import shutil
 import signal
+import socket
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
+
+import psutil
 
 from farm.ccx.outcome import HINTS, Outcome, classify
 from farm.errors import CcxNotFoundError, SolverError
@@ -86,21 +91,98 @@ def ccx_version(exe: str | None = None) -> str:
     return out.strip() or "unknown"
 
 
-@contextlib.contextmanager
-def scratch_dir(keep: bool = False, prefix: str = "ccx-") -> Iterator[Path]:
-    """A fresh directory under ``$FARM_SCRATCH_DIR`` (default: the system temp dir).
+KEEP_MARKER = ".keep"
+STALE_AFTER_SECONDS = 60.0
+_OWNED = re.compile(r"^ccx-(?P<host>[^-/]+)-(?P<pid>\d+)-")
+_cleaned: set[str] = set()  # scratch bases this process has swept for dead owners
+_clean_lock = threading.Lock()
 
-    Removed on exit unless ``keep``; kept directories are reported by their path.
-    """
+
+def scratch_host() -> str:
+    """This machine's name as scratch folders carry it (``-`` would make names ambiguous)."""
+    return socket.gethostname().replace("-", "_") or "localhost"
+
+
+def _scratch_base() -> str | None:
     base = os.environ.get("FARM_SCRATCH_DIR")
     if base:
         Path(base).mkdir(parents=True, exist_ok=True)
-    path = Path(tempfile.mkdtemp(prefix=prefix, dir=base))
+    return base
+
+
+@contextlib.contextmanager
+def scratch_dir(keep: bool = False, prefix: str = "") -> Iterator[Path]:
+    """A fresh directory under ``$FARM_SCRATCH_DIR`` (default: the system temp dir).
+
+    Named ``ccx-<host>-<pid>-<prefix>XXXXXXXX`` after the process that owns it. Removed on
+    exit unless ``keep`` (then marked with a ``.keep`` file and reported by its path). A
+    SIGKILLed Dask worker never reaches that clean-up, so the first call of each process
+    removes the folders of owners that are gone (:func:`clean_stale_scratch`).
+    """
+    base = _scratch_base()
+    _clean_once(base)
+    owner = f"ccx-{scratch_host()}-{os.getpid()}-"
+    path = Path(tempfile.mkdtemp(prefix=owner + prefix, dir=base))
+    if keep:  # marked at once: a kept folder stays even if its owner dies mid-run
+        (path / KEEP_MARKER).touch()
     try:
         yield path
     finally:
         if not keep:
             shutil.rmtree(path, ignore_errors=True)
+
+
+def _clean_once(base: str | None) -> None:
+    key = str(Path(base or tempfile.gettempdir()).resolve())
+    with _clean_lock:
+        if key in _cleaned:
+            return
+        _cleaned.add(key)
+    clean_stale_scratch(key)
+
+
+def _owner_gone(pid: int, written: float) -> bool:
+    """True unless ``pid`` runs a process that may have written at time ``written``."""
+    try:
+        started = psutil.Process(pid).create_time()
+    except psutil.NoSuchProcess:
+        return True
+    except psutil.Error:  # another user's process, say: not ours to judge
+        return False
+    return started > written + 1.0  # the pid was reused by a younger process
+
+
+def clean_stale_scratch(base: str | Path | None = None,
+                        min_age: float = STALE_AFTER_SECONDS) -> list[Path]:
+    """Remove the scratch folders on this host whose owning process is gone; return them.
+
+    Only folders named by :func:`scratch_dir` for this host are considered; kept ones
+    (``.keep``) and those written in the last ``min_age`` seconds are left alone. Other
+    hosts sharing the base clean their own.
+    """
+    root = Path(base or tempfile.gettempdir())
+    host, now, removed = scratch_host(), time.time(), []
+    try:
+        entries = list(os.scandir(root))
+    except OSError:
+        return removed
+    for entry in entries:
+        match = _OWNED.match(entry.name)
+        if match is None or match["host"] != host:
+            continue
+        try:
+            if not entry.is_dir(follow_symlinks=False):
+                continue
+            written = entry.stat(follow_symlinks=False).st_mtime
+        except OSError:
+            continue
+        path = Path(entry.path)
+        if (now - written < min_age or (path / KEEP_MARKER).exists()
+                or not _owner_gone(int(match["pid"]), written)):
+            continue
+        shutil.rmtree(path, ignore_errors=True)
+        removed.append(path)
+    return removed
 
 
 def _die_with_parent() -> None:  # runs in the child between fork and exec

@@ -6,7 +6,8 @@ solves; the :class:`Evaluator` answers from the cache when it can, joins a task 
 in flight when another loop asked for the same thing, and submits otherwise. Because
 tasks never wait on tasks, any number of loops can share any number of workers without
 deadlock. A worker lost mid-task costs that task only: the scheduler re-runs it
-elsewhere (``allowed-failures``, :mod:`jobs.cluster`).
+elsewhere, and a task the scheduler gives up after lost workers is resubmitted under a
+new key (``<key>-retry<n>``, :class:`jobs.cluster.Attempts`).
 
 Worker functions return a typed result of :mod:`jobs.guard`: :class:`~jobs.guard.Solved`
 or :class:`~jobs.guard.Failed`. A deterministic failure (the solver did not converge for

@@ -1,5 +1,8 @@
 """The ccx choke-point: outcomes from exit code and output, timeouts, cancellation."""
 
+import os
+import subprocess
+import sys
 import threading
 import time
 from pathlib import Path
@@ -8,7 +11,15 @@ import psutil
 import pytest
 
 from farm.ccx.outcome import Outcome, classify
-from farm.ccx.runner import ccx_version, read_sta, run_ccx, scratch_dir
+from farm.ccx.runner import (
+    KEEP_MARKER,
+    ccx_version,
+    clean_stale_scratch,
+    read_sta,
+    run_ccx,
+    scratch_dir,
+    scratch_host,
+)
 from farm.errors import CcxNotFoundError, SolverError
 
 CUBE = """*NODE, NSET=ALL
@@ -162,3 +173,84 @@ def test_scratch_dir_is_removed_unless_kept(tmp_path, monkeypatch):
     with scratch_dir(keep=True) as b:
         pass
     assert not a.exists() and b.exists() and b.parent == tmp_path
+
+
+# ---------------------------------------------------------------- scratch of dead processes
+# A SIGKILLed worker never reaches scratch_dir's clean-up: its folders carry the owner's host
+# and pid, and the next process to make a scratch folder removes those whose owner is gone.
+
+def _dead_pid() -> int:
+    proc = subprocess.Popen([sys.executable, "-c", "pass"])
+    proc.wait()
+    return proc.pid
+
+
+def _fake_scratch(base: Path, pid: int, *, host: str | None = None, age: float = 3600,
+                  keep: bool = False, name: str | None = None) -> Path:
+    path = base / (name or f"ccx-{host or scratch_host()}-{pid}-iterative-abcd1234")
+    path.mkdir()
+    (path / "job.frd").write_text("results")
+    if keep:
+        (path / KEEP_MARKER).touch()
+    old = time.time() - age
+    os.utime(path, (old, old))
+    return path
+
+
+def test_scratch_dir_names_carry_host_and_pid(tmp_path, monkeypatch):
+    monkeypatch.setenv("FARM_SCRATCH_DIR", str(tmp_path))
+    with scratch_dir(prefix="iterative-") as a, scratch_dir() as b:
+        assert a.name.startswith(f"ccx-{scratch_host()}-{os.getpid()}-iterative-")
+        assert b.name.startswith(f"ccx-{scratch_host()}-{os.getpid()}-")
+        assert "-" not in scratch_host()  # the name stays parseable
+
+
+def test_kept_scratch_is_marked(tmp_path, monkeypatch):
+    monkeypatch.setenv("FARM_SCRATCH_DIR", str(tmp_path))
+    with scratch_dir(keep=True) as kept:
+        pass
+    assert (kept / KEEP_MARKER).exists()
+
+
+def test_stale_scratch_of_dead_processes_is_removed(tmp_path):
+    dead = _dead_pid()
+    stale = _fake_scratch(tmp_path, dead)
+    kept = _fake_scratch(tmp_path, dead, keep=True, name=f"ccx-{scratch_host()}-{dead}-kept")
+    young = _fake_scratch(tmp_path, dead, age=0, name=f"ccx-{scratch_host()}-{dead}-young")
+    other_host = _fake_scratch(tmp_path, dead, host="elsewhere")
+    unrelated = _fake_scratch(tmp_path, dead, name="ccx-abcd1234")  # no owner in the name
+    assert clean_stale_scratch(tmp_path) == [stale]
+    assert not stale.exists()
+    assert all(p.exists() for p in (kept, young, other_host, unrelated))
+
+
+def test_scratch_of_a_live_owner_stays(tmp_path):
+    owner = subprocess.Popen(["sleep", "30"])
+    try:
+        time.sleep(0.1)
+        live = _fake_scratch(tmp_path, owner.pid, age=0)
+        dead = _fake_scratch(tmp_path, _dead_pid(), age=0)
+        assert clean_stale_scratch(tmp_path, min_age=0) == [dead]
+        assert live.exists()
+    finally:
+        owner.kill()
+        owner.wait()
+
+
+def test_scratch_older_than_its_pid_owner_is_stale(tmp_path):
+    # the pid was reused: the process holding it now started after the folder was last written
+    started = psutil.Process().create_time()
+    reused = _fake_scratch(tmp_path, os.getpid(), age=time.time() - started + 3600)
+    assert clean_stale_scratch(tmp_path) == [reused]
+
+
+def test_first_scratch_dir_of_a_process_cleans_up(tmp_path, monkeypatch):
+    monkeypatch.setenv("FARM_SCRATCH_DIR", str(tmp_path))
+    monkeypatch.setattr("farm.ccx.runner._cleaned", set())
+    stale = _fake_scratch(tmp_path, _dead_pid())
+    with scratch_dir():
+        assert not stale.exists()
+    dead = _dead_pid()
+    later = _fake_scratch(tmp_path, dead, name=f"ccx-{scratch_host()}-{dead}-later")
+    with scratch_dir():  # once per process and base: a scan is not repeated on every solve
+        assert later.exists()
