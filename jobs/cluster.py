@@ -32,7 +32,7 @@ from typing import Any
 
 import dask
 
-from jobs.errors import ClusterError
+from jobs.errors import ClusterError, StudyError
 
 ALLOWED_FAILURES = 10  # the embedded scheduler's allowed-failures (Dask's default: 3)
 EMBEDDED_CONFIG = {
@@ -88,6 +88,7 @@ def connect(scheduler: str | None = None, workers: int | None = None,
                 Client(cluster) as client:
             yield client
         return
+    _check_address(address)
     try:
         client = Client(address, timeout="20s")
     except (OSError, TimeoutError, ValueError) as e:
@@ -120,6 +121,18 @@ def _embedded(workers: int, dashboard: str):
                                 category=UserWarning)
         return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                             dashboard_address=dashboard, host="127.0.0.1", silence_logs=40)
+
+
+def _check_address(address: str) -> None:
+    """Refuse a malformed address before distributed sees it: for an unknown protocol it
+    can fail deep in its event-loop start-up with a bare AssertionError."""
+    from jobs.validate import scheduler_address
+
+    try:
+        scheduler_address(address, "scheduler")
+    except StudyError as e:
+        raise ClusterError(f"{e} (from --scheduler, $FARM_SCHEDULER or "
+                           "$DASK_SCHEDULER_ADDRESS)") from e
 
 
 def dashboard_link(client) -> str:

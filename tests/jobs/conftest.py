@@ -63,8 +63,10 @@ def ccx_runs(log: Path) -> int:
 # Every process this test session starts (workers, schedulers, ccx) inherits this mark,
 # so that ccx_processes() sees this session's solvers only, not those of other jobs
 # on a shared machine - even after a killed worker's ccx was re-parented to init.
-SESSION_MARK = ("FARM_TEST_SESSION", uuid.uuid4().hex)
-os.environ[SESSION_MARK[0]] = SESSION_MARK[1]
+# setdefault: this file may be imported twice (by pytest, and as `conftest` by a test
+# module), and both copies must agree on the mark.
+SESSION_MARK = ("FARM_TEST_SESSION",
+                os.environ.setdefault("FARM_TEST_SESSION", uuid.uuid4().hex))
 
 
 def ccx_processes() -> list:
