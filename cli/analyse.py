@@ -93,12 +93,14 @@ Scheduler = Annotated[
 ]
 
 
-def _load(store, group: str | None, pressure: float | None, deflection: float | None):
-    """The selection; ``pressure`` in kPa (the CLI's unit), converted to the store's MPa."""
+def _load(store: str, options: list[str] | None, group: str | None, pressure: float | None,
+          deflection: float | None):
+    """The selection of ``store`` (opened with its ``--storage-option`` pairs);
+    ``pressure`` in kPa (the CLI's unit), converted to the store's MPa."""
     from analysis import data
 
     mpa = None if pressure is None else pressure / 1000.0
-    return data.load(store, group, pressure=mpa, deflection=deflection)
+    return data.load(open_target(store, options), group, pressure=mpa, deflection=deflection)
 
 
 def _out(out: Path | None, command: str) -> Path:
@@ -112,9 +114,15 @@ def _out(out: Path | None, command: str) -> Path:
 
 def _reference(ds, deflection: float | None) -> float | None:
     """``--reference-deflection`` if the selection holds it (within
-    :data:`REFERENCE_TOLERANCE_MM`), else one line listing the deflections it holds."""
+    :data:`REFERENCE_TOLERANCE_MM`), else one line listing the deflections it holds
+    (a usage error: a value the user typed)."""
     if deflection is None:
         return None
+    with usage():
+        return _stored_reference(ds, deflection)
+
+
+def _stored_reference(ds, deflection: float) -> float:
     stored = np.unique(np.asarray(ds["deflection"].values, dtype=float))
     if math.isfinite(deflection) and np.any(np.abs(stored - deflection) <= REFERENCE_TOLERANCE_MM):
         return deflection
@@ -145,7 +153,7 @@ def pca(
     """Cross-covariance PCA per direction: singular values, eigen-maps, importance (§5.3)."""
     folder = _out(out, "pca")
     with dask_scheduler(scheduler):
-        ds = _load(open_target(store, storage_option), group, pressure, deflection)
+        ds = _load(store, storage_option, group, pressure, deflection)
         _done(
             _study("crosscov").run(
                 ds, folder, inputs=inputs, n_modes=components, component=force_component
@@ -170,9 +178,8 @@ def pcr(
     """Principal component regression with 1..N modes (§5.4, Figs. 5.5-5.7)."""
     folder = _out(out, "pcr")
     with dask_scheduler(scheduler):
-        ds = _load(open_target(store, storage_option), group, pressure, deflection)
-        with usage():  # a deflection the user typed that the selection lacks
-            reference_deflection = _reference(ds, reference_deflection)
+        ds = _load(store, storage_option, group, pressure, deflection)
+        reference_deflection = _reference(ds, reference_deflection)
         _done(
             _study("pcr").run(
                 ds,
@@ -212,9 +219,8 @@ def plsr(
     """PLS regression, SIMPLS beside scikit-learn's NIPALS, PCTVAR (§5.5, Figs. 5.8-5.10)."""
     folder = _out(out, "plsr")
     with dask_scheduler(scheduler):
-        ds = _load(open_target(store, storage_option), group, pressure, deflection)
-        with usage():  # a deflection the user typed that the selection lacks
-            reference_deflection = _reference(ds, reference_deflection)
+        ds = _load(store, storage_option, group, pressure, deflection)
+        reference_deflection = _reference(ds, reference_deflection)
         _done(
             _study("plsr").run(
                 ds,
@@ -278,9 +284,8 @@ def noise(
         _draws(draws)
     folder = _out(out, "noise")
     with dask_scheduler(scheduler):
-        ds = _load(open_target(store, storage_option), group, pressure, deflection)
-        with usage():  # a deflection the user typed that the selection lacks
-            reference_deflection = _reference(ds, reference_deflection)
+        ds = _load(store, storage_option, group, pressure, deflection)
+        reference_deflection = _reference(ds, reference_deflection)
         _done(
             _study("noise").run(
                 ds,

@@ -46,3 +46,18 @@ def pytest_collection_modifyitems(config, items):
     for item in items:
         if "ccx" in item.keywords and "ccx" not in getattr(item, "fixturenames", ()):
             item.fixturenames.append("ccx")
+
+
+@pytest.fixture(scope="module")
+def s3_endpoint():
+    """moto's S3 server on 127.0.0.1 (it honours If-None-Match like AWS), one per module;
+    skips without s3fs or moto[server] (``pip install -e '.[test,s3]'``)."""
+    s3fs = pytest.importorskip("s3fs", reason="s3fs is not installed (pip install -e '.[s3]')")
+    moto_server = pytest.importorskip(
+        "moto.server", reason="moto[server] is not installed (pip install -e '.[test]')")
+    server = moto_server.ThreadedMotoServer(ip_address="127.0.0.1", port=0, verbose=False)
+    server.start()
+    host, port = server.get_host_and_port()
+    yield f"http://{host}:{port}"
+    server.stop()
+    s3fs.S3FileSystem.clear_instance_cache()  # none of them may outlive the server

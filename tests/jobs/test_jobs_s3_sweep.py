@@ -21,22 +21,10 @@ from jobs.errors import StudyError
 from jobs.study import load_study, parse_study
 
 s3fs = pytest.importorskip("s3fs", reason="s3fs is not installed (pip install -e '.[s3]')")
-moto_server = pytest.importorskip(
-    "moto.server", reason="moto[server] is not installed (pip install -e '.[s3]')"
-)
-
-
-@pytest.fixture(scope="module")
-def endpoint():
-    server = moto_server.ThreadedMotoServer(ip_address="127.0.0.1", port=0, verbose=False)
-    server.start()
-    host, port = server.get_host_and_port()
-    yield f"http://{host}:{port}"
-    server.stop()
 
 
 @pytest.fixture
-def bucket(endpoint, monkeypatch):
+def bucket(s3_endpoint, monkeypatch):
     """A fresh bucket; credentials in the environment, no endpoint there."""
     for key, value in {"AWS_ACCESS_KEY_ID": "testing", "AWS_SECRET_ACCESS_KEY": "testing",
                        "AWS_DEFAULT_REGION": "us-east-1"}.items():
@@ -45,7 +33,7 @@ def bucket(endpoint, monkeypatch):
         monkeypatch.delenv(key, raising=False)
     name = f"farm-{uuid.uuid4().hex[:12]}"
     # skip_instance_cache: fsspec's cached filesystem of another module's (stopped) server
-    fs = s3fs.S3FileSystem(endpoint_url=endpoint, skip_instance_cache=True)
+    fs = s3fs.S3FileSystem(endpoint_url=s3_endpoint, skip_instance_cache=True)
     fs.mkdir(name)
     return name
 
@@ -86,7 +74,7 @@ def test_a_study_without_options_keeps_its_store_text(tmp_path):
 
 
 @pytest.mark.ccx
-def test_sweep_status_and_pca_on_s3(bucket, endpoint, tmp_path, capsys):
+def test_sweep_status_and_pca_on_s3(bucket, s3_endpoint, tmp_path, capsys):
     from analysis import data
     from analysis.studies import crosscov
     from cli import main
@@ -94,14 +82,14 @@ def test_sweep_status_and_pca_on_s3(bucket, endpoint, tmp_path, capsys):
 
     url = f"s3://{bucket}/farm.zarr"
     path = tmp_path / "study.toml"
-    path.write_text(s3_study(url, endpoint))
+    path.write_text(s3_study(url, s3_endpoint))
     study = load_study(path)
     report = run_sweep(study, workers=2)
     assert report.ok, report.failed
     assert len(report.done) == 3
 
     # the store is on the server, not on a local path named like the URL
-    fs = s3fs.S3FileSystem(endpoint_url=endpoint, skip_instance_cache=True)
+    fs = s3fs.S3FileSystem(endpoint_url=s3_endpoint, skip_instance_cache=True)
     assert fs.exists(f"{bucket}/farm.zarr/zarr.json")
 
     capsys.readouterr()
@@ -117,7 +105,7 @@ def test_sweep_status_and_pca_on_s3(bucket, endpoint, tmp_path, capsys):
 
     # the bare URL with the endpoint on the command line: the same counts
     try:
-        main(["sweep", "status", url, "--storage-option", f"endpoint_url={endpoint}",
+        main(["sweep", "status", url, "--storage-option", f"endpoint_url={s3_endpoint}",
               "--json"])
     except SystemExit as e:
         assert e.code in (0, None)

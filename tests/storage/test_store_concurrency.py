@@ -369,19 +369,6 @@ def test_claims_of_stores_without_files_are_free():
 # ---------------------------------------------------------------- object stores
 
 
-@pytest.fixture(scope="module")
-def s3_endpoint():
-    """moto's S3 server (which honours If-None-Match like AWS), one per module."""
-    s3fs = pytest.importorskip("s3fs", reason="s3fs is not installed (pip install -e '.[s3]')")
-    moto_server = pytest.importorskip("moto.server", reason="moto[server] is not installed")
-    server = moto_server.ThreadedMotoServer(ip_address="127.0.0.1", port=0, verbose=False)
-    server.start()
-    host, port = server.get_host_and_port()
-    yield f"http://{host}:{port}"
-    server.stop()
-    s3fs.S3FileSystem.clear_instance_cache()  # none of them may outlive the server
-
-
 @pytest.fixture
 def s3_store(s3_endpoint, tmp_path, monkeypatch):
     """A store object on a fresh bucket; explicit options, so that fsspec's cached

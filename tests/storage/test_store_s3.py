@@ -17,28 +17,16 @@ import storage
 from storage import NotAStoreError
 
 s3fs = pytest.importorskip("s3fs", reason="s3fs is not installed (pip install -e '.[s3]')")
-moto_server = pytest.importorskip(
-    "moto.server", reason="moto[server] is not installed (pip install -e '.[s3]')"
-)
-
-
-@pytest.fixture(scope="module")
-def endpoint():
-    server = moto_server.ThreadedMotoServer(ip_address="127.0.0.1", port=0, verbose=False)
-    server.start()
-    host, port = server.get_host_and_port()
-    yield f"http://{host}:{port}"
-    server.stop()
 
 
 @pytest.fixture
-def bucket(endpoint, monkeypatch):
+def bucket(s3_endpoint, monkeypatch):
     """A fresh bucket; credentials and endpoint come from the environment, as on a farm."""
     for key, value in {"AWS_ACCESS_KEY_ID": "testing", "AWS_SECRET_ACCESS_KEY": "testing",
-                       "AWS_DEFAULT_REGION": "us-east-1", "AWS_ENDPOINT_URL": endpoint}.items():
+                       "AWS_DEFAULT_REGION": "us-east-1", "AWS_ENDPOINT_URL": s3_endpoint}.items():
         monkeypatch.setenv(key, value)
     name = f"farm-{uuid.uuid4().hex[:12]}"
-    fs = s3fs.S3FileSystem(client_kwargs={"endpoint_url": endpoint}, skip_instance_cache=True)
+    fs = s3fs.S3FileSystem(client_kwargs={"endpoint_url": s3_endpoint}, skip_instance_cache=True)
     fs.mkdir(name)
     return name
 
@@ -61,12 +49,12 @@ def test_a_store_url_goes_through_fsspec(bucket):
     assert ds["reaction_force"].attrs["units"] == "N"
 
 
-def test_storage_options_reach_fsspec(bucket, endpoint, monkeypatch):
+def test_storage_options_reach_fsspec(bucket, s3_endpoint, monkeypatch):
     monkeypatch.delenv("AWS_ENDPOINT_URL")
     store = storage.open_store(
         f"s3://{bucket}/opts.zarr",
         storage_options={"key": "testing", "secret": "testing",
-                         "client_kwargs": {"endpoint_url": endpoint}},
+                         "client_kwargs": {"endpoint_url": s3_endpoint}},
     )
     mesh = make_mesh()
     storage.create_group(store, GROUP, mesh, make_attrs())
