@@ -26,12 +26,7 @@ mkdir -p "$logs"
 export FARM_WORK_DIR="$work"
 
 # --- timing and clean-up -----------------------------------------------------------------
-phase_name="" phase_start=$SECONDS timings=()
-phase() {
-    [ -z "$phase_name" ] || timings+=("$(printf '%-10s %4d s' "$phase_name" $((SECONDS - phase_start)))")
-    phase_name="$1" phase_start=$SECONDS
-    [ -z "$1" ] || echo "== $1" >&2
-}
+source "$root/scripts/phases.sh"
 fail() { echo "test-cluster: FAILED: $*" >&2; exit 1; }
 compose() { podman-compose -p "$project" "$@" >>"$logs/compose.log" 2>&1; }
 
@@ -55,9 +50,7 @@ finish() {
         compose down
         podman network rm -f "${project}_default" >/dev/null 2>&1
     fi
-    phase ""
-    echo "== timings" >&2
-    printf '   %s\n' "${timings[@]}" >&2
+    print_timings
     printf '   %-10s %4d s\n' total "$SECONDS" >&2
     if [ "$rc" -ne 0 ] || [ -n "${KEEP_WORK:-}" ]; then
         echo "working folder kept (store, logs): $work" >&2

@@ -10,12 +10,7 @@ set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$root"
 
-phase_name="" phase_start=$SECONDS timings=()
-phase() {
-    [ -z "$phase_name" ] || timings+=("$(printf '%-10s %4d s' "$phase_name" $((SECONDS - phase_start)))")
-    phase_name="$1" phase_start=$SECONDS
-    [ -z "$1" ] || echo "== $1" >&2
-}
+source "$root/scripts/phases.sh"
 fail() { echo "test-slurm: FAILED: $*" >&2; exit 1; }
 
 started_slurm=0
@@ -28,9 +23,7 @@ finish() {
         phase stop
         bash scripts/slurm-local.sh --stop >&2
     fi
-    phase ""
-    echo "== timings" >&2
-    printf '   %s\n' "${timings[@]}" >&2
+    print_timings
     echo "test-slurm: $([ "$rc" = 0 ] && echo passed || echo "FAILED (rc $rc)") in $SECONDS s" >&2
     rm -f "$log"
     exit "$rc"
