@@ -26,6 +26,7 @@ from cli.options import (
     STORAGE_OPTION_HELP,
     check_scheduler,
     open_target,
+    with_tls,
 )
 from jobs import validate
 from jobs.errors import StudyError
@@ -138,6 +139,7 @@ def _done(report) -> None:
 
 
 @app.command()
+@with_tls
 def pca(
     store: Store,
     group: Group = None,
@@ -162,6 +164,7 @@ def pca(
 
 
 @app.command()
+@with_tls
 def pcr(
     store: Store,
     group: Group = None,
@@ -193,6 +196,7 @@ def pcr(
 
 
 @app.command()
+@with_tls
 def plsr(
     store: Store,
     group: Group = None,
@@ -237,6 +241,7 @@ def plsr(
 
 
 @app.command()
+@with_tls
 def noise(
     store: Store,
     group: Group = None,

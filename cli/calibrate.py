@@ -11,7 +11,7 @@ from rich.console import Console
 
 from cli.errors import usage
 from cli.frames import print_frame
-from cli.options import SCHEDULER, WORKERS
+from cli.options import SCHEDULER, WORKERS, with_cluster
 from cli.progress import LogLines, interactive
 from cli.progress import console as stderr_console
 
@@ -49,6 +49,7 @@ class CalibrationLines:
             self.lines.progress(f"calibrate: {text}")
 
 
+@with_cluster
 def calibrate(
     model: str = typer.Option("reduced", "--model", "-m", help="Tyre model: full or reduced."),
     references: Path = typer.Option(
@@ -73,6 +74,7 @@ def calibrate(
                              "figure and the fitted preset (JSON)."),
     cache: Path = typer.Option(None, "--cache", help="Evaluation cache [default: "
                                "<out>/evaluations]; a re-run replays it without ccx."),
+    cluster=None,
 ) -> None:
     """Fit Young's moduli (and thicknesses) to force-deflection points, on the farm.
 
@@ -106,12 +108,12 @@ def calibrate(
         validate.output_folder(out, "--out")
         if cache is not None:
             validate.output_folder(cache, "--cache")
-    if scheduler is None:
+    if cluster.embedded:
         find_ccx()
     console = Console(width=None if sys.stdout.isatty() else 160)
     report = run_calibration(
-        params, points, str(cache or out / "evaluations"), scheduler=scheduler,
-        workers=workers, progress=CalibrationLines(),
+        params, points, str(cache or out / "evaluations"), cluster=cluster,
+        progress=CalibrationLines(),
         cal=CalibrationSettings(max_evaluations=max_evaluations, prior_weight=prior_weight))
     _report(console, report, params, points, out)
     raise typer.Exit(0 if report.ok else 1)

@@ -11,7 +11,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 
 from cli.errors import usage
 from cli.frames import print_frame
-from cli.options import SCHEDULER, WORKERS
+from cli.options import SCHEDULER, WORKERS, with_cluster
 from cli.progress import LogLines, interactive
 from cli.progress import console as stderr_console
 
@@ -108,8 +108,9 @@ def _default_out(study) -> Path:
     return Path(f"{study.location.rstrip('/')}-{study.group}-report")
 
 
+@with_cluster
 def invert(study_file: Path = STUDY, scheduler: str = SCHEDULER, workers: int = WORKERS,
-           out: Path = OUT, repeats: int = REPEATS) -> None:
+           out: Path = OUT, repeats: int = REPEATS, cluster=None) -> None:
     """Identify tread forces from inner-surface measurements (thesis ch. 4), FEM in the loop.
 
     Prints and writes Tables 4.1-4.4 beside the thesis' values, histograms of the nodal
@@ -128,11 +129,11 @@ def invert(study_file: Path = STUDY, scheduler: str = SCHEDULER, workers: int = 
             study = with_repeats(study, repeats)
         if out is not None:
             validate.output_folder(out, "--out")
-    if scheduler is None:
+    if cluster.embedded:
         find_ccx()
     console = Console(width=None if sys.stdout.isatty() else 180)
     progress = loop_progress()
-    report = run_inverse(study, scheduler=scheduler, workers=workers, progress=progress)
+    report = run_inverse(study, cluster=cluster, progress=progress)
     folder = (out or _default_out(study)).expanduser()
     figures = _report(console, study.store, study.group, folder) if report.results else []
     console.print(report.summary())

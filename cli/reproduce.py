@@ -17,13 +17,14 @@ from rich.console import Console
 
 from cli.errors import usage
 from cli.invert import loop_progress
-from cli.options import SCHEDULER, WORKERS
+from cli.options import SCHEDULER, WORKERS, with_cluster
 from cli.progress import LogLines, interactive
 from cli.progress import console as stderr_console
 from cli.sweep import sweep_progress
 from jobs.cluster import resolve_scheduler
 
 
+@with_cluster
 def reproduce(
     quick: bool = typer.Option(True, "--quick/--full", help="A reduced set of inverse "
                                "conditions and noise draws (--full: all, 10 repeats)."),
@@ -34,6 +35,7 @@ def reproduce(
     coarse: bool = typer.Option(False, "--coarse", help="Test-sized coarse meshes (minutes, "
                                 "not for conclusions)."),
     materials: str = typer.Option("table-3.1", "--materials", help="Material preset."),
+    cluster=None,
 ) -> None:
     """Run the thesis study (chapters 3-5) on the farm and write OUT/report.md."""
     from analysis.report import reproduction
@@ -41,6 +43,7 @@ def reproduce(
     from farm.errors import SpecError
     from farm.presets import MATERIAL_PRESETS
     from jobs import validate
+    from jobs.cluster import DaskCluster
     from jobs.reproduce import Options
 
     with usage():
@@ -55,7 +58,9 @@ def reproduce(
     opts = Options(out=out, store=store or str(out / "thesis.zarr"), quick=quick,
                    coarse=coarse, materials=materials,
                    # the provenance names the scheduler the environment gave, if any
-                   scheduler=resolve_scheduler(scheduler), workers=workers)
+                   scheduler=(resolve_scheduler(scheduler)
+                              if isinstance(cluster, DaskCluster) else "slurm"),
+                   workers=workers, cluster=cluster)
     done = []
     for name, stage in (("chapter 3: validation", _validation),
                         ("chapter 5: dataset analyses", _dataset),

@@ -18,7 +18,14 @@ from rich.progress import (
 )
 from rich.table import Table
 
-from cli.options import APP_SETTINGS, SCHEDULER, STORAGE_OPTION, WORKERS, open_target
+from cli.options import (
+    APP_SETTINGS,
+    SCHEDULER,
+    STORAGE_OPTION,
+    WORKERS,
+    open_target,
+    with_cluster,
+)
 from cli.progress import LogLines, interactive
 from cli.progress import console as stderr_console
 
@@ -135,12 +142,12 @@ def _failure_table(rows, console: Console) -> None:
     console.print(table)
 
 
-def _run(study_file: Path, scheduler, workers, retry_failed, as_json: bool) -> None:
+def _run(study_file: Path, cluster, retry_failed, as_json: bool) -> None:
     from jobs.study import load_study
     from jobs.sweep import run_sweep
 
     study = load_study(study_file)  # everything is validated before anything starts
-    report = run_sweep(study, scheduler=scheduler, workers=workers, retry_failed=retry_failed,
+    report = run_sweep(study, cluster=cluster, retry_failed=retry_failed,
                        progress=sweep_progress(study.name))
     if as_json:
         _dump(_summary_dict(report))
@@ -150,17 +157,19 @@ def _run(study_file: Path, scheduler, workers, retry_failed, as_json: bool) -> N
 
 
 @app.command("submit")
+@with_cluster
 def submit(study: Path = STUDY, scheduler: str = SCHEDULER, workers: int = WORKERS,
-           retry_failed: bool = RETRY, as_json: bool = JSON) -> None:
+           retry_failed: bool = RETRY, as_json: bool = JSON, cluster=None) -> None:
     """Run every experiment of a study that the store does not hold as done yet."""
-    _run(study, scheduler, workers, retry_failed, as_json)
+    _run(study, cluster, retry_failed, as_json)
 
 
 @app.command("resume")
+@with_cluster
 def resume(study: Path = STUDY, scheduler: str = SCHEDULER, workers: int = WORKERS,
-           retry_failed: bool = RETRY, as_json: bool = JSON) -> None:
+           retry_failed: bool = RETRY, as_json: bool = JSON, cluster=None) -> None:
     """Finish an interrupted sweep (the same idempotent operation as submit)."""
-    _run(study, scheduler, workers, retry_failed, as_json)
+    _run(study, cluster, retry_failed, as_json)
 
 
 def _target(target: str, group: str | None,

@@ -1,7 +1,10 @@
 """The Dask cluster a run uses: an embedded LocalCluster, or a scheduler already running.
 
 Which one: ``--scheduler``, else ``$FARM_SCHEDULER``, else ``$DASK_SCHEDULER_ADDRESS``,
-else an embedded LocalCluster (:func:`resolve_scheduler`). The embedded cluster runs one
+else an embedded LocalCluster (:func:`resolve_scheduler`); with TLS certificates
+(:mod:`jobs.tls`) both are reached over ``tls://``. Other clusters (SLURM:
+:mod:`jobs.slurm`) plug in as a :class:`ClusterSpec`, the one thing
+:func:`jobs.driver.drive` connects through. The embedded cluster runs one
 single-threaded worker process per core: ccx is a subprocess, and one ccx per core is the
 throughput optimum on small models (DESIGN.md). Its dashboard is asked for on port 8787;
 when that port is taken the scheduler serves it on a free one, silently, and
@@ -28,11 +31,14 @@ import os
 import threading
 import warnings
 from collections.abc import Callable, Iterator
-from typing import Any
+from contextlib import AbstractContextManager
+from dataclasses import dataclass
+from typing import Any, Protocol
 
 import dask
 
 from jobs.errors import ClusterError, StudyError
+from jobs.tls import TlsFiles, check_address
 
 ALLOWED_FAILURES = 10  # the embedded scheduler's allowed-failures (Dask's default: 3)
 EMBEDDED_CONFIG = {
@@ -45,6 +51,7 @@ EMBEDDED_CONFIG = {
 }
 LOST_WORKER_RESUBMITS = 10  # resubmissions of a task whose workers kept dying
 SCHEDULER_VARIABLES = ("FARM_SCHEDULER", "DASK_SCHEDULER_ADDRESS")  # in this order
+CONNECT_TIMEOUT = "20s"  # to reach a running scheduler (and finish a TLS handshake)
 WAIT_FOR_WORKERS_SECONDS = 300  # for the --workers an external scheduler is asked to have
 
 log = logging.getLogger(__name__)
@@ -70,11 +77,53 @@ def resolve_scheduler(scheduler: str | None) -> str | None:
     return None
 
 
+class ClusterSpec(Protocol):
+    """Where a run's workers come from (what :func:`jobs.driver.drive` connects through).
+
+    ``embedded``: the workers run this machine's ccx (no need to ask them its version);
+    ``client()``: a context manager yielding a ``distributed.Client``, closing whatever
+    it started on exit.
+    """
+
+    @property
+    def embedded(self) -> bool: ...
+
+    def client(self) -> AbstractContextManager[Any]: ...
+
+
+@dataclass(frozen=True)
+class DaskCluster:
+    """An embedded LocalCluster or a running scheduler (:func:`connect`), TLS if ``tls``.
+
+    Checked when made: a malformed address, or TLS settings that do not fit the address
+    (``tls://`` without certificates, certificates with ``tcp://``), raise
+    :class:`ClusterError` before anything starts.
+    """
+
+    scheduler: str | None = None
+    workers: int | None = None
+    tls: TlsFiles | None = None
+
+    def __post_init__(self) -> None:
+        address = resolve_scheduler(self.scheduler)
+        if address is not None:
+            _check_address(address)
+        check_address(address, self.tls)
+
+    @property
+    def embedded(self) -> bool:
+        return resolve_scheduler(self.scheduler) is None
+
+    def client(self) -> AbstractContextManager[Any]:
+        return connect(self.scheduler, self.workers, tls=self.tls)
+
+
 @contextlib.contextmanager
 def connect(scheduler: str | None = None, workers: int | None = None,
-            dashboard: str = "127.0.0.1:8787") -> Iterator[Any]:
+            dashboard: str = "127.0.0.1:8787", tls: TlsFiles | None = None) -> Iterator[Any]:
     """Yield a ``distributed.Client``: to the scheduler :func:`resolve_scheduler` names,
-    else to a new embedded LocalCluster of ``workers`` processes.
+    else to a new embedded LocalCluster of ``workers`` processes; over TLS with ``tls``
+    (the embedded cluster then encrypted too, :mod:`jobs.tls`).
 
     Raises :class:`ClusterError` when the scheduler cannot be reached.
     """
@@ -82,21 +131,20 @@ def connect(scheduler: str | None = None, workers: int | None = None,
 
     address = resolve_scheduler(scheduler)
     if address is None:
+        security = tls.cluster_security() if tls is not None else None
         # the settings are read while the cluster runs, not only when it starts
         with dask.config.set(EMBEDDED_CONFIG), \
-                _embedded(workers or default_workers(), dashboard) as cluster, \
+                _embedded(workers or default_workers(), dashboard, security) as cluster, \
                 Client(cluster) as client:
             yield client
         return
     _check_address(address)
+    check_address(address, tls)
+    kwargs = {"security": tls.client_security()} if tls is not None else {}
     try:
-        client = Client(address, timeout="20s")
+        client = Client(address, timeout=CONNECT_TIMEOUT, **kwargs)
     except (OSError, TimeoutError, ValueError) as e:
-        raise ClusterError(
-            f"cannot reach the Dask scheduler at {address!r}: {e}; give a running one as "
-            "tcp://host:8786 (--scheduler, $FARM_SCHEDULER or $DASK_SCHEDULER_ADDRESS; "
-            "start one with `dask scheduler` and workers with `dask worker ADDRESS`), or "
-            "set none of them to use the embedded cluster") from e
+        raise ClusterError(_unreachable(address, e)) from e
     with client:
         if workers:
             try:
@@ -110,8 +158,22 @@ def connect(scheduler: str | None = None, workers: int | None = None,
         yield client
 
 
-def _embedded(workers: int, dashboard: str):
-    """A LocalCluster; a busy dashboard port moves to a free one without a raw warning."""
+def _unreachable(address: str, error: BaseException) -> str:
+    """The one line of a scheduler that did not answer (or refused our handshake)."""
+    if address.startswith("tls://"):
+        return (f"cannot reach the Dask scheduler at {address!r} over TLS: {error}; check that "
+                "it runs with TLS and that --tls-ca-file is the CA that signed its "
+                "certificate and --tls-cert/--tls-key a certificate it trusts")
+    return (f"cannot reach the Dask scheduler at {address!r}: {error}; give a running one as "
+            "tcp://host:8786 (--scheduler, $FARM_SCHEDULER or $DASK_SCHEDULER_ADDRESS; "
+            "start one with `dask scheduler` and workers with `dask worker ADDRESS`; one run "
+            "with TLS as tls://host:port with --tls-*), or set none of them to use the "
+            "embedded cluster")
+
+
+def _embedded(workers: int, dashboard: str, security: Any = None):
+    """A LocalCluster (over TLS with ``security``); a busy dashboard port moves to a free
+    one without a raw warning."""
     from distributed import LocalCluster
 
     with warnings.catch_warnings():
@@ -120,7 +182,8 @@ def _embedded(workers: int, dashboard: str):
         warnings.filterwarnings("ignore", message=r"Port \d+ is already in use",
                                 category=UserWarning)
         return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                            dashboard_address=dashboard, host="127.0.0.1", silence_logs=40)
+                            dashboard_address=dashboard, host="127.0.0.1", silence_logs=40,
+                            security=security)
 
 
 def _check_address(address: str) -> None:

@@ -7,8 +7,10 @@ a progress display sees (:meth:`~Strategy.state`), how it stops (:meth:`~Strateg
 and the report it ends with (:meth:`~Strategy.finish`). :func:`drive` does the rest, the
 same way for all of them:
 
-1. connect (an embedded LocalCluster, or the scheduler of ``--scheduler``,
-   ``$FARM_SCHEDULER`` or ``$DASK_SCHEDULER_ADDRESS``: :mod:`jobs.cluster`) and learn the
+1. connect through a :class:`jobs.cluster.ClusterSpec` - by default a
+   :class:`jobs.cluster.DaskCluster`: an embedded LocalCluster, or the scheduler of
+   ``--scheduler``, ``$FARM_SCHEDULER`` or ``$DASK_SCHEDULER_ADDRESS``, over TLS with
+   certificates; or SLURM jobs (:class:`jobs.slurm.SlurmOptions`) - and learn the
    workers' solver version, which is part of every key (:mod:`jobs.identity`);
 2. start the strategy, then poll it until everything ended, telling the front end
    (without one, :class:`Announce` prints where the dashboard is: every run that starts
@@ -34,7 +36,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from farm.ccx.runner import ccx_version
-from jobs.cluster import ResubmittingClient, connect, dashboard_link, resolve_scheduler
+from jobs.cluster import ClusterSpec, DaskCluster, ResubmittingClient, dashboard_link
 from jobs.errors import ClusterError
 from jobs.loops.cache import EvaluationCache
 from jobs.loops.evaluator import Evaluator
@@ -120,17 +122,30 @@ def solver_version(client, embedded: bool) -> str:
     return f"CalculiX {client.submit(ccx_version, pure=False).result()}"
 
 
-def drive(strategy: Strategy, *, scheduler: str | None = None, workers: int | None = None,
+def cluster_spec(cluster: ClusterSpec | None, scheduler: str | None,
+                 workers: int | None) -> ClusterSpec:
+    """``cluster``, else a :class:`DaskCluster` of ``scheduler`` and ``workers`` (the
+    shorthand of callers that know no other cluster); both is a programming error."""
+    if cluster is None:
+        return DaskCluster(scheduler, workers)
+    if scheduler is not None or workers is not None:
+        raise TypeError("give cluster= or scheduler=/workers=, not both")
+    return cluster
+
+
+def drive(strategy: Strategy, *, cluster: ClusterSpec | None = None,
+          scheduler: str | None = None, workers: int | None = None,
           progress: Progress | None = None,
           on_client: Callable[[Any], None] | None = None) -> RunReport:
-    """Run ``strategy`` on a cluster to its end; return its report."""
+    """Run ``strategy`` on ``cluster`` (default: :class:`DaskCluster` of ``scheduler``
+    and ``workers``) to its end; return its report."""
     progress = progress or Announce()
     start = time.perf_counter()
-    embedded = resolve_scheduler(scheduler) is None
-    with connect(scheduler, workers) as client:
+    cluster = cluster_spec(cluster, scheduler, workers)
+    with cluster.client() as client:
         if on_client is not None:
             on_client(client)
-        session = Session(client, solver_version(client, embedded),
+        session = Session(client, solver_version(client, cluster.embedded),
                           dashboard_link(client), len(client.scheduler_info()["workers"]))
         try:
             strategy.start(session)

@@ -127,6 +127,14 @@ class SlurmOptions:
             raise ClusterError(f"SLURM start_timeout must be seconds > 0, got "
                                f"{self.start_timeout!r}")
 
+    #: a :class:`jobs.cluster.ClusterSpec`: the workers run on the compute nodes, whose
+    #: ccx may differ from this machine's (the driver asks them)
+    embedded = False
+
+    def client(self) -> contextlib.AbstractContextManager[Any]:
+        """:func:`slurm_client` of these options (:class:`jobs.cluster.ClusterSpec`)."""
+        return slurm_client(self)
+
     @property
     def worker_processes(self) -> int:
         return self.processes or self.cores

@@ -18,7 +18,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import storage
-from jobs.cluster import Attempts
+from jobs.cluster import Attempts, ClusterSpec
 from jobs.driver import Progress, RunReport, Session, Strategy, drive
 from jobs.expand import Experiment, PathPlan, experiments, parameters, plan
 from jobs.storeio import ensure_group
@@ -175,7 +175,11 @@ class Sweep(Strategy):
 
 def run_sweep(study: Study, *, scheduler: str | None = None, workers: int | None = None,
               retry_failed: bool = False, progress: Progress | None = None,
-              on_client: Callable[[object], None] | None = None) -> SweepReport:
-    """Run every experiment of ``study`` that is not done yet; return the report."""
-    return drive(Sweep(study, retry_failed), scheduler=scheduler, workers=workers,
-                 progress=progress, on_client=on_client)
+              on_client: Callable[[object], None] | None = None,
+              cluster: ClusterSpec | None = None) -> SweepReport:
+    """Run every experiment of ``study`` that is not done yet; return the report.
+
+    ``cluster`` (:class:`jobs.cluster.ClusterSpec`, e.g. SLURM) replaces ``scheduler``
+    and ``workers``."""
+    return drive(Sweep(study, retry_failed), cluster=cluster, scheduler=scheduler,
+                 workers=workers, progress=progress, on_client=on_client)

@@ -22,6 +22,7 @@ from jobs.calibrate.evaluate import fz as curve_fz
 from jobs.calibrate.fit import CalibrationResult, CalibrationSettings, CalibrationState, calibrate
 from jobs.calibrate.params import Parameters
 from jobs.calibrate.references import ReferencePoint
+from jobs.cluster import ClusterSpec
 from jobs.driver import LoopThreads, Progress, RunReport, Session, drive
 from jobs.guard import Failed
 from jobs.loops.evaluator import Evaluator
@@ -74,12 +75,14 @@ def run_calibration(params: Parameters, points: Sequence[ReferencePoint], cache:
                     *, settings: SolverSettings | None = None,
                     cal: CalibrationSettings | None = None,
                     scheduler: str | None = None, workers: int | None = None,
-                    curves: bool = True, progress: Progress | None = None
-                    ) -> CalibrationReport:
-    """Fit ``params`` to ``points`` on a cluster; return the fit and (optionally) curves."""
+                    curves: bool = True, progress: Progress | None = None,
+                    cluster: ClusterSpec | None = None) -> CalibrationReport:
+    """Fit ``params`` to ``points`` on a cluster (``cluster``, e.g. SLURM, replaces
+    ``scheduler``/``workers``); return the fit and (optionally) curves."""
     strategy = Calibration(params, points, cache, settings or SolverSettings(),
                            cal or CalibrationSettings(), curves)
-    return drive(strategy, scheduler=scheduler, workers=workers, progress=progress)
+    return drive(strategy, cluster=cluster, scheduler=scheduler, workers=workers,
+                 progress=progress)
 
 
 def _curves(params: Parameters, result: CalibrationResult, points, evaluator: Evaluator,

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from farm.mesh import mesh_for
+from jobs.cluster import ClusterSpec
 from jobs.driver import LoopThreads, Progress, RunReport, Session, drive
 from jobs.inverse.loop import LoopResult, LoopState, expand_loops, run_loop
 from jobs.inverse.mask import masks_for
@@ -93,7 +94,9 @@ class Inverse(LoopThreads):
 def run_inverse(study: InverseStudy, *, scheduler: str | None = None,
                 workers: int | None = None, progress: Progress | None = None,
                 on_client: Callable[[object], None] | None = None,
-                write: bool = True) -> InverseReport:
-    """Run every loop of ``study`` and write the results group; return the report."""
-    return drive(Inverse(study, write), scheduler=scheduler, workers=workers,
-                 progress=progress, on_client=on_client)
+                write: bool = True, cluster: ClusterSpec | None = None) -> InverseReport:
+    """Run every loop of ``study`` and write the results group; return the report.
+
+    ``cluster`` (:class:`jobs.cluster.ClusterSpec`) replaces ``scheduler``/``workers``."""
+    return drive(Inverse(study, write), cluster=cluster, scheduler=scheduler,
+                 workers=workers, progress=progress, on_client=on_client)

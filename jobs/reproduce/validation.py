@@ -43,7 +43,7 @@ def run(opts: Options, log: Log | None = None, progress: ProgressFor | None = No
     for name, text in studies(opts).items():
         study = parse_study(text, f"{name}.toml")
         stage.texts[name], stage.studies[name] = text, study
-        report = run_sweep(study, scheduler=opts.scheduler, workers=opts.workers,
+        report = run_sweep(study, cluster=opts.cluster_spec(),
                            progress=progress(name) if progress else None)
         stage.reports[name] = report
         log(f"{name}: {report.total} experiments ({report.skipped} already done), "

@@ -418,8 +418,9 @@ SCHEDULERS_BAD = ("not a url", "", " ", "tcp://", "tcp://:8786", "http://host:87
                   "tcp://host:0", "tcp://host:99999", "tcp://host:port", "tcp://ho st:1",
                   "tcp://[::1:8786", "a\u0000b:1", "x" * 5000, "file:///tmp/sched",
                   "inproc://", "host:-1", "://host:1", "tcp://host:8786/path?q",
-                  "tcp://scheduler")
-SCHEDULERS_OK = ("tcp://127.0.0.1:8786", "127.0.0.1:8786", "tls://scheduler.example:8786",
+                  "tcp://scheduler",
+                  "tls://scheduler.example:8786")  # TLS without certificates (jobs/tls.py)
+SCHEDULERS_OK = ("tcp://127.0.0.1:8786", "127.0.0.1:8786",
                  "tcp://[::1]:8786", "inproc://10.0.0.1/1234/5", "ucx://10.0.0.1:13337",
                  "localhost:8786", "ws://host:8786", "tcp://farm_scheduler_1:8786")
 WORKERS_BAD = ("-3", "0", "-1", "100000", "x", "1.5", "")
@@ -693,7 +694,6 @@ def recorder(monkeypatch, fake_ccx, command) -> Recorder:
     import cli
     import cli.run
     import jobs.cluster
-    import jobs.driver
     from farm.errors import FarmError
     from jobs.errors import ClusterError
 
@@ -711,7 +711,6 @@ def recorder(monkeypatch, fake_ccx, command) -> Recorder:
         raise FarmError(FAKE_SOLVER)
 
     monkeypatch.setattr(jobs.cluster, "connect", connect)
-    monkeypatch.setattr(jobs.driver, "connect", connect)
     monkeypatch.setattr(cli.run, "run_load_path", run_load_path)
     monkeypatch.setenv("FARM_CCX", str(fake_ccx[0]))
     monkeypatch.setenv("HOME", str(fake_ccx[0].parent))  # ~ and caches stay in tmp

@@ -52,7 +52,7 @@ def test_the_chapter_4_study_has_the_thesis_conditions(tmp_path, quick, coarse, 
 
 def test_a_stage_run_sums_the_sweeps_and_notes_failures_without_printing(
         tmp_path, monkeypatch, capsys):
-    def fake_sweep(study, *, scheduler=None, workers=None, progress=None):
+    def fake_sweep(study, *, cluster=None, progress=None):
         report = SweepReport(study, total=16, skipped=2, ccx_runs=3, solve_seconds=1.5,
                              done=[f"e{k}" for k in range(14)])
         if study.name == "ch3-reduced":

@@ -3,7 +3,6 @@ quick sweep on a real SLURM (``-m slurm``; ``bash scripts/test-slurm.sh`` starts
 
 from __future__ import annotations
 
-import contextlib
 import functools
 import shutil
 import subprocess
@@ -99,6 +98,16 @@ def test_without_dask_jobqueue_the_error_names_the_extra(monkeypatch):
         pass
 
 
+def test_slurm_options_are_a_cluster_spec_the_driver_takes_alone():
+    from jobs.driver import cluster_spec
+
+    options = SlurmOptions()
+    assert options.embedded is False  # the driver asks the nodes for their ccx
+    assert cluster_spec(options, None, None) is options
+    with pytest.raises(TypeError, match="not both"):
+        cluster_spec(options, "tcp://127.0.0.1:8786", None)
+
+
 # ------------------------------------------------------------------ a real SLURM (-m slurm)
 
 @functools.cache  # a `sinfo` without its controller takes ~9 s to give up: ask once
@@ -133,9 +142,8 @@ def _squeue(name: str) -> list[str]:
 
 
 @pytest.mark.slurm
-def test_quick_sweep_runs_on_a_real_slurm(tmp_path, monkeypatch, ccx):
+def test_quick_sweep_runs_on_a_real_slurm(tmp_path, ccx):
     _require_slurm()
-    import jobs.driver
     from jobs.study import load_study
     from jobs.sweep import run_sweep
 
@@ -144,21 +152,13 @@ def test_quick_sweep_runs_on_a_real_slurm(tmp_path, monkeypatch, ccx):
                            interface="lo", job_name=name, dashboard_address="127.0.0.1:0",
                            local_directory=str(tmp_path / "dask"),
                            log_directory=str(tmp_path / "logs"), start_timeout=120)
-
-    # the seam: drive() gets its client from jobs.cluster.connect (imported into
-    # jobs.driver); any scheduler name but None makes it ask the workers for ccx's version
-    @contextlib.contextmanager
-    def connect(scheduler=None, workers=None, **kwargs):
-        with slurm_client(options) as client:
-            yield client
-
-    monkeypatch.setattr(jobs.driver, "connect", connect)
     seen: list[str] = []
     path = tmp_path / "study.toml"
     path.write_text(study_text(tmp_path / "store.zarr", deflections="[10, 20, 30]"))
     study = load_study(path)
 
-    report = run_sweep(study, scheduler="slurm", on_client=lambda c: seen.extend(_squeue(name)))
+    # the seam: SlurmOptions is a jobs.cluster.ClusterSpec, which drive() connects through
+    report = run_sweep(study, cluster=options, on_client=lambda c: seen.extend(_squeue(name)))
 
     assert report.ok and len(report.done) == 3, report.summary()
     assert report.workers >= 1

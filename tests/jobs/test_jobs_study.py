@@ -118,7 +118,7 @@ def test_malformed_study_is_one_line_and_touches_nothing(text, tmp_path_factory,
     def no_cluster(*args, **kwargs):
         raise AssertionError("a cluster was started for an invalid study")
 
-    monkeypatch.setattr("jobs.driver.connect", no_cluster)
+    monkeypatch.setattr("jobs.cluster.connect", no_cluster)
     with pytest.raises(SystemExit) as info:
         main(["sweep", "submit", str(path)])
     err = capsys.readouterr().err
@@ -302,7 +302,7 @@ def test_scheduler_addresses(address, ok):
                                   ["--workers", "100000"], ["--scheduler", "not a url"]])
 def test_bad_cluster_options_are_usage_errors_before_the_study_is_read(argv, capsys,
                                                                        monkeypatch):
-    monkeypatch.setattr("jobs.driver.connect", lambda *a, **k: pytest.fail("connected"))
+    monkeypatch.setattr("jobs.cluster.connect", lambda *a, **k: pytest.fail("connected"))
     with pytest.raises(SystemExit) as info:
         main(["sweep", "submit", "no-such-study.toml", *argv])
     err = capsys.readouterr().err
