@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 from typing import Any, ClassVar, Literal, get_args, get_type_hints
 
 from farm.errors import SpecError
+from farm.reinforcement import Reinforcement
 
 ModelKind = Literal["reduced", "full"]
 RoadKind = Literal["iterative", "contact"]
@@ -249,6 +250,8 @@ class ModelSpec:
     sector_angle: float = 90.0
     cut_faces: CutFaces = "free"
     contact: ContactLaw = field(default_factory=ContactLaw)
+    # None = the thesis' cordless wall; absent from to_dict then, so ids stay stable
+    reinforcement: Reinforcement | None = None
 
     def __post_init__(self) -> None:
         _check_literal("kind", self.kind, ModelKind)
@@ -292,7 +295,10 @@ class ModelSpec:
         return self.is_full
 
     def to_dict(self) -> dict[str, Any]:
-        return dataclasses.asdict(self)
+        data = dataclasses.asdict(self)
+        if self.reinforcement is None:  # the cordless model's ids predate the field
+            del data["reinforcement"]
+        return data
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> ModelSpec:
@@ -425,7 +431,7 @@ def _from_dict(cls: type, data: Any, where: str) -> Any:
         )
     kwargs = {}
     for name, value in data.items():
-        hint = hints[name]
+        hint = _optional_dataclass(hints[name]) if value is not None else hints[name]
         if dataclasses.is_dataclass(hint):
             value = _from_dict(hint, value, f"{where}.{name}")
         elif typing.get_origin(hint) is tuple:
@@ -447,6 +453,12 @@ def _from_dict(cls: type, data: Any, where: str) -> Any:
         if prefix is None or not str(e).startswith(f"{prefix}."):
             raise
         raise SpecError(where + str(e).removeprefix(prefix)) from e
+
+
+def _optional_dataclass(hint: Any) -> Any:
+    """``X`` for a hint ``X | None`` with ``X`` a dataclass, else ``hint``."""
+    args = [a for a in get_args(hint) if a is not type(None)]
+    return args[0] if len(args) == 1 and dataclasses.is_dataclass(args[0]) else hint
 
 
 def _is_number(value: Any, hint: type) -> bool:

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from farm.ccx.reinforcement import cord_lines  # noqa: F401  (decks add it after materials)
 from farm.mesh.tyremesh import REGIONS, TyreMesh
 from farm.specs import ContactLaw, Materials, ModelSpec, SolverSettings
 

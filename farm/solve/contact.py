@@ -52,7 +52,7 @@ def inflate(spec: ModelSpec, mesh: TyreMesh, pressure: float, settings: SolverSe
             should_stop: Callable[[], bool] | None = None) -> tuple[CcxRun, float]:
     """Inflate the tyre alone; return the run and the lowest tread z afterwards."""
     deck = D.assemble(
-        D.mesh_lines(mesh), D.material_lines(spec.materials),
+        D.mesh_lines(mesh), D.material_lines(spec.materials), D.cord_lines(spec, mesh),
         D.measured_set_lines(("TREAD_OUTER",)),
         D.static_step_lines(1.0, settings), D.support_lines(spec),
         D.cavity_pressure_lines(mesh, pressure, None),
@@ -106,7 +106,7 @@ def path_deck(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: SolverS
         pressure = D.cavity_pressure_lines(mesh, path.pressure, "INFLATE")
     out_times = ([1.0] if spec.inflated else []) + times
     deck = D.assemble(
-        D.mesh_lines(mesh), D.material_lines(spec.materials), road.lines,
+        D.mesh_lines(mesh), D.material_lines(spec.materials), D.cord_lines(spec, mesh), road.lines,
         D.contact_lines(mesh, spec.contact), amplitudes, D.time_points_lines(out_times),
         D.measured_set_lines(("INNER", "OUTER", "ROAD")),
         D.static_step_lines(t0 + 1.0, settings), D.support_lines(spec),

@@ -52,7 +52,7 @@ def force_deck(spec: ModelSpec, mesh: TyreMesh, nodes: np.ndarray, fz: np.ndarra
     """Deck with vertical forces ``fz[k]`` (N, +z pushes the tread up) on ``nodes[k]``."""
     loads = ["*CLOAD"] + [f"{int(n)}, 3, {float(f)!r}" for n, f in zip(nodes, fz, strict=True)]
     return D.assemble(
-        D.mesh_lines(mesh), D.material_lines(spec.materials),
+        D.mesh_lines(mesh), D.material_lines(spec.materials), D.cord_lines(spec, mesh),
         D.measured_set_lines(("INNER", "OUTER")),
         D.static_step_lines(1.0, settings), D.support_lines(spec), loads,
         D.output_lines(time_points=False, contact=False), ["*END STEP"],

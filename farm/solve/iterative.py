@@ -39,7 +39,7 @@ def prescribed_deck(spec: ModelSpec, mesh: TyreMesh, uz: dict[int, float],
     """Deck with the vertical displacement ``uz[node]`` prescribed on contact nodes."""
     bcs = D.support_lines(spec) + [f"{node}, 3, 3, {value!r}" for node, value in sorted(uz.items())]
     return D.assemble(
-        D.mesh_lines(mesh), D.material_lines(spec.materials),
+        D.mesh_lines(mesh), D.material_lines(spec.materials), D.cord_lines(spec, mesh),
         D.measured_set_lines(("INNER", "OUTER")),
         D.static_step_lines(1.0, settings), bcs,
         D.output_lines(time_points=False, contact=False), ["*END STEP"],

@@ -1,0 +1,109 @@
+"""Cord reinforcement of the tyre wall: carcass plies and belts (issue 15, thesis §6.2).
+
+The thesis' model is cordless rubber (Table 3.1); a real radial tyre carries its
+inflation load in textile carcass cords running bead to bead and stiff belts running
+nearly round the crown. Without them the model balloons under pressure (8 mm growth at
+200 kPa in the thesis' model, at most 4 mm in the real tyre, §3.4).
+
+Representation: truss elements (ccx ``T3D2``, a genuine two-node truss with an area
+from ``*SOLID SECTION``) along the edges of the existing hexahedra, sharing their
+nodes. The rubber stays Neo-Hookean: ccx gives one material per element, so a
+homogenised orthotropic layer (``*ELASTIC, TYPE=ENGINEERING CONSTANTS`` with a
+cylindrical ``*ORIENTATION``) would replace the hyperelastic rubber of a one-element
+wall rather than add to it. This is the "rebar" idea of embedded reinforcement
+(Helnwein, Liu, Meschke, Mang, "A new 3-D finite element model for cord-reinforced
+rubber composites", Finite Elem. Anal. Des. 14 (1993) 1-16; Abaqus' ``*REBAR``).
+
+A ply of cords of diameter ``d`` at centre spacing ``s`` carries ``A/w = pi d^2/4/s``
+mm^2 of cord per mm of ply width. Cords at an angle ``theta`` to the circumferential
+direction are mapped on the mesh's two edge directions by netting theory (rubber
+carries no load, the cords only their axial force): a balanced +-theta ply pair adds
+the membrane stiffness ``E_c A/w cos^4 theta`` round the tyre and ``E_c A/w sin^4
+theta`` along the meridian (Clark (ed.), "Mechanics of Pneumatic Tires", NHTSA 1981,
+ch. 7 on cord-rubber laminates; Gough's netting analysis). The pair's in-plane shear
+stiffness (``sin^2 cos^2``) is not represented: edges carry axial force only. Radial
+carcass cords (``theta = 90``) need none of this: they lie on the meridional edges.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+from farm.errors import SpecError
+
+MODULUS_GPA = (1e-9, 500.0)  # up to steel wire; ~0 allowed for "no cords" checks
+DIAMETER_MM = (0.05, 5.0)
+MAX_PLIES = 8
+
+
+@dataclass(frozen=True)
+class Cords:
+    """One cord layer (``plies`` identical plies).
+
+    ``modulus`` is the cord's effective tensile modulus in GPa (polyester ~4, nylon ~3,
+    steel cord ~150: a twisted cord is softer than its wire), ``diameter`` and ``spacing``
+    (centre to centre, >= diameter) in mm, ``angle`` in degrees from the circumferential
+    direction (90 = radial carcass, ~20 = belts).
+    """
+
+    _prefix: ClassVar[str] = "cords"
+    modulus: float
+    diameter: float
+    spacing: float
+    angle: float
+    plies: int = 1
+
+    def __post_init__(self) -> None:
+        checks = (("modulus", self.modulus, MODULUS_GPA, "GPa"),
+                  ("diameter", self.diameter, DIAMETER_MM, "mm"),
+                  ("angle", self.angle, (0.0, 90.0), "degrees"))
+        for name, value, (low, high), unit in checks:
+            if not (isinstance(value, int | float) and low <= value <= high):
+                raise SpecError(f"cords.{name} must be in [{low:g}, {high:g}] {unit}, "
+                                f"got {value!r}")
+        if not (isinstance(self.spacing, int | float) and self.diameter <= self.spacing <= 50):
+            raise SpecError(f"cords.spacing must be in [diameter = {self.diameter:g}, 50] mm "
+                            f"(cords cannot overlap), got {self.spacing!r}")
+        if not (isinstance(self.plies, int) and 1 <= self.plies <= MAX_PLIES):
+            raise SpecError(f"cords.plies must be an integer in [1, {MAX_PLIES}], "
+                            f"got {self.plies!r}")
+
+    @property
+    def area_per_width(self) -> float:
+        """Cord cross-section per mm of ply width, all plies (mm^2/mm)."""
+        return self.plies * math.pi * self.diameter**2 / 4.0 / self.spacing
+
+    def membrane_stiffness(self) -> tuple[float, float]:
+        """Netting-theory membrane stiffness (N/mm) ``(circumferential, meridional)``."""
+        ea = self.modulus * 1e3 * self.area_per_width  # GPa -> MPa
+        c, s = math.cos(math.radians(self.angle)), math.sin(math.radians(self.angle))
+        return ea * c**4, ea * s**4
+
+
+def _polyester_carcass() -> Cords:
+    return Cords(modulus=4.0, diameter=0.8, spacing=1.2, angle=90.0, plies=2)
+
+
+def _steel_belts() -> Cords:
+    return Cords(modulus=150.0, diameter=0.8, spacing=1.5, angle=20.0, plies=2)
+
+
+@dataclass(frozen=True)
+class Reinforcement:
+    """Carcass cords (bead to bead, every region) and belts (under the tread only).
+
+    Defaults: two radial polyester carcass plies and two steel belts at +-20 degrees,
+    typical of a radial tyre of this size (Clark 1981, ch. 1).
+    """
+
+    _prefix: ClassVar[str] = "reinforcement"
+    carcass: Cords = field(default_factory=_polyester_carcass)
+    belt: Cords = field(default_factory=_steel_belts)
+
+    def __post_init__(self) -> None:
+        for name in ("carcass", "belt"):
+            if not isinstance(getattr(self, name), Cords):
+                raise SpecError(f"reinforcement.{name} must be a cord layer, "
+                                f"got {getattr(self, name)!r}")
