@@ -1,6 +1,13 @@
 """Nelder-Mead (thesis) vs least squares with parallel Jacobian columns, ideal inverse case.
 
 Run: .venv/bin/python benchmarks/bench_inverse.py [--quick] [--workers 2]
+     .venv/bin/python benchmarks/bench_inverse.py --study [--coarse] [--workers 2]
+
+``--study`` is the other benchmark (issue 16): the chapter-4 study of ``farm reproduce
+--quick`` (``--coarse``: on its test-sized mesh), run twice in one process, with
+``jacobian = "full"`` (a finite-difference Jacobian at every accepted point) and with
+the reproduction's Jacobian reuse, each with a fresh evaluation cache; see
+:mod:`benchmarks.bench_inverse_study`.
 
 The thesis' ideal case (§4.3): the reduced model at 30 mm, no noise, initial guess 90 %
 of the true nodal forces, displacement objective (eq. 4.1). Both optimisers run on the
@@ -118,7 +125,17 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--materials", default="thesis-calibrated")
     parser.add_argument("--nm-budget", type=int, default=None)
+    parser.add_argument("--study", action="store_true",
+                        help="the quick chapter-4 study, full vs reused Jacobians")
+    parser.add_argument("--coarse", action="store_true", help="--study on the coarse mesh")
+    parser.add_argument("--jacobians", default="full,shared",
+                        help="--study: the Jacobian modes to run, comma-separated")
     args = parser.parse_args()
+    if args.study:
+        from bench_inverse_study import compare
+
+        compare(args.coarse, args.workers, tuple(args.jacobians.split(",")))
+        return
     with tempfile.TemporaryDirectory() as tmp:
         study = parse_inverse_study(STUDY.format(
             tmp=tmp, materials=args.materials, mesh=COARSE if args.quick else "",

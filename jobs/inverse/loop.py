@@ -8,9 +8,11 @@ the forward evaluation at its final x, from which Tables 4.1-4.4 are computed.
 
 from __future__ import annotations
 
+import threading
 import time
+import weakref
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -24,6 +26,8 @@ from jobs.inverse.problem import Problem
 from jobs.inverse.study import Condition, InverseStudy, OptimizerSettings
 from jobs.loops import optimizers
 from jobs.loops.evaluator import Evaluator, Interrupted, LoopStats
+from jobs.loops.jacobians import JacobianStore, fd_jacobian, fd_points
+from jobs.loops.secant import Shared, secant_least_squares
 
 
 @dataclass(frozen=True)
@@ -113,8 +117,8 @@ def run_loop(study: InverseStudy, problem: Problem, spec: LoopSpec, evaluator: E
     seed = loop_seed(study, spec)
     probe = _objective(study, problem, spec, seed, mask, 1.0)
     x0 = initial_guess(problem, spec.condition, seed, probe, evaluator, state.stats)
-    objective = _objective(study, problem, spec, seed, mask,
-                           max(float(np.mean(np.abs(x0))), 1e-9))
+    scale = max(float(np.mean(np.abs(x0))), 1e-9)
+    objective = _objective(study, problem, spec, seed, mask, scale)
     xs: list[np.ndarray] = []
     fs: list[float] = []
 
@@ -129,7 +133,9 @@ def run_loop(study: InverseStudy, problem: Problem, spec: LoopSpec, evaluator: E
         state.best = float(np.min(fs))
         return out
 
-    outcome = _optimise(spec.optimizer, batch, x0, stop)
+    shared = (_shared_jacobians(study, problem, spec, evaluator, state, mask, scale)
+              if spec.optimizer.jacobian == "shared" else None)
+    outcome = _optimise(spec.optimizer, batch, x0, stop, shared)
     last = evaluator.run([problem.forward_evaluation(outcome.x)], state.stats)[0]
     final = None if isinstance(last, Failed) else last.measurement
     status = "failed" if final is None else outcome.status
@@ -144,16 +150,88 @@ def run_loop(study: InverseStudy, problem: Problem, spec: LoopSpec, evaluator: E
 GTOL_OFF = 1e-15
 
 
-def _optimise(opt: OptimizerSettings, batch, x0: np.ndarray, stop) -> optimizers.Outcome:
+def _optimise(opt: OptimizerSettings, batch, x0: np.ndarray, stop,
+              shared: Shared | None = None) -> optimizers.Outcome:
     if opt.name == "nelder-mead":
         return optimizers.nelder_mead(batch, x0, max_evaluations=opt.max_evaluations,
                                       xatol=opt.xatol, fatol=opt.fatol, stop=stop)
+    if opt.jacobian != "full":  # Jacobian reuse (jobs.loops.secant, docs/inverse.md)
+        return secant_least_squares(batch, x0, max_evaluations=opt.max_evaluations,
+                                    fd_step=opt.fd_step, ftol=opt.tolerance,
+                                    xtol=opt.tolerance, stop=stop, shared=shared,
+                                    radius=opt.jacobian_radius if shared else 0.0)
     # No gradient test (gtol): it is not scale-free, and strain residuals (~1e-3) have a
     # gradient below any useful gtol at the start - a reproduction run with gtol = 1e-5
     # stopped every strain solve at its initial guess. Stop on ftol/xtol only.
     return optimizers.least_squares(batch, x0, max_evaluations=opt.max_evaluations,
                                     fd_step=opt.fd_step, ftol=opt.tolerance,
                                     xtol=opt.tolerance, gtol=GTOL_OFF, stop=stop)
+
+
+_STORES: weakref.WeakKeyDictionary[Problem, JacobianStore] = weakref.WeakKeyDictionary()
+_STORES_LOCK = threading.Lock()  # the loops of a run start side by side
+
+
+def jacobian_store(problem: Problem) -> JacobianStore:
+    """The Jacobians shared by every loop of ``problem`` (one per run of a study)."""
+    with _STORES_LOCK:
+        return _STORES.setdefault(problem, JacobianStore())
+
+
+# Initial guesses every loop can recompute for free (no solver run): the anchors
+CHEAP_GUESSES = ("scaled", "uniform")
+
+
+def _shared_jacobians(study: InverseStudy, problem: Problem, spec: LoopSpec,
+                      evaluator: Evaluator, state: LoopState, mask, scale: float) -> Shared:
+    """Full Jacobians shared by the loops of a study, deterministically.
+
+    They are computed only at anchors: the start points of the study's loops with the
+    same method and optimiser (those with a guess that costs no solver run), which
+    every loop recomputes itself; a loop is served the anchor nearest its point
+    within ``jacobian_radius`` x ||x||, and it computes its own elsewhere. A Jacobian
+    at an anchor is differenced against the noise-free reference (noise only shifts
+    the target), so it is the same bits whichever loop computed it: a loop's path does
+    not depend on which loop got there first, and a re-run replays from the cache.
+    Its evaluations cost the loop's budget nothing (they are in its stats).
+    """
+    opt = spec.optimizer
+    anchors: list[np.ndarray] = []
+    for other in expand_loops(study):
+        if (other.method, other.optimizer) != (spec.method, opt) or \
+                other.condition.initial not in CHEAP_GUESSES:
+            continue
+        seed = loop_seed(study, other)
+        a = initial_guess(problem, other.condition, seed,
+                          _objective(study, problem, other, seed, mask, 1.0), evaluator,
+                          LoopStats())
+        if not any(np.array_equal(a, b) for b in anchors):
+            anchors.append(a)
+    clean = _objective(study, problem, replace(spec, condition=replace(
+        spec.condition, noise=False)), loop_seed(study, spec), mask, scale)
+    key = (spec.method, clean.mask.tobytes(), clean.reg.tobytes(), opt.fd_step)
+    store = jacobian_store(problem)
+    step = np.full(problem.n, opt.fd_step)
+
+    def at(anchor: np.ndarray) -> np.ndarray:
+        h, points = fd_points(anchor, step, np.full(problem.n, np.inf))
+        results = evaluator.run([problem.forward_evaluation(p) for p in [anchor, *points]],
+                                state.stats)
+        r = [clean.residuals(res, p, 0) for p, res in zip([anchor, *points], results,
+                                                          strict=True)]
+        return fd_jacobian(r[0], r[1:], h)
+
+    def shared(x: np.ndarray):
+        limit = opt.jacobian_radius * float(np.linalg.norm(x))
+        near = [(float(np.linalg.norm(a - x)), k) for k, a in enumerate(anchors)]
+        near = [d_k for d_k in near if d_k[0] <= limit]
+        if not near:
+            return None
+        anchor = anchors[min(near)[1]]
+        jac, origin, _ = store.get_or_compute(key, anchor, 0.0, lambda: at(anchor))
+        return jac, origin
+
+    return shared
 
 
 __all__ = ["Interrupted", "LoopResult", "LoopSpec", "LoopState", "expand_loops", "run_loop"]

@@ -31,6 +31,8 @@
     fd_step_n = 0.25
     regularisation = "none"               # or "tikhonov", "smoothness"
     weight = 0.0
+    jacobian = "shared"                   # or "broyden", "full" (docs/inverse.md)
+    jacobian_radius = 0.1                 # "shared": reuse within 10 % of ||x||
 
     [mask]                                # optional: keep informative nodes only
     eigen_vectors = "pca/eigen_vectors.csv"   # from `farm analyse pca --out pca`
@@ -68,6 +70,9 @@ OPTIMIZERS = ("nelder-mead", "least-squares")
 INITIALS = ("scaled", "uniform", "offset")
 NOISE_DRAWS = ("per_evaluation", "per_solve")
 REGULARISATIONS = ("none", "tikhonov", "smoothness")
+# full: a finite-difference Jacobian at every accepted point (scipy's TRF); broyden:
+# secant updates between full ones; shared: broyden + full ones shared between loops
+JACOBIANS = ("full", "broyden", "shared")
 # Bounds of the chapter-4 settings (docs/limits.md): far beyond the thesis' values (1 mm,
 # 4e-4, a 0.9 guess, 4 N), short of numbers no measurement or optimiser could mean.
 MAX_NOISE_MM = 100.0
@@ -108,6 +113,8 @@ class OptimizerSettings:
     regularisation: str = "none"
     weight: float = 0.0
     tolerance: float = 1e-8
+    jacobian: str = "shared"
+    jacobian_radius: float = 0.1
 
 
 @dataclass(frozen=True)
@@ -203,7 +210,8 @@ def _optimizer(name: str, data: Any) -> OptimizerSettings:
         raise v.fail(where, f"unknown optimiser; choose {', '.join(OPTIMIZERS)}")
     lsq = name == "least-squares"
     keys = {"max_evaluations", "noise_draw"} | ({"fd_step_n", "regularisation", "weight",
-                                                 "tolerance"} if lsq else {"xatol", "fatol"})
+                                                 "tolerance", "jacobian", "jacobian_radius"}
+                                                if lsq else {"xatol", "fatol"})
     t = v.table(data, where, keys)
     draw = v.choice(t.get("noise_draw", "per_solve" if lsq else "per_evaluation"),
                     f"{where}.noise_draw", NOISE_DRAWS)
@@ -222,7 +230,11 @@ def _optimizer(name: str, data: Any) -> OptimizerSettings:
         raise v.fail(f"{where}.weight", f"give a weight > 0 for {reg} regularisation")
     return OptimizerSettings(**common, fd_step=_positive(t, "fd_step_n", where, 0.25, MAX_FORCE_N),
                              regularisation=reg, weight=weight,
-                             tolerance=_positive(t, "tolerance", where, 1e-8, MAX_TOLERANCE))
+                             tolerance=_positive(t, "tolerance", where, 1e-8, MAX_TOLERANCE),
+                             jacobian=v.choice(t.get("jacobian", "shared"), f"{where}.jacobian",
+                                               JACOBIANS),
+                             jacobian_radius=v.number(t.get("jacobian_radius", 0.1),
+                                                      f"{where}.jacobian_radius", low=0, high=1))
 
 
 def _condition(data: Any, k: int, optimizers: tuple[str, ...]) -> Condition:

@@ -10,5 +10,7 @@ share however few workers, nothing deadlocks (DESIGN.md, "Jobs on Dask").
 - :mod:`jobs.loops.evaluator` deduplicates, submits and counts evaluations.
 - :mod:`jobs.loops.optimizers`: Nelder-Mead, and least squares with a finite-difference
   Jacobian whose columns are solved side by side on the workers.
+- :mod:`jobs.loops.secant`: least squares that reuses Jacobians (Broyden updates
+  between full ones); :mod:`jobs.loops.jacobians`: full Jacobians shared by loops.
 - the worker side (retry policy, typed results) is :mod:`jobs.guard`, shared with sweeps.
 """

@@ -4,7 +4,8 @@ The reference is the reduced model at 30 mm on the iterative road with the
 "thesis-calibrated" materials, whose 359 N is the thesis' own reference force (§4.1),
 so that forces and moments compare directly. ``quick`` solves the thesis' four
 conditions with the parallel-Jacobian least squares (§5.2/§6.2's recommendation: a few
-dozen sequential rounds instead of hundreds of serial evaluations) and two repeats of
+dozen sequential rounds instead of hundreds of serial evaluations), reusing Jacobians
+between rounds and loops (``JACOBIAN``; docs/inverse.md), and two repeats of
 each random condition (one on the test-sized ``coarse`` meshes); ``quick=False`` adds
 the thesis' own Nelder-Mead and ten repeats.
 Evaluations are cached next to the store, so a second run solves nothing.
@@ -18,6 +19,9 @@ from jobs.reproduce.options import COARSE_MESH, Options
 from jobs.reproduce.stage import Log, ProgressFor, StageRun, logger
 
 MATERIALS = "thesis-calibrated"
+# Least squares reuses Jacobians: Broyden updates between full ones, shared between
+# the loops (docs/inverse.md, "Jacobian reuse"): the same tables for fewer ccx runs
+JACOBIAN = "shared"
 
 # (name, initial guess, scale, guess sigma N, noise) - thesis §4.3-4.5
 CONDITIONS = (("ideal", "scaled", 0.9, 0.0, False), ("noise", "scaled", 0.9, 0.0, True),
@@ -25,8 +29,12 @@ CONDITIONS = (("ideal", "scaled", 0.9, 0.0, False), ("noise", "scaled", 0.9, 0.0
               ("guess-uniform", "uniform", 1.0, 4.0, True))
 
 
-def study_text(opts: Options) -> str:
-    """The inverse study of the reproduction (written next to the report)."""
+def study_text(opts: Options, jacobian: str = JACOBIAN) -> str:
+    """The inverse study of the reproduction (written next to the report).
+
+    ``jacobian``: how least squares gets its Jacobians (``full`` is the path before
+    issue 16; benchmarks/bench_inverse.py --study compares the two).
+    """
     repeats = 1 if opts.coarse else 2 if opts.quick else 10
     optimizers = ['"least-squares"'] if opts.quick else ['"nelder-mead"', '"least-squares"']
     mesh = f"[model.mesh]\n{COARSE_MESH['reduced']}\n" if opts.coarse else ""
@@ -38,7 +46,7 @@ def study_text(opts: Options) -> str:
              # ccx's .frd carries six significant digits: relative changes of the cost
              # below ~1e-5 are rounding, and polishing them cost 2-4x the rounds
              "[optimizers.least-squares]\nmax_evaluations = 200\nfd_step_n = 0.1\n"
-             "tolerance = 1e-5\n"]
+             f'tolerance = 1e-5\njacobian = "{jacobian}"\n']
     if not opts.quick:
         lines.append('[optimizers.nelder-mead]\nmax_evaluations = 600\n'
                      'noise_draw = "per_evaluation"\n')
@@ -63,7 +71,7 @@ def run(opts: Options, log: Log | None = None, progress: ProgressFor | None = No
     text = study_text(opts)
     study = parse_inverse_study(text, "ch4.toml", opts.out)
     stage.texts["ch4"], stage.studies["ch4"] = text, study
-    report = run_inverse(study, scheduler=opts.scheduler, workers=opts.workers,
+    report = run_inverse(study, cluster=opts.cluster_spec(),
                          progress=progress("ch4") if progress else None)
     stage.reports["ch4"] = report
     log(f"ch4: {report.summary()}")

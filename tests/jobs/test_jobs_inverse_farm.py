@@ -42,6 +42,7 @@ LSQ = """
 max_evaluations = 60
 fd_step_n = 0.5
 tolerance = 1e-6
+jacobian = "full"
 [[conditions]]
 name = "ideal"
 methods = ["displacement"]
