@@ -32,6 +32,12 @@ A study names a store, a model and its load cases::
     timeout_s = 1800
     max_path_length = 0               # split load paths longer than this (0: never)
 
+    [models]                          # optional: a design over [model]'s fields
+    method = "sobol"                  # grid | lhs | sobol | morris (jobs/design.py)
+    n = 8
+    [models.parameters]
+    "materials.tread.youngs_modulus" = [2.0, 12.0]
+
 Every key is checked: an unknown key, a wrong type or an out-of-range value is one
 :class:`~jobs.errors.StudyError` naming the key, the value given and what is allowed.
 Storage options reach every storage call of the client and of the workers: the study's
@@ -39,7 +45,9 @@ Storage options reach every storage call of the client and of the workers: the s
 options included. Credentials are refused there (:data:`jobs.validate.SECRET_OPTIONS`):
 they stay in the environment of the client and the workers (``AWS_ACCESS_KEY_ID``...).
 The study's experiment count is computed from its lists before anything is expanded and
-is at most :data:`jobs.validate.EXPERIMENTS` (docs/limits.md).
+is at most :data:`jobs.validate.EXPERIMENTS` (docs/limits.md); with ``[models]`` the
+design's model count times the load cases counts. Every model of a design is made and
+checked (fields, mesh size, the loads it must take) when the study is loaded.
 """
 
 from __future__ import annotations
@@ -52,6 +60,7 @@ import storage
 from farm.errors import SpecError
 from farm.specs import MAX_PRESSURE_MPA, LoadPath, ModelSpec, SolverSettings
 from jobs import validate as v
+from jobs.design import ModelsSpec, design, parse_models
 from jobs.errors import StudyError
 from jobs.identity import model_hash
 from storage.paths import describe
@@ -93,6 +102,7 @@ class Study:
     retry_smaller_increments: bool
     source: str
     storage_options: dict[str, Any] | None = field(default=None, hash=False)
+    models: ModelsSpec | None = None  # a design over model fields (jobs.design)
 
     @property
     def location(self) -> str:
@@ -101,7 +111,10 @@ class Study:
 
     @property
     def group_name(self) -> str:
-        """The group the study writes to: given, else one per model (kind + spec hash)."""
+        """The group the study writes to: given, else one per model (kind + spec hash).
+
+        A study with ``[models]`` writes one group per model of its design
+        (:func:`jobs.design.model_design`); this is then its base model's group."""
         return self.group or f"{self.model.kind}-{self.model_hash()[:10]}"
 
     def model_hash(self) -> str:
@@ -157,7 +170,8 @@ def _loads(data: Any, model: ModelSpec):
     return pressures, deflections, sampling
 
 
-def _check_count(pressures: tuple, deflections: tuple, sampling: Sampling | None) -> None:
+def _check_count(pressures: tuple, deflections: tuple, sampling: Sampling | None,
+                 models: ModelsSpec | None = None) -> None:
     """At most :data:`jobs.validate.EXPERIMENTS` experiments, counted as
     :func:`jobs.expand.load_cases` will make them: the grid, or each design point with
     every listed value of the loads it does not sample."""
@@ -166,17 +180,20 @@ def _check_count(pressures: tuple, deflections: tuple, sampling: Sampling | None
     factors += [(f"{len(values)} {name}{'s' * (len(values) != 1)}", len(values))
                 for name, values in (("pressure", pressures), ("deflection", deflections))
                 if name not in sampled and values]
+    if models is not None:
+        factors.insert(0, (f"{models.rows} models ({models.method} design)", models.rows))
     count = 1
     for _, n in factors:
         count *= n
-    v.EXPERIMENTS.check(count, "loads", " x ".join(text for text, _ in factors))
+    v.EXPERIMENTS.check(count, "models" if models else "loads",
+                        " x ".join(text for text, _ in factors))
 
 
 def parse_study(text: str, source: str = "<study>") -> Study:
     """Validate the TOML text of a study (raises :class:`StudyError`)."""
     data = v.parse_toml(text, source)
     with v.located(source):
-        v.table(data, "study file", {"study", "model", "loads", "solver"},
+        v.table(data, "study file", {"study", "model", "loads", "solver", "models"},
                 {"study", "model", "loads"})
         head = v.table(data["study"], "study", {"name", "store", "group", "storage_options"},
                        {"store"})
@@ -191,10 +208,19 @@ def parse_study(text: str, source: str = "<study>") -> Study:
         model = v.model(data["model"])
         pressures, deflections, sampling = _loads(data["loads"], model)
         solver = v.solver(data.get("solver", {}))
+        models = None
+        if "models" in data:
+            if group is not None:
+                raise v.fail("study.group", "a study with [models] writes one group per model "
+                             "(<kind>-<model hash>): drop study.group")
+            models = parse_models(data["models"], model)
+            _check_count(pressures, deflections, sampling, models)
         study = Study(name, store, group, model, pressures, deflections, sampling,
                       solver.settings, solver.max_path_length, solver.retry_smaller_increments,
-                      source, options)
+                      source, options, models)
         _check_loads(study)
+        if models is not None:
+            _check_models(study)
         return with_storage_options(study) if options else study
 
 
@@ -220,6 +246,23 @@ def _check_loads(study: Study) -> None:
             LoadPath(tuple(sorted({low, top})), p).check_against(study.model)
         except SpecError as e:
             raise StudyError(f"loads: {e}") from e
+
+
+def _check_models(study: Study) -> None:
+    """Make every model of the design (each checked by ``override_model``) and check the
+    loads against each: a thinner tread or a lower section takes less deflection."""
+    d = design(study.model, study.models)
+    first = {}
+    for k, model in enumerate(d.models):
+        first.setdefault(model, k)
+    for model, k in first.items():
+        try:
+            _check_loads(replace(study, model=model))
+        except StudyError as e:
+            row = ", ".join(f'"{name}" = {x:g}' for name, x in zip(d.names, d.matrix[k],
+                                                                    strict=True))
+            raise StudyError(f"models: row {k} of the {d.method} design ({row}) cannot "
+                             f"take the loads: {e}") from e
 
 
 def load_study(path: str | Path) -> Study:

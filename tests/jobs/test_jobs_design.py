@@ -1,0 +1,186 @@
+"""Model-space designs (issue 15): [models] tables, their matrices, models and groups."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+from SALib.sample import morris as salib_morris
+from SALib.sample import sobol as salib_sobol
+
+from farm.mesh.version import mesh_key
+from jobs.design import model_design
+from jobs.errors import StudyError
+from jobs.study import parse_study
+
+HEAD = """
+[study]
+name = "space"
+store = "space.zarr"
+
+[model]
+kind = "reduced"
+road = "contact"
+[model.mesh]
+tread = 4
+sidewall = 2
+bead = 1
+circumferential = 8
+
+[loads]
+deflection_mm = [10, 20]
+"""
+
+
+def study(models: str, head: str = HEAD):
+    return parse_study(head + models, "space.toml")
+
+
+SOBOL = """
+[models]
+method = "sobol"
+n = 8
+seed = 3
+[models.parameters]
+"materials.tread.youngs_modulus" = [2.0, 12.0]
+"geometry.sidewall_thickness" = [8.0, 12.0]
+"""
+
+
+def test_sobol_rows_are_salibs_saltelli_design_in_its_order():
+    d = model_design(study(SOBOL))
+    assert d.method == "sobol" and d.names == ("materials.tread.youngs_modulus",
+                                               "geometry.sidewall_thickness")
+    assert d.matrix.shape == (8 * (2 + 2), 2)  # N (D + 2), calc_second_order=False
+    salib = salib_sobol.sample(d.problem(), 8, calc_second_order=False, seed=3)
+    np.testing.assert_allclose(d.matrix, salib, atol=1e-9)
+    assert d.problem() == {"num_vars": 2, "names": list(d.names),
+                           "bounds": [[2.0, 12.0], [8.0, 12.0]]}
+
+
+def test_each_row_is_a_model_with_the_rows_values_and_its_own_group():
+    s = study(SOBOL)
+    d = model_design(s)
+    for row, model, group in zip(d.matrix, d.models, d.groups, strict=True):
+        assert model.materials.tread.youngs_modulus == row[0]
+        assert model.geometry.sidewall_thickness == row[1]
+        assert model.materials.sidewall == s.model.materials.sidewall  # the rest is [model]'s
+        assert group == dataclasses.replace(s, model=model).group_name
+    # Saltelli's A/B/AB rows repeat values; equal models (and only they) share a group
+    pairs = set(zip(d.models, d.groups, strict=True))
+    assert len({m for m, _ in pairs}) == len({g for _, g in pairs}) == len(pairs)
+
+
+def test_the_same_file_gives_the_same_design_and_another_seed_another():
+    a, b = model_design(study(SOBOL)), model_design(study(SOBOL))
+    np.testing.assert_array_equal(a.matrix, b.matrix)
+    assert a.groups == b.groups
+    other = model_design(study(SOBOL.replace("seed = 3", "seed = 4")))
+    assert not np.array_equal(a.matrix, other.matrix)
+
+
+def test_material_only_variants_share_one_mesh_geometry_variants_do_not():
+    materials = model_design(study(SOBOL.replace(
+        '"geometry.sidewall_thickness" = [8.0, 12.0]',
+        '"materials.sidewall.youngs_modulus" = [5.0, 20.0]')))
+    assert len(set(materials.groups)) > 1
+    assert len({mesh_key(m) for m in materials.models}) == 1
+    geometry = model_design(study(SOBOL))
+    assert len({mesh_key(m) for m in geometry.models}) == len(
+        {m.geometry for m in geometry.models}) > 1
+
+
+def test_lhs_and_morris_row_counts_and_morris_steps_move_one_parameter():
+    lhs = model_design(study(SOBOL.replace('"sobol"', '"lhs"').replace("n = 8", "n = 5")))
+    assert lhs.matrix.shape == (5, 2)
+    # a Latin hypercube: one point in each of n strata per parameter
+    for j, (low, high) in enumerate(lhs.bounds):
+        strata = np.floor((lhs.matrix[:, j] - low) / (high - low) * 5)
+        assert sorted(strata) == [0, 1, 2, 3, 4]
+    text = SOBOL.replace('"sobol"', '"morris"').replace("n = 8", "n = 3") + \
+        '"mesh.circumferential" = { levels = [8, 12, 16, 20] }\n'
+    m = model_design(study(text))
+    assert m.matrix.shape == (3 * (3 + 1), 3)
+    salib = salib_morris.sample({"num_vars": 3, "names": list(m.names),
+                                 "bounds": [[2, 12], [8, 12], [0, 1]]}, 3, seed=3)
+    np.testing.assert_allclose(m.matrix[:, :2], salib[:, :2], atol=1e-9)
+    for t in range(3):  # within a trajectory every step changes exactly one parameter
+        steps = np.diff(m.matrix[t * 4:(t + 1) * 4], axis=0)
+        assert ((steps != 0).sum(axis=1) == 1).all()
+    assert {mod.mesh.circumferential for mod in m.models} <= {8, 12, 16, 20}
+    assert [mod.mesh.circumferential for mod in m.models] == list(m.matrix[:, 2])
+
+
+def test_grid_takes_every_combination_of_lists_ranges_and_text_levels():
+    d = model_design(study("""
+[models]
+method = "grid"
+[models.parameters]
+"contact.clearance" = { start = 0.25, stop = 0.75, step = 0.25 }
+"mesh.circumferential" = [8, 12]
+"cut_faces" = ["free", "fixed"]
+"""))
+    assert d.matrix.shape == (3 * 2 * 2, 3)
+    assert {(m.contact.clearance, m.mesh.circumferential, m.cut_faces) for m in d.models} == {
+        (c, n, f) for c in (0.25, 0.5, 0.75) for n in (8, 12) for f in ("free", "fixed")}
+    assert set(d.matrix[:, 2]) == {0.0, 1.0}  # text levels: their index
+    assert len(set(d.groups)) == 12
+
+
+def test_integer_levels_are_sampled_by_index_evenly():
+    d = model_design(study(SOBOL.replace('"sobol"', '"lhs"').replace("n = 8", "n = 30")
+                           + '"mesh.sidewall" = { levels = [1, 2, 3] }\n'))
+    counts = np.unique(d.matrix[:, 2], return_counts=True)
+    assert counts[0].tolist() == [1, 2, 3] and counts[1].tolist() == [10, 10, 10]
+
+
+@pytest.mark.parametrize("parameters, where, expected", [
+    ('"materials.tread.youngs" = [1.0, 2.0]', '"materials.tread.youngs"', "names no model field"),
+    ('"kind" = { levels = ["full"] }', '"kind"', "one model kind"),
+    ('"mesh.circumferential" = [8, 16]', '"mesh.circumferential"', "levels"),
+    ('"materials.tread" = [1.0, 2.0]', '"materials.tread"', "youngs_modulus"),
+    ('"reinforcement.belt.modulus" = [1.0, 2.0]', "reinforcement", "cord-reinforced"),
+    ('"materials.tread.youngs_modulus" = [3.0, 2.0]', "youngs_modulus", "low < high"),
+])
+def test_bad_parameters_are_one_error_naming_them(parameters, where, expected):
+    with pytest.raises(StudyError) as e:
+        study(f'[models]\nmethod = "lhs"\nn = 4\n[models.parameters]\n{parameters}\n')
+    assert where in str(e.value) and expected in str(e.value)
+
+
+def test_a_row_the_model_rejects_names_parameter_value_and_range():
+    with pytest.raises(StudyError) as e:  # walls thicker than a quarter of the section
+        study('[models]\nmethod = "lhs"\nn = 8\n[models.parameters]\n'
+              '"geometry.tread_thickness" = [10.0, 60.0]\n')
+    text = str(e.value)
+    assert '"geometry.tread_thickness" = ' in text and "range [10, 60]" in text
+    assert "row " in text and "quarter" in text
+
+
+def test_a_model_that_cannot_take_the_loads_is_refused_before_anything_runs():
+    with pytest.raises(StudyError, match=r"cannot take the loads.*reaches through"):
+        study('[models]\nmethod = "grid"\n[models.parameters]\n'
+              '"geometry.section_height" = [196.0, 160.0]\n',  # 150 mm > 160 - 20 (tread)
+              HEAD.replace("[10, 20]", "[10, 150]"))
+
+
+def test_models_times_load_cases_count_against_the_experiment_limit(monkeypatch):
+    monkeypatch.setenv("FARM_MAX_EXPERIMENTS", "60")
+    study(SOBOL.replace("n = 8", "n = 4"))  # 16 models x 2 deflections = 32
+    with pytest.raises(StudyError,
+                       match=r"32 models \(sobol design\) x 1 pressure x 2 deflections is 64"):
+        study(SOBOL)
+
+
+def test_sobol_needs_a_power_of_two_and_grid_no_n_and_no_study_group():
+    with pytest.raises(StudyError, match="power of 2"):
+        study(SOBOL.replace("n = 8", "n = 6"))
+    with pytest.raises(StudyError, match=r"models\.n"):
+        study(SOBOL.replace('"sobol"', '"grid"'))
+    with pytest.raises(StudyError, match=r"study\.group"):
+        study(SOBOL, HEAD.replace('store = "space.zarr"', 'store = "space.zarr"\ngroup = "g"'))
+
+
+def test_a_study_without_models_has_no_design():
+    assert model_design(study("")) is None
