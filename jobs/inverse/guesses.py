@@ -7,7 +7,12 @@
 - ``offset``: the thickness-offset guess (§5.2, §6.2): the measured (noisy, when the
   condition has noise) inner surface offset by the wall thickness gives the outer
   surface; its vertical displacement prescribed on the unknown nodes gives reaction
-  forces (one ccx run, :func:`farm.solve.forces.offset_outer_uz`), + N(0, σ).
+  forces (one ccx run, :func:`farm.solve.forces.offset_outer_uz`), + N(0, σ);
+- ``distribution``: the statistical "tyre distribution" of §6.2
+  (:mod:`jobs.inverse.distribution`), trained on a sweep group of the same mesh: its
+  normalised force map at the reference deflection on the unknowns, times the uniform
+  guess' total (Fz_ref x ``scale``), so that it differs from ``uniform`` in shape only;
+  + N(0, σ). No solver run.
 
 Random parts are seeded by the loop's (study seed, condition, repeat), the same for
 every method and optimiser of a repeat, so that they start from the same point.
@@ -22,6 +27,7 @@ import numpy as np
 from farm.solve.forces import offset_outer_uz
 from jobs.errors import JobError
 from jobs.guard import Failed
+from jobs.inverse.distribution import TyreDistribution, guess_from
 from jobs.inverse.objective import Objective
 from jobs.inverse.problem import Problem
 from jobs.inverse.study import Condition
@@ -37,8 +43,10 @@ def guess_stream(seed: Sequence[int]) -> list[int]:
 
 
 def initial_guess(problem: Problem, condition: Condition, seed: Sequence[int],
-                  objective: Objective, evaluator: Evaluator, stats: LoopStats) -> np.ndarray:
-    """x0 of one loop, shape (n,), N."""
+                  objective: Objective, evaluator: Evaluator, stats: LoopStats,
+                  distribution: TyreDistribution | None = None) -> np.ndarray:
+    """x0 of one loop, shape (n,), N (``distribution``: the trained model, for
+    ``initial = "distribution"``)."""
     rng = np.random.default_rng(guess_stream(seed))
     jitter = rng.normal(0.0, condition.guess_sigma, problem.n) if condition.guess_sigma else 0.0
     if condition.initial == "scaled":
@@ -46,6 +54,12 @@ def initial_guess(problem: Problem, condition: Condition, seed: Sequence[int],
     elif condition.initial == "uniform":
         total = float(problem.reference.total_force[2])
         base = np.full(problem.n, condition.scale * total / problem.n)
+    elif condition.initial == "distribution":
+        if distribution is None:
+            raise GuessError("initial = \"distribution\" without a trained distribution")
+        total = float(problem.reference.total_force[2])
+        base = guess_from(distribution, problem.mesh.tread_nodes, problem.nodes,
+                          {"deflection": problem.deflection}, condition.scale * total)
     else:
         base = offset_guess(problem, objective, evaluator, stats)
     return base + jitter

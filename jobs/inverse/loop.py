@@ -20,9 +20,11 @@ from farm.measure.measurement import Measurement
 from farm.specs import content_hash
 from jobs.guard import Failed
 from jobs.identity import value_key
+from jobs.inverse.distribution import TyreDistribution
 from jobs.inverse.guesses import initial_guess
 from jobs.inverse.objective import Objective, field_rmse
 from jobs.inverse.problem import Problem
+from jobs.inverse.regularisation import discrepancy_weight, expected_noise_norm
 from jobs.inverse.study import Condition, InverseStudy, OptimizerSettings
 from jobs.loops import optimizers
 from jobs.loops.evaluator import Evaluator, Interrupted, LoopStats
@@ -58,9 +60,16 @@ def loop_seed(study: InverseStudy, spec: LoopSpec) -> list[int]:
 
 def loop_id(study: InverseStudy, spec: LoopSpec) -> str:
     """Content hash of a loop: the problem and everything about this solve."""
-    return value_key({"problem": study.problem_hash(), "seed": loop_seed(study, spec),
-                      "condition": vars(spec.condition) | {"repeats": None},
-                      "method": spec.method, "optimizer": vars(spec.optimizer)})
+    optimizer = vars(spec.optimizer).copy()
+    for name, default in (("weight_rule", "fixed"), ("discrepancy", 1.0)):
+        if optimizer[name] == default:  # settings added later: old loops keep their ids
+            del optimizer[name]
+    body = {"problem": study.problem_hash(), "seed": loop_seed(study, spec),
+            "condition": vars(spec.condition) | {"repeats": None},
+            "method": spec.method, "optimizer": optimizer}
+    if spec.condition.initial == "distribution":
+        body["distribution"] = vars(study.distribution)
+    return value_key(body)
 
 
 @dataclass
@@ -99,26 +108,38 @@ class LoopResult:
     rmse: dict
     stats: LoopStats
     wall_seconds: float
+    weight: float = 0.0  # the regularisation weight λ the loop used
+
 
 
 def _objective(study: InverseStudy, problem: Problem, spec: LoopSpec, seed,
-               mask: np.ndarray | None, scale: float) -> Objective:
+               mask: np.ndarray | None, scale: float, weight: float | None = None
+               ) -> Objective:
     opt = spec.optimizer
+    weight = opt.weight if weight is None else weight
     return Objective(problem, spec.method, study.noise if spec.condition.noise else None,
-                     opt.noise_draw, seed, mask, (opt.regularisation, opt.weight, scale))
+                     opt.noise_draw, seed, mask, (opt.regularisation, weight, scale))
 
 
 def run_loop(study: InverseStudy, problem: Problem, spec: LoopSpec, evaluator: Evaluator,
              state: LoopState, mask: np.ndarray | None = None,
-             stop: Callable[[np.ndarray, float], bool] | None = None) -> LoopResult:
-    """Run one loop to its end; raises :class:`Interrupted` if the run shuts down."""
+             stop: Callable[[np.ndarray, float], bool] | None = None,
+             distribution: TyreDistribution | None = None) -> LoopResult:
+    """Run one loop to its end; raises :class:`Interrupted` if the run shuts down.
+
+    ``distribution``: the trained "tyre distribution", for ``initial = "distribution"``.
+    """
     start = time.perf_counter()
     state.status = "running"
     seed = loop_seed(study, spec)
     probe = _objective(study, problem, spec, seed, mask, 1.0)
-    x0 = initial_guess(problem, spec.condition, seed, probe, evaluator, state.stats)
+    x0 = initial_guess(problem, spec.condition, seed, probe, evaluator, state.stats,
+                       distribution)
     scale = max(float(np.mean(np.abs(x0))), 1e-9)
-    objective = _objective(study, problem, spec, seed, mask, scale)
+    weight = spec.optimizer.weight
+    if spec.optimizer.weight_rule == "discrepancy":
+        weight = _discrepancy(study, problem, spec, seed, mask, scale, x0, evaluator, state)
+    objective = _objective(study, problem, spec, seed, mask, scale, weight)
     xs: list[np.ndarray] = []
     fs: list[float] = []
 
@@ -133,18 +154,51 @@ def run_loop(study: InverseStudy, problem: Problem, spec: LoopSpec, evaluator: E
         state.best = float(np.min(fs))
         return out
 
-    shared = (_shared_jacobians(study, problem, spec, evaluator, state, mask, scale)
+    shared = (_shared_jacobians(study, problem, spec, evaluator, state, mask, scale, weight)
               if spec.optimizer.jacobian == "shared" else None)
     outcome = _optimise(spec.optimizer, batch, x0, stop, shared)
     last = evaluator.run([problem.forward_evaluation(outcome.x)], state.stats)[0]
     final = None if isinstance(last, Failed) else last.measurement
     status = "failed" if final is None else outcome.status
     message = last.reason if final is None else outcome.message
+    if spec.optimizer.weight_rule == "discrepancy":  # stored with the solve (the report reads it)
+        message = f"{WEIGHT_TAG} {weight:.6g}; {message}"
     state.status = status
     return LoopResult(spec, loop_id(study, spec), x0, outcome.x, outcome.objective, status,
                       message, np.array(xs).reshape(-1, problem.n), np.array(fs), final,
                       {} if final is None else field_rmse(final, problem.reference),
-                      state.stats, time.perf_counter() - start)
+                      state.stats, time.perf_counter() - start, weight)
+
+
+#: How a solve's message records the weight the discrepancy principle chose.
+WEIGHT_TAG = "discrepancy weight"
+
+
+def _discrepancy(study: InverseStudy, problem: Problem, spec: LoopSpec, seed, mask,
+                 scale: float, x0: np.ndarray, evaluator: Evaluator, state: LoopState
+                 ) -> float:
+    """λ by the discrepancy principle on the linearisation at x0 (jobs.inverse.regularisation).
+
+    The Jacobian's points are x0 and its forward-difference columns, the very points the
+    optimiser's first full Jacobian evaluates: they are solved once (the evaluator
+    caches them), so choosing λ costs no extra solver run. No noise: λ = 0.
+    """
+    if not spec.condition.noise:
+        return 0.0
+    data = _objective(study, problem, spec, seed, mask, scale, 0.0)
+    h, points = fd_points(x0, np.full(problem.n, spec.optimizer.fd_step),
+                          np.full(problem.n, np.inf))
+    results = evaluator.run([problem.forward_evaluation(p) for p in [x0, *points]],
+                            state.stats)
+    r = [data.data_residuals(res.measurement, 0) if not isinstance(res, Failed) else None
+         for res in results]
+    if any(v is None for v in r):
+        return spec.optimizer.weight  # a failed column: no linearisation to choose on
+    reg = _objective(study, problem, spec, seed, mask, scale, 1.0).reg
+    noise = study.noise
+    delta = expected_noise_norm(spec.method, noise.displacement, noise.strain, data.n_nodes)
+    return discrepancy_weight(fd_jacobian(r[0], r[1:], h), r[0], reg, x0, delta,
+                              spec.optimizer.discrepancy)
 
 
 GTOL_OFF = 1e-15
@@ -183,7 +237,8 @@ CHEAP_GUESSES = ("scaled", "uniform")
 
 
 def _shared_jacobians(study: InverseStudy, problem: Problem, spec: LoopSpec,
-                      evaluator: Evaluator, state: LoopState, mask, scale: float) -> Shared:
+                      evaluator: Evaluator, state: LoopState, mask, scale: float,
+                      weight: float) -> Shared:
     """Full Jacobians shared by the loops of a study, deterministically.
 
     They are computed only at anchors: the start points of the study's loops with the
@@ -208,7 +263,7 @@ def _shared_jacobians(study: InverseStudy, problem: Problem, spec: LoopSpec,
         if not any(np.array_equal(a, b) for b in anchors):
             anchors.append(a)
     clean = _objective(study, problem, replace(spec, condition=replace(
-        spec.condition, noise=False)), loop_seed(study, spec), mask, scale)
+        spec.condition, noise=False)), loop_seed(study, spec), mask, scale, weight)
     key = (spec.method, clean.mask.tobytes(), clean.reg.tobytes(), opt.fd_step)
     store = jacobian_store(problem)
     step = np.full(problem.n, opt.fd_step)
@@ -234,4 +289,5 @@ def _shared_jacobians(study: InverseStudy, problem: Problem, spec: LoopSpec,
     return shared
 
 
-__all__ = ["Interrupted", "LoopResult", "LoopSpec", "LoopState", "expand_loops", "run_loop"]
+__all__ = ["WEIGHT_TAG", "Interrupted", "LoopResult", "LoopSpec", "LoopState", "expand_loops",
+           "run_loop"]

@@ -18,6 +18,12 @@ import numpy as np
 from farm.mesh import mesh_for
 from jobs.cluster import ClusterSpec
 from jobs.driver import LoopThreads, Progress, RunReport, Session, drive
+from jobs.inverse.distribution import (
+    TyreDistribution,
+    check_mesh,
+    fit_distribution,
+    training_set,
+)
 from jobs.inverse.loop import LoopResult, LoopState, expand_loops, run_loop
 from jobs.inverse.mask import masks_for
 from jobs.inverse.problem import Problem, build_problem
@@ -57,8 +63,10 @@ class Inverse(LoopThreads):
         super().__init__(study.cache)
         self.study, self.write = study, write
         self.specs = expand_loops(study)
-        self.masks = masks_for(study.mask, mesh_for(study.model).inner_nodes,
+        mesh = mesh_for(study.model)
+        self.masks = masks_for(study.mask, mesh.inner_nodes,
                                {m for c in study.conditions for m in c.methods})  # bad input: now
+        self.distribution = train_distribution(study, mesh)  # likewise: before anything runs
         self.states = [LoopState(s.label, s.optimizer.max_evaluations) for s in self.specs]
         self.report = InverseReport(study)
         self._results: dict[int, LoopResult] = {}
@@ -66,7 +74,8 @@ class Inverse(LoopThreads):
     def loops(self, session: Session) -> list[Callable[[], LoopResult]]:
         study, ev = self.study, self.evaluator
         self.report.problem = problem = build_problem(study, ev, session.solver)
-        return [lambda s=s, st=st: run_loop(study, problem, s, ev, st, self.masks.get(s.method))
+        return [lambda s=s, st=st: run_loop(study, problem, s, ev, st, self.masks.get(s.method),
+                                            distribution=self.distribution)
                 for s, st in zip(self.specs, self.states, strict=True)]
 
     def collected(self, index: int, result, error) -> None:
@@ -89,6 +98,19 @@ class Inverse(LoopThreads):
         if self.write and report.results:
             write_results(self.study, report.problem, report.results)
         return report
+
+
+def train_distribution(study: InverseStudy, mesh) -> TyreDistribution | None:
+    """The "tyre distribution" of the study's ``[distribution]`` group, trained now (None
+    when no condition uses it). A missing or unsuitable group is one StudyError."""
+    spec = study.distribution
+    if spec is None or all(c.initial != "distribution" for c in study.conditions):
+        return None
+    data = training_set(spec.store, spec.group)
+    check_mesh(data, mesh.tread_nodes, mesh.xyz(mesh.tread_nodes))
+    return fit_distribution(data, n_components=spec.components, degree=spec.degree,
+                            exclude={"deflection": study.deflection},
+                            within=spec.exclude_within)
 
 
 def run_inverse(study: InverseStudy, *, scheduler: str | None = None,

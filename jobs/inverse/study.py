@@ -30,7 +30,8 @@
     max_evaluations = 200
     fd_step_n = 0.25
     regularisation = "none"               # or "tikhonov", "smoothness"
-    weight = 0.0
+    weight = 0.0                          # λ, or "discrepancy": each loop picks its own
+    discrepancy = 1.0                     # τ: residual norm = τ x expected noise norm
     jacobian = "shared"                   # or "broyden", "full" (docs/inverse.md)
     jacobian_radius = 0.1                 # "shared": reuse within 10 % of ||x||
 
@@ -38,11 +39,18 @@
     eigen_vectors = "pca/eigen_vectors.csv"   # from `farm analyse pca --out pca`
     keep = 0.5
 
+    [distribution]                        # for initial = "distribution" (§6.2)
+    store = "results/thesis.zarr"         # a sweep group of the same mesh
+    group = "reduced-table-3.1-default"
+    components = 3                        # PCA modes of the normalised force maps
+    degree = 2                            # polynomial in the load parameters
+    exclude_within_mm = 0.5               # leave out training loads this near the reference
+
     [[conditions]]                        # default: the thesis' four (§4.3-4.5)
     name = "ideal"
     methods = ["displacement", "strain"]  # eq. 4.1, eq. 4.2, or "combined"
     noise = false
-    initial = "scaled"                    # or "uniform", "offset"
+    initial = "scaled"                    # or "uniform", "offset", "distribution"
     scale = 0.9
     guess_sigma_n = 0.0
     repeats = 1
@@ -67,7 +75,9 @@ from storage.paths import describe
 
 METHODS = ("displacement", "strain", "combined")
 OPTIMIZERS = ("nelder-mead", "least-squares")
-INITIALS = ("scaled", "uniform", "offset")
+INITIALS = ("scaled", "uniform", "offset", "distribution")
+# weight = λ, or "discrepancy": the loop chooses λ (jobs/inverse/regularisation.py)
+WEIGHT_RULES = ("fixed", "discrepancy")
 NOISE_DRAWS = ("per_evaluation", "per_solve")
 REGULARISATIONS = ("none", "tikhonov", "smoothness")
 # full: a finite-difference Jacobian at every accepted point (scipy's TRF); broyden:
@@ -101,7 +111,9 @@ class OptimizerSettings:
     least-squares optimiser needs ``per_solve``: a finite-difference Jacobian of a
     target that is redrawn between its columns would be noise over the step.
     ``fd_step`` (N) is the forward-difference step; ``weight`` the regularisation
-    weight λ (see :mod:`jobs.inverse.objective`).
+    weight λ (see :mod:`jobs.inverse.objective`), or, with ``weight_rule =
+    "discrepancy"``, chosen by each loop so that its linearised data residual matches
+    ``discrepancy`` x the expected noise norm (:mod:`jobs.inverse.regularisation`).
     """
 
     name: str
@@ -115,6 +127,8 @@ class OptimizerSettings:
     tolerance: float = 1e-8
     jacobian: str = "shared"
     jacobian_radius: float = 0.1
+    weight_rule: str = "fixed"
+    discrepancy: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -141,6 +155,17 @@ class MaskSpec:
 
 
 @dataclass(frozen=True)
+class DistributionSpec:
+    """The training group of the "tyre distribution" guess (§6.2; jobs/inverse/distribution)."""
+
+    store: str
+    group: str
+    components: int = 3
+    degree: int = 2
+    exclude_within: float = 0.5
+
+
+@dataclass(frozen=True)
 class InverseStudy:
     """A validated inverse study (units: mm, N, MPa).
 
@@ -162,6 +187,7 @@ class InverseStudy:
     settings: SolverSettings
     source: str
     storage_options: dict[str, Any] | None = field(default=None, hash=False)
+    distribution: DistributionSpec | None = None
 
     @property
     def location(self) -> str:
@@ -210,7 +236,8 @@ def _optimizer(name: str, data: Any) -> OptimizerSettings:
         raise v.fail(where, f"unknown optimiser; choose {', '.join(OPTIMIZERS)}")
     lsq = name == "least-squares"
     keys = {"max_evaluations", "noise_draw"} | ({"fd_step_n", "regularisation", "weight",
-                                                 "tolerance", "jacobian", "jacobian_radius"}
+                                                 "tolerance", "jacobian", "jacobian_radius",
+                                                 "discrepancy"}
                                                 if lsq else {"xatol", "fatol"})
     t = v.table(data, where, keys)
     draw = v.choice(t.get("noise_draw", "per_solve" if lsq else "per_evaluation"),
@@ -225,16 +252,43 @@ def _optimizer(name: str, data: Any) -> OptimizerSettings:
         return OptimizerSettings(**common, xatol=_positive(t, "xatol", where, 1e-3, MAX_TOLERANCE),
                                  fatol=_positive(t, "fatol", where, 1e-7, MAX_TOLERANCE))
     reg = v.choice(t.get("regularisation", "none"), f"{where}.regularisation", REGULARISATIONS)
-    weight = v.number(t.get("weight", 0.0), f"{where}.weight", low=0, high=MAX_WEIGHT)
-    if reg != "none" and weight == 0:
-        raise v.fail(f"{where}.weight", f"give a weight > 0 for {reg} regularisation")
+    rule, weight = _weight(t.get("weight", 0.0), f"{where}.weight")
+    if reg != "none" and weight == 0 and rule == "fixed":
+        raise v.fail(f"{where}.weight", f"give a weight > 0 or \"discrepancy\" for {reg} "
+                     "regularisation")
+    if rule == "discrepancy" and reg == "none":
+        raise v.fail(f"{where}.weight", "\"discrepancy\" chooses a regularisation weight: "
+                     "set regularisation = \"tikhonov\" or \"smoothness\"")
+    tau = _positive(t, "discrepancy", where, 1.0, MAX_SCALE)
     return OptimizerSettings(**common, fd_step=_positive(t, "fd_step_n", where, 0.25, MAX_FORCE_N),
                              regularisation=reg, weight=weight,
                              tolerance=_positive(t, "tolerance", where, 1e-8, MAX_TOLERANCE),
                              jacobian=v.choice(t.get("jacobian", "shared"), f"{where}.jacobian",
                                                JACOBIANS),
                              jacobian_radius=v.number(t.get("jacobian_radius", 0.1),
-                                                      f"{where}.jacobian_radius", low=0, high=1))
+                                                      f"{where}.jacobian_radius", low=0, high=1),
+                             weight_rule=rule, discrepancy=tau)
+
+
+def _weight(value: Any, where: str) -> tuple[str, float]:
+    """``weight``: a number λ >= 0, or "discrepancy" (the loop chooses λ)."""
+    if isinstance(value, str):
+        if value != "discrepancy":
+            raise v.fail(where, f"got {v.shown(value)}: give a number >= 0 or \"discrepancy\"")
+        return "discrepancy", 0.0
+    return "fixed", v.number(value, where, low=0, high=MAX_WEIGHT)
+
+
+def _distribution(data: Any, base: Path) -> DistributionSpec:
+    t = v.table(data, "distribution", {"store", "group", "components", "degree",
+                                       "exclude_within_mm"}, {"store", "group"})
+    return DistributionSpec(
+        store=v.store_location(t["store"], "distribution.store", base),
+        group=v.identifier(t["group"], "distribution.group"),
+        components=_count(t, "components", "distribution", 3, high=50),
+        degree=_count(t, "degree", "distribution", 2, high=4),
+        exclude_within=v.number(t.get("exclude_within_mm", 0.5), "distribution.exclude_within_mm",
+                                low=0, high=MAX_NOISE_MM))
 
 
 def _condition(data: Any, k: int, optimizers: tuple[str, ...]) -> Condition:
@@ -286,7 +340,7 @@ def _paths(head: dict, base: Path) -> tuple[str, str]:
 
 def _parse(data: dict, source: str, base: Path) -> InverseStudy:
     v.table(data, "study file", {"study", "model", "reference", "noise", "optimizers", "mask",
-                                 "conditions", "solver"}, {"study", "model"})
+                                 "conditions", "solver", "distribution"}, {"study", "model"})
     head = v.table(data["study"], "study",
                    {"name", "store", "group", "cache", "seed", "storage_options"}, {"store"})
     name = v.identifier(head.get("name", Path(source).stem), "study.name")
@@ -322,10 +376,15 @@ def _parse(data: dict, source: str, base: Path) -> InverseStudy:
     settings = v.solver(data.get("solver", {})).settings
     seed = v.integer(head.get("seed", 0), "study.seed", low=0, high=v.MAX_SEED)
     mask = _mask(data["mask"], base) if "mask" in data else None
+    distribution = _distribution(data["distribution"], base) if "distribution" in data else None
+    for k, c in enumerate(conditions):
+        if c.initial == "distribution" and distribution is None:
+            raise v.fail(f"conditions[{k}].initial", "\"distribution\" needs a [distribution] "
+                         "table naming the sweep group it is trained from (store, group)")
     options = (v.storage_options(head["storage_options"], "study.storage_options", store)
                if "storage_options" in head else None)
     study = InverseStudy(name, store, group, cache, seed, model, deflection, noise, optimizers,
-                         conditions, mask, settings, source, options)
+                         conditions, mask, settings, source, options, distribution)
     _check_deflection(study)
     if options:  # the results group is written by the client only: one store object
         study = replace(study, store=_opened(store, options))
