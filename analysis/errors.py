@@ -17,8 +17,11 @@ from storage.errors import StoreError
 __all__ = [
     "AmbiguousGroupError",
     "AnalysisError",
+    "CommonMeshError",
     "ComponentsError",
+    "DesignError",
     "EmptySelectionError",
+    "IncompleteDesignError",
     "MissingVariableError",
     "NoVarianceError",
     "NonFiniteError",
@@ -59,6 +62,14 @@ class NoVarianceError(SelectionError):
     """The outputs do not vary over the selection: variance explained is undefined."""
 
 
+class IncompleteDesignError(SelectionError):
+    """Rows of a sensitivity design lack a done experiment (Sobol and Morris cannot drop rows)."""
+
+
+class CommonMeshError(SelectionError):
+    """Field outputs over a design need the same inner-surface mesh in every group."""
+
+
 class MissingVariableError(AnalysisError, ValueError):
     """The group lacks a variable or coordinate the analysis needs."""
 
@@ -73,6 +84,10 @@ class ComponentsError(AnalysisError, ValueError):
 
 class ParameterError(AnalysisError, ValueError):
     """A parameter of an estimator or analysis is out of its valid range."""
+
+
+class DesignError(ParameterError):
+    """A sensitivity design matrix lacks the structure SALib's analysis relies on."""
 
 
 class SchedulerError(AnalysisError, ConnectionError):
