@@ -101,11 +101,19 @@ def sweep_progress(name: str):
     return RichProgress(stderr_console()) if interactive() else SweepLines(name)
 
 
+def _groups(report) -> list[str]:
+    """The groups a sweep wrote: its study's, or one per model of a [models] design."""
+    return list(dict.fromkeys(report.group_of.values())) or [report.study.group_name]
+
+
 def _summary_dict(report) -> dict:
+    groups = _groups(report)
     return {"study": report.study.name, "store": report.study.location,
-            "group": report.study.group_name, "ok": report.ok, "experiments": report.total,
+            "group": None if report.study.models else report.study.group_name,
+            "groups": groups, "ok": report.ok, "experiments": report.total,
             "already_done": report.skipped, "done_now": len(report.done),
-            "failed": [_row(i, report.experiments[i], "failed", r)
+            "failed": [{"group": report.group_of.get(i),
+                        **_row(i, report.experiments[i], "failed", r)}
                        for i, r in report.failed.items()],
             "ccx_runs": report.ccx_runs, "solver_seconds": round(report.solve_seconds, 3),
             "wall_seconds": round(report.wall_seconds, 3)}
@@ -119,8 +127,10 @@ def _row(experiment: str, case, status: str, error: str) -> dict:
 
 
 def _summary(report, console: Console) -> None:
-    table = Table(title=f"sweep {report.study.name}: {report.study.location} "
-                        f"(group {report.study.group_name})")
+    groups = _groups(report)
+    where = (f"{len(groups)} groups, one per model" if report.study.models
+             else f"group {groups[0]}")
+    table = Table(title=f"sweep {report.study.name}: {report.study.location} ({where})")
     for col in ("experiments", "already done", "done now", "failed", "ccx runs",
                 "solver s", "wall s"):
         table.add_column(col, justify="right")
@@ -172,19 +182,45 @@ def resume(study: Path = STUDY, scheduler: str = SCHEDULER, workers: int = WORKE
     _run(study, cluster, retry_failed, as_json)
 
 
-def _target(target: str, group: str | None,
-            options: list[str] | None = None) -> tuple[object, str | None, str]:
-    """The store, group and location (text) of a study file, or of the store given.
+def _target(target: str, group: str | None, options: list[str] | None = None
+            ) -> tuple[object, list[str] | None, str, dict[str, dict]]:
+    """The store, groups and location (text) of a study file, or of the store given, and
+    what a study expects of its groups that may not exist yet.
 
     A study's store is opened with its ``storage_options`` when it has some; the
-    location is what the user reads.
+    location is what the user reads. A model-space study names one group per model of
+    its design; for each: its load-case count and the design's parameter values.
     """
     from jobs.study import load_study
 
-    if target.endswith(".toml"):
-        study = load_study(target)
-        return study.store, group or study.group_name, study.location
-    return open_target(target, options), group, target
+    if not target.endswith(".toml"):
+        return open_target(target, options), [group] if group else None, target, {}
+    study = load_study(target)
+    expected = _expected(study)
+    groups = [group] if group else list(expected)
+    return study.store, groups, study.location, expected
+
+
+def _expected(study) -> dict[str, dict]:
+    """Group -> {"cases": load cases, "parameters": {path: value}} of a study."""
+    from jobs.design import model_design
+    from jobs.expand import load_cases
+    from jobs.sweep import parts
+
+    design = model_design(study)
+    values = {}
+    if design is not None:
+        for row, g in zip(design.matrix, design.groups, strict=True):
+            values.setdefault(g, dict(zip(design.names, map(float, row), strict=True)))
+    return {p.group_name: {"cases": len(load_cases(p)), "parameters": values.get(
+        p.group_name, {})} for p in parts(study)}
+
+
+def _existing(store) -> set[str]:
+    """The store's groups (a missing store is the error it always was)."""
+    import storage
+
+    return set(storage.list_groups(store))
 
 
 TARGET = typer.Argument(..., help="A study file (.toml) or a store path/URL.")
@@ -196,12 +232,18 @@ GROUP = typer.Option(None, "--group", help="One group of the store [default: eve
 def status(target: str = TARGET, group: str = GROUP, as_json: bool = JSON,
            storage_option: list[str] = STORAGE_OPTION) -> None:
     """Counts of pending, done and failed experiments, and why the failed ones failed."""
-    from jobs.status import store_status
+    from jobs.status import GroupStatus, store_status
     from storage.errors import reading
 
-    store, group, where = _target(target, group, storage_option)
+    store, names, where, expected = _target(target, group, storage_option)
     with reading("the store's groups and statuses", where):
-        groups = store_status(store, group)
+        if names is None:
+            groups = store_status(store)
+        else:  # a study's groups not made yet are all pending
+            made = _existing(store)
+            groups = [store_status(store, g)[0] if g in made or g not in expected else
+                      GroupStatus(g, {"pending": expected[g]["cases"]}, ())
+                      for g in names]
     if as_json:
         _dump({"store": where, "groups": [
             {"group": g.group, "counts": {k: g.counts.get(k, 0) for k in STATUSES},
@@ -238,9 +280,15 @@ def list_experiments(
     from cli.listing import experiments
     from storage.errors import reading
 
-    store, group, where = _target(target, group, storage_option)
+    store, names, where, expected = _target(target, group, storage_option)
     with reading("the store's experiments", where):
-        rows = experiments(store, group, status)
+        if names is None:
+            rows = experiments(store, None, status)
+        else:  # a model-space study: only the groups made so far, with the design's values
+            made = _existing(store)
+            rows = [{**row, **expected.get(g, {}).get("parameters", {})}
+                    for g in names if g in made or g not in expected
+                    for row in experiments(store, g, status)]
     if as_json:
         _dump({"store": where, "experiments": rows})
         return

@@ -9,16 +9,24 @@ experiments recorded as failed by the client, so a sweep always ends with every
 experiment done or failed with a reason. A task the scheduler gives up because its
 workers died (``KilledWorker``) is resubmitted under a new key instead
 (:class:`jobs.cluster.Attempts`): it skips what its predecessors wrote.
+
+A model-space study (``[models]``, :mod:`jobs.design`) is the same sweep over several
+groups: :func:`parts` splits it into one plain study per distinct model, each with its
+own group, ids, dedup and resume exactly as a one-model study; the load paths of all of
+them go to the cluster together in one driver run, with one progress and one report.
+Meshes are shared: a worker meshes each geometry once (:func:`farm.mesh.mesh_for`), so
+material-only variants of a design reuse one mesh.
 """
 
 from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import storage
 from jobs.cluster import Attempts, ClusterSpec
+from jobs.design import model_design
 from jobs.driver import Progress, RunReport, Session, Strategy, drive
 from jobs.expand import Experiment, PathPlan, experiments, parameters, plan
 from jobs.storeio import ensure_group
@@ -41,6 +49,7 @@ class SweepReport(RunReport):
     solve_seconds: float = 0.0
     ccx_runs: int = 0
     resubmitted: int = 0  # tasks resubmitted because their workers died
+    group_of: dict[str, str] = field(default_factory=dict)  # experiment id -> its group
 
     @property
     def ok(self) -> bool:
@@ -72,44 +81,66 @@ def _todo(paths: list[PathPlan], status: dict[str, int], retry_failed: bool) -> 
                                     for e in p.experiments)]
 
 
+def parts(study: Study) -> list[Study]:
+    """The one-group studies a sweep runs: the study itself, or one per distinct model
+    of its ``[models]`` design, named by its group (as :attr:`Study.group_name`)."""
+    design = model_design(study)
+    if design is None:
+        return [study]
+    return [replace(study, model=model, group=group, models=None)
+            for group, model in design.distinct().items()]
+
+
 def _held(study: Study) -> frozenset[str]:
     """Ids the study's group holds already (none for a new group)."""
     return frozenset(storage.statuses(study.store, study.group_name))
 
 
 class Sweep(Strategy):
-    """The sweep strategy: one Dask task per load path still to do."""
+    """The sweep strategy: one Dask task per load path still to do, over every group of
+    the study (:func:`parts`)."""
 
     poll_seconds = 0.25
 
     def __init__(self, study: Study, retry_failed: bool = False) -> None:
         self.study, self.retry_failed = study, retry_failed
+        self.parts = parts(study)
         self.report: SweepReport | None = None
-        self._pending: dict[Attempts, PathPlan] = {}
+        self._pending: dict[Attempts, tuple[Study, PathPlan]] = {}
         self._before: set[str] = set()
         self._client = None
         self._running, self._last = 0, 0.0
 
     def start(self, session: Session) -> None:
-        study, self._client = self.study, session.client
-        ensure_group(study, session.solver)
-        paths = plan(study, session.solver, _held(study))
-        exps = experiments(paths)
-        storage.reserve(study.store, study.group_name, [e.id for e in exps], parameters(exps))
-        status = storage.statuses(study.store, study.group_name, [e.id for e in exps])
-        self.report = SweepReport(study, len(exps), experiments={e.id: e for e in exps})
-        self._before = {i for i, s in status.items() if s == storage.DONE}
+        self._client = session.client
+        self.report = SweepReport(self.study, 0)
+        for part in self.parts:  # a group's paths run while the next group is made
+            for p in self._start_part(part, session.solver):
+                self._pending[self._submit(part, p)] = (part, p)
         self.report.skipped = len(self._before)
+
+    def _start_part(self, study: Study, solver: str) -> list[PathPlan]:
+        """Create and reserve one group; its paths still to do."""
+        ensure_group(study, solver)
+        paths = plan(study, solver, _held(study))
+        exps = experiments(paths)
+        ids = [e.id for e in exps]
+        storage.reserve(study.store, study.group_name, ids, parameters(exps))
+        status = storage.statuses(study.store, study.group_name, ids)
+        report = self.report
+        report.total += len(exps)
+        report.experiments.update({e.id: e for e in exps})
+        report.group_of.update(dict.fromkeys(ids, study.group_name))
+        self._before |= {i for i, s in status.items() if s == storage.DONE}
         todo = _todo(paths, status, self.retry_failed)
         for p in paths:
             if p not in todo:
-                self.report.failed.update({e.id: "failed before (use --retry-failed)"
-                                           for e in p.experiments
-                                           if status[e.id] == storage.FAILED})
-        self._pending = {self._submit(p): p for p in todo}
+                report.failed.update({e.id: "failed before (use --retry-failed)"
+                                      for e in p.experiments
+                                      if status[e.id] == storage.FAILED})
+        return todo
 
-    def _submit(self, path: PathPlan) -> Attempts:
-        s = self.study
+    def _submit(self, s: Study, path: PathPlan) -> Attempts:
         task = PathTask(path, s.model, s.settings, s.store, s.group_name,
                         s.retry_smaller_increments)
         return Attempts(self._client, run_path, (task,), key=path.key, retries=TASK_RETRIES)
@@ -119,11 +150,11 @@ class Sweep(Strategy):
             if fut.status == "error" and fut.resubmit():  # its workers died: next attempt
                 self.report.resubmitted += 1
                 continue
-            path = self._pending.pop(fut)
+            part, path = self._pending.pop(fut)
             if fut.status == "finished":
                 self._record(fut.result())
             else:
-                self._task_failed(path, fut)
+                self._task_failed(part, path, fut)
             fut.release()
         now = time.monotonic()
         if now - self._last > 1.0:  # the scheduler's view, once a second is plenty
@@ -156,14 +187,13 @@ class Sweep(Strategy):
         report.solve_seconds += outcome.solve_seconds
         report.ccx_runs += outcome.ccx_runs
 
-    def _task_failed(self, path: PathPlan, fut) -> None:
+    def _task_failed(self, s: Study, path: PathPlan, fut) -> None:
         """A task raised (after its retries) or was cancelled: record its experiments."""
         try:
             exc = fut.exception()
             reason = f"task error: {type(exc).__name__}: {exc}"
         except Exception as e:  # cancelled futures raise here
             reason = f"task {fut.status}: {type(e).__name__}"
-        s = self.study
         status = storage.statuses(s.store, s.group_name, [e.id for e in path.experiments])
         for e in path.experiments:
             if status.get(e.id) == storage.DONE:

@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import dataclasses
+import json
+from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import ccx_runs
 from SALib.sample import morris as salib_morris
 from SALib.sample import sobol as salib_sobol
 
@@ -184,3 +187,93 @@ def test_sobol_needs_a_power_of_two_and_grid_no_n_and_no_study_group():
 
 def test_a_study_without_models_has_no_design():
     assert model_design(study("")) is None
+
+
+def test_material_only_variants_are_meshed_once(tmp_path, monkeypatch):
+    """The sweep's groups of a material-only design share one cached mesh: the client
+    creating every group (``ensure_group``) meshes once, the rest are cache hits."""
+    from farm.mesh import cache
+    from jobs.sweep import parts
+
+    built = []
+    real = cache.build_mesh
+    monkeypatch.setattr(cache, "build_mesh", lambda spec: built.append(spec) or real(spec))
+    monkeypatch.setattr(cache, "_MEMO", {})
+    s = study(SOBOL.replace('"geometry.sidewall_thickness" = [8.0, 12.0]',
+                            '"materials.sidewall.youngs_modulus" = [5.0, 20.0]'))
+    groups = parts(s)
+    assert len(groups) > 4
+    meshes = {cache.mesh_for(p.model, tmp_path).mesh_key for p in groups}
+    assert len(meshes) == 1 and len(built) == 1
+    assert len(list((tmp_path / "meshes").glob("*.npz"))) == 1
+
+
+# ------------------------------------------------------------------ the quick study on ccx
+
+EXAMPLE = Path(__file__).parents[2] / "examples" / "model_space_quick.toml"
+
+
+def _cli(args, capsys) -> tuple[int, dict]:
+    from cli import main
+
+    with pytest.raises(SystemExit) as info:
+        main(args)
+        raise SystemExit(0)  # a command that succeeds may simply return
+    return info.value.code, json.loads(capsys.readouterr().out)
+
+
+@pytest.mark.ccx
+def test_the_quick_model_space_study_runs_resumes_and_keeps_its_physics(
+        tmp_path, monkeypatch, capsys, counting_ccx):
+    import storage
+    from jobs.study import load_study
+
+    monkeypatch.setenv("FARM_CACHE_DIR", str(tmp_path / "cache"))  # the workers' meshes too
+    path = tmp_path / "quick.toml"
+    path.write_text(EXAMPLE.read_text().replace("results/model_space_quick.zarr",
+                                                str(tmp_path / "q.zarr")))
+    s = load_study(path)
+    d = model_design(s)
+    distinct = d.distinct()
+    assert d.matrix.shape == (8, 2) and len(distinct) == 8
+
+    code, report = _cli(["sweep", "submit", str(path), "--workers", "2", "--json"], capsys)
+    assert code == 0 and report["ok"] and report["experiments"] == 16
+    assert report["done_now"] == 16 and report["group"] is None
+    assert sorted(report["groups"]) == sorted(distinct)
+    assert ccx_runs(counting_ccx) == 8  # one load path (two deflections) per model
+    # meshes: one per geometry, shared by the models that differ in materials only
+    geometries = {mesh_key(m) for m in distinct.values()}
+    assert len(geometries) < len(distinct)
+    assert len(list((tmp_path / "cache" / "meshes").glob("*.npz"))) == len(geometries)
+
+    code, again = _cli(["sweep", "resume", str(path), "--workers", "2", "--json"], capsys)
+    assert code == 0 and again["already_done"] == 16 and again["done_now"] == 0
+    assert ccx_runs(counting_ccx) == 8  # resume solved nothing
+
+    code, status = _cli(["sweep", "status", str(path), "--json"], capsys)
+    assert {g["group"]: g["counts"]["done"] for g in status["groups"]} == dict.fromkeys(
+        distinct, 2)
+    code, listing = _cli(["sweep", "list", str(path), "--json"], capsys)
+    rows = listing["experiments"]
+    assert len(rows) == 16 and {r["status"] for r in rows} == {"done"}
+    for r in rows:  # each row carries its model's design values
+        k = d.groups.index(r["group"])
+        assert r["materials.tread.youngs_modulus"] == d.matrix[k, 0]
+
+    # physics: every model pushes back harder the further it is pressed; of two models
+    # with one geometry, the stiffer tread carries more load at the same deflection
+    fz = {}
+    for g in distinct:
+        ds = storage.done(storage.open_dataset(s.store, g))
+        order = np.argsort(ds["deflection"].values)
+        fz[g] = ds["total_force"].sel(component="z").values[order]
+        assert ds["deflection"].values[order].tolist() == [10.0, 20.0]
+        assert (fz[g] > 0).all() and fz[g][1] > fz[g][0]
+    pairs = [(a, b) for a in distinct for b in distinct
+             if a != b and distinct[a].geometry == distinct[b].geometry
+             and distinct[a].materials.tread.youngs_modulus
+             < distinct[b].materials.tread.youngs_modulus]
+    assert pairs
+    for a, b in pairs:
+        assert (fz[b] > fz[a]).all()
