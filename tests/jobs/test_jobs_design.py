@@ -277,3 +277,15 @@ def test_the_quick_model_space_study_runs_resumes_and_keeps_its_physics(
     assert pairs
     for a, b in pairs:
         assert (fz[b] > fz[a]).all()
+
+
+def test_the_model_space_example_is_a_valid_sobol_design():
+    from jobs.study import load_study
+
+    s = load_study(EXAMPLE.with_name("model_space.toml"))
+    d = model_design(s)
+    assert d.method == "sobol" and d.matrix.shape == (8 * (6 + 2), 6)
+    assert {m.mesh.circumferential for m in d.models} == {16, 24}
+    assert all(m.reinforcement is not None for m in d.models)
+    # cords and materials leave the mesh alone: far fewer meshes than models
+    assert len({mesh_key(m) for m in d.models}) < len(d.distinct()) / 2
