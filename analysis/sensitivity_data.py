@@ -54,7 +54,8 @@ class OutputRequest:
     deflections : tuple of float
         Deflections (mm) of the load cases.
     pressures : tuple of float or None
-        Inflation pressures (MPa); every (deflection, pressure) pair is one load case.
+        Inflation pressures (MPa; 0: the uninflated reduced model); every (deflection,
+        pressure) pair is one load case.
         ``None``: at each deflection, the one pressure the groups hold there (several
         are an error that asks for pressures).
     scalars : tuple of str
@@ -77,8 +78,10 @@ class OutputRequest:
             if values is None and name == "pressures":
                 continue
             values = tuple(float(v) for v in values)
-            if not values or not all(np.isfinite(v) and v > 0 for v in values):
-                raise ParameterError(f"{name} must be positive numbers, got {values!r}")
+            low = 0.0 if name == "pressures" else np.nextafter(0.0, 1.0)  # 0: not inflated
+            if not values or not all(np.isfinite(v) and v >= low for v in values):
+                what = "numbers >= 0" if name == "pressures" else "positive numbers"
+                raise ParameterError(f"{name} must be {what}, got {values!r}")
             object.__setattr__(self, name, values)
         unknown = [s for s in self.scalars if s not in SCALARS]
         if unknown:

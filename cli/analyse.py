@@ -329,3 +329,117 @@ def _draws(draws: int) -> int:
     if not 2 <= draws <= MAX_DRAWS:
         raise ParameterError(f"--draws must be in [2, {MAX_DRAWS}], got {draws}")
     return draws
+
+
+# ------------------------------------------------------------------ sensitivity (issue 15)
+
+SENSITIVITY_FIELDS = ("displacement", "strain", "surface_strain")
+
+
+@app.command()
+@with_tls
+def sensitivity(
+    study: Annotated[Path, typer.Argument(help="Model-space study file (.toml) with a "
+                                          "[models] sobol or morris design.")],
+    out: Out = None,
+    method: Annotated[
+        str | None,
+        typer.Option(help="sobol or morris: must be the study's [models] method "
+                     "[default: the study's]."),
+    ] = None,
+    deflection: Annotated[
+        str | None,
+        typer.Option(help="Comma list of deflections, mm [default: the study's]."),
+    ] = None,
+    pressure_kpa: Annotated[
+        str | None,
+        typer.Option(help="Comma list of inflation pressures, kPa [default: the study's]."),
+    ] = None,
+    field: Annotated[
+        str | None,
+        typer.Option(help="Also the PCA scores of this inner-surface field across the "
+                     "models: displacement, strain or surface_strain [default: none]."),
+    ] = None,
+    components: Annotated[
+        int, typer.Option(help="PCA scores of --field per load case.")] = 3,
+    num_resamples: Annotated[
+        int, typer.Option(help="Bootstrap resamples of the confidence intervals.")] = 1000,
+    conf_level: Annotated[
+        float, typer.Option(help="Confidence level of the intervals.")] = 0.95,
+    seed: Annotated[int, typer.Option(help="Seed of the bootstrap.")] = 0,
+    storage_option: StorageOption = None,
+) -> None:
+    """Sobol' indices or Morris screening of a model design over the store (thesis §6.2):
+    Fz, contact nodes and area per load case, and PCA scores of an inner-surface field."""
+    from analysis.sensitivity_data import OutputRequest
+
+    with usage():
+        deflections = _numbers(deflection, "--deflection")
+        pressures = _numbers(pressure_kpa, "--pressure-kpa")
+        if field is not None and field not in SENSITIVITY_FIELDS:
+            raise ParameterError(f"--field must be one of {', '.join(SENSITIVITY_FIELDS)}, "
+                                 f"got {validate.shown(field)}")
+        if method is not None and method not in ("sobol", "morris"):
+            raise ParameterError(f"--method must be sobol or morris, got {validate.shown(method)}")
+        if not 2 <= num_resamples <= MAX_DRAWS:
+            raise ParameterError(
+                f"--num-resamples must be in [2, {MAX_DRAWS}], got {num_resamples}")
+        if not 0 < conf_level < 1:
+            raise ParameterError(f"--conf-level must be in (0, 1), got {conf_level:g}")
+        if not 1 <= components <= 20:
+            raise ParameterError(f"--components must be in [1, 20], got {components}")
+        if seed < 0:
+            raise ParameterError(f"--seed must be >= 0, got {seed}")
+    folder = _out(out, "sensitivity")
+    spec, design = _model_design(study, method)
+    store = open_target(spec.location, storage_option) if storage_option else spec.store
+    if deflections is None:
+        deflections = spec.deflections
+        if not deflections:
+            raise ParameterError(f"study {study} samples its deflections: give --deflection")
+    pressures_mpa = (tuple(p / 1000.0 for p in pressures) if pressures is not None
+                     else spec.pressures or None)
+    request = OutputRequest(deflections=tuple(deflections), pressures=pressures_mpa,
+                            field=field, components=components)
+    _done(_study("sensitivity").run(
+        store, design.matrix, design.names, design.bounds, design.groups, request, folder,
+        method=design.method, num_levels=spec.models.num_levels,
+        num_resamples=num_resamples, conf_level=conf_level, seed=seed, source=str(study)))
+
+
+def _numbers(text: str | None, option: str) -> tuple[float, ...] | None:
+    if text is None:
+        return None
+    try:
+        values = tuple(float(v) for v in text.split(",") if v.strip())
+    except ValueError as exc:
+        raise ParameterError(
+            f"{option} must be numbers separated by commas, got {validate.shown(text)}"
+        ) from exc
+    low = 0.0 if option == "--pressure-kpa" else math.ulp(0.0)  # 0 kPa: not inflated
+    if not values or not all(math.isfinite(v) and v >= low for v in values):
+        raise ParameterError(f"{option} must be numbers >= {low:g}, got {validate.shown(text)}")
+    return values
+
+
+def _model_design(path: Path, method: str | None):
+    """The study and its design, which must be a Sobol' or Morris one (and ``method``)."""
+    from jobs.design import model_design
+    from jobs.study import load_study
+
+    spec = load_study(path)
+    design = model_design(spec)
+    if design is None:
+        raise ParameterError(
+            f"study {path} has no [models] table: a sensitivity analysis needs a design "
+            "over model fields (docs/model-space.md)")
+    if design.method not in ("sobol", "morris"):
+        raise ParameterError(
+            f"study {path} has a {design.method} design: Sobol' indices need method = "
+            "'sobol' and Morris screening method = 'morris' in [models]")
+    if method is not None and method != design.method:
+        with usage():
+            raise ParameterError(
+                f"--method {method} needs a {method} design, but study {path} has a "
+                f"{design.method} design: drop --method or change [models] method")
+    return spec, design
