@@ -316,6 +316,83 @@ class ModelSpec:
         )
 
 
+# Combined loads (issue 13): bounds of the road's motion after the vertical deflection.
+FRICTION = (0.0, 2.0)  # Coulomb mu: rubber on dry asphalt ~1, on ice ~0.1; 2 is generous
+SHIFT_MM = (-50.0, 50.0)  # road translation: the default slab reaches 168 mm beyond the
+# wheel plane and the contact patch ~100 mm, so 50 mm keeps the patch on the road
+TILT_DEG = (-10.0, 10.0)  # road rotation about x: camber of a road-going tyre is < 10 deg
+STICK_SLOPE = (1e-3, 1e4)  # N/mm^3
+
+
+@dataclass(frozen=True)
+class RoadMotion:
+    """Combined load case: Coulomb friction and a motion of the road after the deflection.
+
+    The road first reaches the path's last deflection (straight up, as in a vertical
+    experiment, but with friction), then, in the same ccx run, translates by
+    (``shift_x``, ``shift_y``) mm and rotates by ``tilt`` degrees about the x axis
+    through the contact centre (the point of the road plane under the wheel centre,
+    TYDEX C, thesis §2.5). Axes: x forward, y lateral, z up; a positive tilt lifts the
+    road on the +y side, i.e. the wheel leans by ``-tilt`` relative to the road.
+
+    Parameters
+    ----------
+    friction : Coulomb coefficient mu >= 0 between tread and road; 0 is frictionless.
+    shift_x, shift_y : road translation along x (longitudinal) and y (lateral), mm.
+    tilt : road rotation about +x (right hand), degrees.
+    stick_slope : tangential penalty stiffness lambda of ccx's ``*FRICTION``, N/mm^3
+        (shear stress per mm of elastic slip); None derives it from the contact law
+        (:func:`farm.ccx.deck.stick_slope`, docs/combined-loads.md says why).
+
+    All at their defaults the motion is no motion at all: :class:`LoadPath` then holds
+    None, so decks, results and ids are those of a vertical experiment.
+    """
+
+    _prefix: ClassVar[str] = "motion"
+    friction: float = 0.0
+    shift_x: float = 0.0
+    shift_y: float = 0.0
+    tilt: float = 0.0
+    stick_slope: float | None = None
+
+    def __post_init__(self) -> None:
+        _within("motion.friction", self.friction, FRICTION, "(Coulomb coefficient)")
+        _within("motion.shift_x", self.shift_x, SHIFT_MM, "mm")
+        _within("motion.shift_y", self.shift_y, SHIFT_MM, "mm")
+        _within("motion.tilt", self.tilt, TILT_DEG, "degrees")
+        if self.stick_slope is not None:
+            _within("motion.stick_slope", self.stick_slope, STICK_SLOPE, "N/mm^3")
+        for f in dataclasses.fields(self):  # canonical floats: 1 and 1.0 hash alike
+            v = getattr(self, f.name)
+            if v is not None:
+                object.__setattr__(self, f.name, float(v) + 0.0)
+
+    @property
+    def moves(self) -> bool:
+        """Whether the road moves after the deflection (a shift or a tilt)."""
+        return bool(self.shift_x or self.shift_y or self.tilt)
+
+    @property
+    def is_identity(self) -> bool:
+        """No friction and no motion: the vertical experiment itself."""
+        return not (self.friction or self.moves or self.stick_slope is not None)
+
+    def scaled(self, fraction: float) -> RoadMotion:
+        """The motion ``fraction`` of the way along its ramp (same friction)."""
+        return dataclasses.replace(self, shift_x=fraction * self.shift_x,
+                                   shift_y=fraction * self.shift_y, tilt=fraction * self.tilt)
+
+    def to_dict(self) -> dict[str, Any]:
+        data = dataclasses.asdict(self)
+        if self.stick_slope is None:  # derived from the contact law
+            del data["stick_slope"]
+        return data
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> RoadMotion:
+        return _from_dict(cls, data, "motion")
+
+
 @dataclass(frozen=True)
 class LoadPath:
     """Quasi-static loading solved in one go: inflate, then push the road up.
@@ -323,12 +400,21 @@ class LoadPath:
     ``deflections`` (mm, strictly increasing) are the road's travel towards the wheel
     axis measured from first touch of the unloaded (inflated) tyre; results are
     produced at each of them. ``pressure`` is the inflation pressure in MPa.
+
+    ``motion`` (combined loads, contact road only) adds Coulomb friction to the whole
+    path and, after the last deflection, ramps the road's shift and tilt; results are
+    produced at each of ``motion_fractions`` (strictly increasing in (0, 1], ending at
+    1) of that ramp, after those of the deflections. A motion that is no motion
+    (:attr:`RoadMotion.is_identity`) is stored as None: the vertical path itself.
     """
 
     deflections: tuple[float, ...]
     pressure: float = 0.0
+    motion: RoadMotion | None = None
+    motion_fractions: tuple[float, ...] = (1.0,)
 
     def __post_init__(self) -> None:
+        self._check_motion()
         d = tuple(float(v) for v in self.deflections)
         object.__setattr__(self, "deflections", d)
         if not d:
@@ -344,9 +430,43 @@ class LoadPath:
                 f"pressure must be a number of MPa in [0, {MAX_PRESSURE_MPA:g}] (at most "
                 f"{1000 * MAX_PRESSURE_MPA:g} kPa), got {self.pressure!r}")
 
+    def _check_motion(self) -> None:
+        if self.motion is not None and not isinstance(self.motion, RoadMotion):
+            raise SpecError(f"motion must be a RoadMotion or None, got "
+                            f"{_SHORT.repr(self.motion)}")
+        if self.motion is not None and self.motion.is_identity:
+            object.__setattr__(self, "motion", None)  # the vertical path, same ids
+        try:
+            f = tuple(float(v) for v in self.motion_fractions)
+        except (TypeError, ValueError):
+            raise SpecError(f"motion_fractions must be a list of numbers, got "
+                            f"{_SHORT.repr(self.motion_fractions)}") from None
+        object.__setattr__(self, "motion_fractions", f)
+        if f == (1.0,):
+            return
+        if self.motion is None or not self.motion.moves:
+            raise SpecError(f"motion_fractions {list(f)} need a road motion (a shift or a "
+                            "tilt) to divide; leave them at [1.0]")
+        if not (f and all(math.isfinite(v) and 0 < v <= 1 for v in f) and f[-1] == 1.0
+                and all(b > a for a, b in itertools.pairwise(f))):
+            raise SpecError("motion_fractions must be strictly increasing in (0, 1] and end "
+                            f"at 1, got {list(f)}")
+
     def check_against(self, model: ModelSpec) -> None:
         """Reject loads the model cannot take (raises :class:`SpecError`)."""
         limit = model.geometry.section_height - model.geometry.tread_thickness
+        if self.motion is not None:
+            if model.road != "contact":
+                raise SpecError("friction and road motion need the contact road "
+                                f"(road = 'contact'), the model has road = {model.road!r}")
+            # a tilted road rises under the tread edge: keep that edge off the rim too
+            lift = 0.5 * model.geometry.tread_width * math.sin(math.radians(abs(
+                self.motion.tilt)))
+            if self.deflections[-1] + lift >= limit:
+                raise SpecError(
+                    f"deflection {self.deflections[-1]} mm plus the tilted road's rise at the "
+                    f"tread edge ({lift:.3g} mm) reaches through the tyre: keep the sum below "
+                    f"{limit:g} mm")
         if self.deflections[-1] >= limit:
             raise SpecError(
                 f"deflection {self.deflections[-1]} mm reaches through the tyre: keep it below "

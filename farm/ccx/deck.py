@@ -11,8 +11,9 @@ at every deflection of a load path.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -79,6 +80,8 @@ class Road:
     first_element: int
     z_top: float
     lines: tuple[str, ...]
+    # reference coordinates of the road nodes (ids first_node, first_node + 1, ...)
+    xyz: np.ndarray = field(default=None, compare=False, repr=False)
 
     @property
     def node_set(self) -> str:
@@ -115,24 +118,96 @@ def road_slab(mesh: TyreMesh, z_top: float, half_length: float, half_width: floa
     lines += ["*SURFACE, NAME=ROAD_TOP, TYPE=ELEMENT", *faces,
               "*MATERIAL, NAME=M_ROAD", "*ELASTIC", "210000, 0.3",
               "*SOLID SECTION, ELSET=ROAD, MATERIAL=M_ROAD"]
-    return Road(n0, e0, z_top, tuple(lines))
+    xyz = np.array([[x, y, z] for z in (z_top - thickness, z_top) for x in xs for y in ys])
+    return Road(n0, e0, z_top, tuple(lines), xyz)
 
 
-def contact_lines(mesh: TyreMesh, law: ContactLaw) -> list[str]:
-    """Frictionless node-to-surface contact of the outer tread with the road top.
+def contact_lines(mesh: TyreMesh, law: ContactLaw,
+                  friction: tuple[float, float] | None = None) -> list[str]:
+    """Node-to-surface contact of the outer tread with the road top.
 
     The slave surface is element-face based so that ccx knows each slave node's area
-    and reports contact pressure (CSTR) rather than a force.
+    and reports contact pressure (CSTR) rather than a force. ``friction`` = (mu,
+    stick slope in N/mm^3) adds Coulomb friction (``*FRICTION``; ccx refuses mu = 0,
+    so a frictionless contact has no such card: None or mu = 0 give the same deck).
     """
     tread = REGIONS.index("tread")
     faces = [f"{e + 1}, S{mesh.outer_face[e]}"
              for e in np.flatnonzero(mesh.element_region == tread)]
-    return ["*SURFACE, NAME=TREAD_SURF, TYPE=ELEMENT", *faces,
-            "*SURFACE INTERACTION, NAME=ROAD_CONTACT",
-            "*SURFACE BEHAVIOR, PRESSURE-OVERCLOSURE=EXPONENTIAL",
-            f"{_num(law.clearance)}, {_num(law.pressure)}",
-            "*CONTACT PAIR, INTERACTION=ROAD_CONTACT, TYPE=NODE TO SURFACE",
+    lines = ["*SURFACE, NAME=TREAD_SURF, TYPE=ELEMENT", *faces,
+             "*SURFACE INTERACTION, NAME=ROAD_CONTACT",
+             "*SURFACE BEHAVIOR, PRESSURE-OVERCLOSURE=EXPONENTIAL",
+             f"{_num(law.clearance)}, {_num(law.pressure)}"]
+    if friction is not None and friction[0] > 0:
+        lines += ["*FRICTION", f"{_num(friction[0])}, {_num(friction[1])}"]
+    return [*lines, "*CONTACT PAIR, INTERACTION=ROAD_CONTACT, TYPE=NODE TO SURFACE",
             "TREAD_SURF, ROAD_TOP"]
+
+
+def stick_slope(law: ContactLaw) -> float:
+    """Default stick slope lambda (N/mm^3) of ``*FRICTION``: the normal law's stiffness.
+
+    ccx's node-to-surface friction is a tangential penalty: while a node sticks its shear
+    stress is lambda times its elastic slip (ccx ``springforc_n2f``: spring constant
+    lambda x slave area). The exponential law p = p0 exp(-beta c), beta = ln(100)/c0,
+    has the normal stiffness dp/dc = -beta p, at most beta p0 (4.6 N/mm^3 for the
+    default c0 = 0.5 mm, p0 = 0.5 MPa). Lambda = beta p0 makes the tangential penalty
+    as stiff as the normal one at contact: the elastic slip before sliding, mu p /
+    lambda, stays below 0.09 mm (mu = 1, p = 0.4 MPa) - within the 0.03-0.25 mm the
+    tread floats above the road - and lambda is about 4 times the tread's own shear
+    stiffness per area (G/h = 21 MPa / 20 mm), so sticking is sticking. Measured on the
+    coarse full model at mu = 0.3, 20 mm, 5 mm lateral shift (partial slip): lambda =
+    1, 3, 4.6, 10 N/mm^3 gave Fy = 622, 626, 627, 628 N, so the choice moves the force
+    by 0.2 % against a 2x stiffer penalty; stiffer penalties cost increments (29 for
+    lambda = 1, 42-44 for 3 and 10). The CalculiX manual's rule of thumb (lambda ~
+    1/100 of the normal spring constant) is for its stiff linear laws; here it would
+    let every node creep by millimetres before sliding.
+    """
+    return math.log(100.0) / law.clearance * law.pressure
+
+
+def road_motion_lines(road: Road, travel: float, shift: tuple[float, float], tilt: float,
+                      t_rise: float, t_move: float) -> tuple[list[str], list[str]]:
+    """Road boundary conditions of a combined load: rise, then shift and tilt.
+
+    Every road node is prescribed (the slab stays rigid and its reactions sum to the
+    road's force on the tyre). Over step time [t_rise, t_rise + 1] the road rises by
+    ``travel``; over [t_move, t_move + 1] it translates by ``shift`` (x, y, mm) and
+    rotates by ``tilt`` degrees about the x axis through the contact centre (0, 0, top
+    of the risen road). A node's dof has one amplitude in ccx (a second ``*BOUNDARY``
+    replaces the first), so dof 3, which moves in both ramps, gets an absolute
+    amplitude per distinct final lift; dofs 1 and 2 move only in the second ramp.
+    Linear ramps of the nodes' end displacements keep the slab's top plane flat at
+    every instant (an affine map), rotating through chords rather than arcs.
+
+    Returns the amplitude lines (model definition) and the boundary lines (the step).
+    """
+    xyz = road.xyz
+    ids = np.arange(road.first_node, road.first_node + len(xyz))
+    angle = math.radians(tilt)
+    y, z = xyz[:, 1], xyz[:, 2] - road.z_top  # about the axis through the contact centre
+    uy = shift[1] + y * (math.cos(angle) - 1.0) - z * math.sin(angle)
+    uz = y * math.sin(angle) + z * (math.cos(angle) - 1.0)
+    uz = np.round(uz, 9) + 0.0  # one amplitude per distinct lift, deck-stable
+    lines = ["*AMPLITUDE, NAME=ROAD_MOVE", f"0, 0, {_num(t_move)}, 0, {_num(t_move + 1)}, 1"]
+    lifts = np.unique(uz)
+    for k, lift in enumerate(lifts):
+        points = [(0.0, 0.0), (t_rise, 0.0), (t_rise + 1, travel), (t_move, travel),
+                  (t_move + 1, travel + lift)]
+        # ccx ignores an amplitude from a repeated time on: each time once
+        points = [pt for i, pt in enumerate(points) if i == 0 or pt[0] > points[i - 1][0]]
+        lines += [f"*AMPLITUDE, NAME=ROAD_Z{k + 1}",
+                  ", ".join(f"{_num(t)}, {_num(v)}" for t, v in points)]
+    return lines, _road_motion_boundary(ids, uy, uz, lifts, shift[0])
+
+
+def _road_motion_boundary(ids, uy, uz, lifts, shift_x) -> list[str]:
+    lines = ["*BOUNDARY, AMPLITUDE=ROAD_MOVE", f"ROAD, 1, 1, {_num(shift_x)}"]
+    lines += [f"{i}, 2, 2, {_num(v)}" for i, v in zip(ids, np.round(uy, 9) + 0.0, strict=True)]
+    for k, lift in enumerate(lifts):
+        lines.append(f"*BOUNDARY, AMPLITUDE=ROAD_Z{k + 1}")
+        lines += [f"{i}, 3, 3, 1" for i in ids[uz == lift]]
+    return lines
 
 
 def static_step_lines(period: float, settings: SolverSettings) -> list[str]:

@@ -9,12 +9,14 @@ because T2Cam measures against a reference point cloud of the inflated but unloa
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
 from farm.measure.surface import cst_surface_strain, rotate_to_surface, surface_frames
 from farm.mesh.tyremesh import TyreMesh
 from farm.solve.states import PathSolution, SolvedState
+from farm.specs import RoadMotion
 
 
 @dataclass(frozen=True, eq=False)
@@ -43,6 +45,18 @@ class Measurement:
         Tread nodes carrying road force.
     solve_seconds : float
         Solver seconds spent to reach this state (see ``SolvedState``).
+
+    Combined loads only (None for a vertical path; issue 13, docs/combined-loads.md):
+
+    motion : RoadMotion or None
+        Friction coefficient and the road's shift (mm) and tilt (degrees) of this state.
+    contact_status : ndarray of int8, shape (n_tread,)
+        0 open, 1 stick, 2 slip per outer tread node (``farm.solve.states``).
+    tread_slip : ndarray, shape (n_tread, 3)
+        Tangential displacement of each tread node relative to the road, mm.
+    road_moment : ndarray, shape (3,)
+        Moment of the road's reactions about the contact centre, N mm (a check of
+        ``moment``; differs by the force times the tread's float above the road).
     """
 
     deflection: float
@@ -56,6 +70,15 @@ class Measurement:
     road_reaction: np.ndarray
     contact_nodes: int
     solve_seconds: float
+    motion: RoadMotion | None = None
+    contact_status: np.ndarray | None = None
+    tread_slip: np.ndarray | None = None
+    road_moment: np.ndarray | None = None
+
+    # units of the arrays of combined_arrays() (the store's `units` attributes)
+    COMBINED_UNITS: ClassVar[dict[str, str]] = {
+        "contact_status": "1", "tread_slip": "mm", "road_reaction": "N", "road_moment": "N mm",
+    }
 
     def arrays(self) -> dict[str, np.ndarray]:
         """The arrays the store holds for an experiment."""
@@ -64,6 +87,18 @@ class Measurement:
             "surface_strain": self.surface_strain, "reaction_force": self.reaction_force,
             "total_force": self.total_force, "moment": self.moment,
         }
+
+    def combined_arrays(self) -> dict[str, np.ndarray]:
+        """The extra arrays of a combined-load experiment (empty for a vertical one).
+
+        ``contact_status`` (n_tread,), ``tread_slip`` (n_tread, 3), ``road_reaction``
+        and ``road_moment`` (3,); units in :attr:`COMBINED_UNITS`. The load case itself
+        (friction, shifts, tilt) is ``motion.to_dict()``.
+        """
+        if self.motion is None:
+            return {}
+        return {"contact_status": self.contact_status, "tread_slip": self.tread_slip,
+                "road_reaction": self.road_reaction, "road_moment": self.road_moment}
 
 
 def tread_totals(mesh: TyreMesh, state: SolvedState) -> tuple[np.ndarray, np.ndarray]:
@@ -100,6 +135,8 @@ def measure(mesh: TyreMesh, solution: PathSolution, pressure: float) -> list[Mea
             reaction_force=state.tread_force, total_force=total, moment=moment,
             road_reaction=state.road_reaction,
             contact_nodes=int(np.count_nonzero(np.abs(state.tread_force).sum(axis=1))),
-            solve_seconds=state.solve_seconds,
+            solve_seconds=state.solve_seconds, motion=state.motion,
+            contact_status=state.contact_status, tread_slip=state.tread_slip,
+            road_moment=state.road_moment,
         ))
     return out

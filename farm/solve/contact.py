@@ -29,8 +29,16 @@ from farm.ccx.runner import CcxRun, ccx_version, run_ccx, scratch_dir
 from farm.errors import ResultsError
 from farm.mesh.cache import cache_dir
 from farm.mesh.tyremesh import HEX_FACES, REGIONS, TyreMesh
-from farm.solve.states import PathSolution, SolvedState, inner_strain, node_field
-from farm.specs import LoadPath, ModelSpec, SolverSettings, content_hash
+from farm.solve.states import (
+    OPEN,
+    SLIP,
+    STICK,
+    PathSolution,
+    SolvedState,
+    inner_strain,
+    node_field,
+)
+from farm.specs import LoadPath, ModelSpec, RoadMotion, SolverSettings, content_hash
 
 TIME_RTOL = 1e-5  # the .frd prints times below 1 with 6 digits only
 
@@ -90,15 +98,19 @@ def touch_height(spec: ModelSpec, mesh: TyreMesh, pressure: float, settings: Sol
 
 def path_deck(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: SolverSettings,
               touch_z: float) -> tuple[str, list[float], float]:
-    """The one-run deck of a load path; returns (deck, output times, road start z)."""
+    """The one-run deck of a load path; returns (deck, output times, road start z).
+
+    The output times are those of the deflections, then (combined loads) those of the
+    motion fractions: ``t0 + 1 + f`` for each f of ``path.motion_fractions``.
+    """
+    if path.motion is not None:
+        return _combined_deck(spec, mesh, path, settings, touch_z)
     gap = road_gap(spec)
     travel = gap + path.deflections[-1]
     t0 = 1.0 if spec.inflated else 0.0
     times = [t0 + (gap + d) / travel for d in path.deflections]
     z_road = touch_z - gap
-    radius = spec.geometry.outer_radius
-    road = D.road_slab(mesh, z_road, half_length=0.8 * radius,
-                       half_width=0.6 * spec.geometry.section_width)
+    road = _road(spec, mesh, z_road)
     amplitudes = ["*AMPLITUDE, NAME=ROAD_RAMP", f"0, 0, {t0}, 0, {t0 + 1}, 1"]
     pressure: list[str] = []
     if spec.inflated:
@@ -112,6 +124,47 @@ def path_deck(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: SolverS
         D.static_step_lines(t0 + 1.0, settings), D.support_lines(spec),
         ["*BOUNDARY, AMPLITUDE=ROAD_RAMP", "ROAD, 1, 2, 0", f"ROAD, 3, 3, {travel!r}"],
         pressure, D.output_lines(time_points=True, contact=True), ["*END STEP"],
+    )
+    return deck, times, z_road
+
+
+def _road(spec: ModelSpec, mesh: TyreMesh, z_road: float) -> D.Road:
+    return D.road_slab(mesh, z_road, half_length=0.8 * spec.geometry.outer_radius,
+                       half_width=0.6 * spec.geometry.section_width)
+
+
+def _combined_deck(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: SolverSettings,
+                   touch_z: float) -> tuple[str, list[float], float]:
+    """Combined loads (issue 13): friction throughout; after the rise, shift and tilt.
+
+    One more ramp of one unit of step time follows the road's rise (so increments stay
+    fractions of a ramp, as for the vertical path): [t0 + 1, t0 + 2] moves the road.
+    Splitting the motion from the rise keeps each ramp's contact changes small; the
+    vertical part is the vertical path's, with friction.
+    """
+    motion = path.motion
+    gap = road_gap(spec)
+    travel = gap + path.deflections[-1]
+    t0 = 1.0 if spec.inflated else 0.0
+    times = [t0 + (gap + d) / travel for d in path.deflections]
+    times += [t0 + 1.0 + f for f in path.motion_fractions] if motion.moves else []
+    z_road = touch_z - gap
+    road = _road(spec, mesh, z_road)
+    amplitudes, boundary = D.road_motion_lines(
+        road, travel, (motion.shift_x, motion.shift_y), motion.tilt, t0, t0 + 1.0)
+    pressure: list[str] = []
+    if spec.inflated:
+        amplitudes += ["*AMPLITUDE, NAME=INFLATE", "0, 0, 1, 1, 2, 1"]
+        pressure = D.cavity_pressure_lines(mesh, path.pressure, "INFLATE")
+    lam = motion.stick_slope if motion.stick_slope is not None else D.stick_slope(spec.contact)
+    out_times = ([1.0] if spec.inflated else []) + times
+    deck = D.assemble(
+        D.mesh_lines(mesh), D.material_lines(spec.materials), D.cord_lines(spec, mesh), road.lines,
+        D.contact_lines(mesh, spec.contact, (motion.friction, lam)), amplitudes,
+        D.time_points_lines(out_times), D.measured_set_lines(("INNER", "OUTER", "ROAD")),
+        D.static_step_lines(t0 + (2.0 if motion.moves else 1.0), settings),
+        D.support_lines(spec), boundary, pressure,
+        D.output_lines(time_points=True, contact=True), ["*END STEP"],
     )
     return deck, times, z_road
 
@@ -157,6 +210,93 @@ def contact_forces(frd: FrdFile, mesh: TyreMesh, time: float, positions: np.ndar
     return force[tread - 1]
 
 
+def road_frame(frd: FrdFile, mesh: TyreMesh, road: D.Road, time: float) -> np.ndarray:
+    """Rows n, t1, t2 of the road's contact frame at ``time``, (3, 3).
+
+    n is the normal of the (rigid, flat) road top in its current position, from the
+    displaced top-layer nodes; t1, t2 are the tangents ccx uses for node-to-surface
+    friction (``springforc_n2f``): t1 is the global x axis projected on the road (the
+    z axis if the normal is x), t2 = n x t1. On an untilted road n, t1, t2 = z, x, y.
+    """
+    block = frd.at("DISP", time)
+    ids = road.first_node + np.arange(len(road.xyz))
+    top = ids[len(ids) // 2:]  # road_slab numbers the bottom layer first
+    pos = road.xyz[len(ids) // 2:] + block.values_at(top)[:, :3]
+    _, _, vt = np.linalg.svd(pos - pos.mean(axis=0))
+    n = vt[2] * np.sign(vt[2][2])
+    t1 = (np.array([0.0, 0.0, 1.0]) - n[2] * n if 1.0 - abs(n[0]) < 1.5231e-6
+          else np.array([1.0, 0.0, 0.0]) - n[0] * n)
+    t1 /= np.linalg.norm(t1)
+    return np.stack([n, t1, np.cross(n, t1)])
+
+
+# a node slips when its shear stress reaches mu p; .frd values carry 6 digits
+SLIP_RTOL = 1e-4
+
+
+def friction_forces(frd: FrdFile, mesh: TyreMesh, time: float, positions: np.ndarray,
+                    faces: np.ndarray, frame: np.ndarray,
+                    friction: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Road force, contact status and slip of each outer tread node (combined loads).
+
+    The force is the contact stress times the slave area: pressure CPRESS along the
+    road normal, shear CSHEAR1/CSHEAR2 along the tangents t1/t2 of :func:`road_frame`.
+    ccx reports the shear as the tangential penalty spring's force on the slave over
+    its area, i.e. the reaction of the tyre on the road: the road's force on the tyre
+    is minus it (checked by equilibrium with the road's reactions, tests/farm/
+    test_friction.py).
+
+    Returns force (n_tread, 3) in N, status (n_tread,) int8 (see
+    :data:`farm.solve.states.OPEN`) and slip (n_tread, 3) in mm, grid order.
+    """
+    n_nodes = mesh.n_nodes
+    force, slip = np.zeros((n_nodes, 3)), np.zeros((n_nodes, 3))
+    status = np.zeros(n_nodes, dtype=np.int8)
+    blocks = [b for b in frd.results_named("CONTACT")
+              if abs(b.time - time) <= TIME_RTOL * max(1.0, abs(time))]
+    if blocks and len(blocks[-1].node_ids):
+        block = blocks[-1]
+        ids = block.node_ids
+        p, s1, s2 = (block.column(c) for c in ("CPRESS", "CSHEAR1", "CSHEAR2"))
+        c1, c2 = block.column("CSLIP1"), block.column("CSLIP2")
+        n, t1, t2 = frame
+        area = slave_areas(faces, positions)[ids - 1]
+        force[ids - 1] = area[:, None] * (np.outer(p, n) - np.outer(s1, t1) - np.outer(s2, t2))
+        slip[ids - 1] = np.outer(c1, t1) + np.outer(c2, t2)
+        sliding = np.hypot(s1, s2) >= friction * p * (1.0 - SLIP_RTOL)
+        status[ids - 1] = np.where(p > 0, np.where(sliding, SLIP, STICK), OPEN)
+    tread = mesh.tread_nodes
+    outside = np.ones(n_nodes, dtype=bool)
+    outside[tread - 1] = False
+    if np.any(force[outside] != 0):
+        raise ResultsError("contact stress on a node outside the outer tread")
+    return force[tread - 1], status[tread - 1], slip[tread - 1]
+
+
+def _combined_state(frd: FrdFile, mesh: TyreMesh, faces: np.ndarray, road: D.Road,
+                    time: float, deflection: float, road_z: float, motion: RoadMotion,
+                    seconds: float = np.nan) -> SolvedState:
+    """A state of a combined-load path: 3-D tread forces, status, slip, road moment."""
+    u = node_field(frd, "DISP", time, mesh.n_nodes)
+    forc = frd.at("FORC", time)
+    on_road = forc.node_ids > mesh.n_nodes
+    rf = forc.values[on_road, :3]
+    disp = frd.at("DISP", time)
+    road_pos = (road.xyz[forc.node_ids[on_road] - road.first_node]
+                + disp.values_at(forc.node_ids[on_road])[:, :3])
+    centre = np.array([0.0, 0.0, road_z])
+    positions = mesh.nodes + np.nan_to_num(u)
+    force, status, slip = friction_forces(frd, mesh, time, positions, faces,
+                                          road_frame(frd, mesh, road, time), motion.friction)
+    return SolvedState(
+        deflection=deflection, road_z=road_z, displacement=u,
+        strain=inner_strain(frd, mesh, time), tread_force=force,
+        road_reaction=rf.sum(axis=0), solve_seconds=seconds, motion=motion,
+        contact_status=status, tread_slip=slip,
+        road_moment=np.cross(road_pos - centre, rf).sum(axis=0),
+    )
+
+
 def _state(frd: FrdFile, mesh: TyreMesh, faces: np.ndarray, time: float,
            deflection: float, road_z: float, seconds: float = np.nan) -> SolvedState:
     u = node_field(frd, "DISP", time, mesh.n_nodes)
@@ -185,6 +325,8 @@ def solve_contact_path(spec: ModelSpec, mesh: TyreMesh, path: LoadPath,
     runs.append(run)
     faces = slave_faces(mesh)
     gap = road_gap(spec)
+    if path.motion is not None:
+        return _combined_solution(spec, mesh, path, frd, faces, runs, times, z_start)
     if spec.inflated:
         reference = _state(frd, mesh, faces, 1.0, 0.0, np.nan)
     else:
@@ -195,6 +337,40 @@ def solve_contact_path(spec: ModelSpec, mesh: TyreMesh, path: LoadPath,
     states = tuple(
         _state(frd, mesh, faces, t, d, z_start + gap + d, before + run.seconds_to(t))
         for t, d in zip(times, path.deflections, strict=True)
+    )
+    return PathSolution(reference, states, sum(r.seconds for r in runs), len(runs),
+                        sum(r.increments for r in runs))
+
+
+def _combined_solution(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, frd: FrdFile,
+                       faces: np.ndarray, runs: list[CcxRun], times: list[float],
+                       z_start: float) -> PathSolution:
+    """States of a combined-load path: the deflections (with friction), then the motion.
+
+    The contact centre stays at (0, 0, top of the road at the last deflection): the
+    road tilts about the x axis through it and the wheel centre does not move.
+    """
+    gap = road_gap(spec)
+    road = _road(spec, mesh, z_start)
+    run = runs[-1]
+    before = sum(r.seconds for r in runs[:-1])
+    motion = path.motion
+    if spec.inflated:
+        reference = _combined_state(frd, mesh, faces, road, 1.0, 0.0, np.nan, motion.scaled(0))
+    else:
+        n_tread = mesh.tread_nodes.size
+        reference = SolvedState(0.0, np.nan, np.zeros((mesh.n_nodes, 3)),
+                                np.zeros((mesh.inner_nodes.size, 6)), np.zeros((n_tread, 3)),
+                                np.zeros(3), motion=motion.scaled(0),
+                                contact_status=np.zeros(n_tread, dtype=np.int8),
+                                tread_slip=np.zeros((n_tread, 3)), road_moment=np.zeros(3))
+    cases = [(d, z_start + gap + d, motion.scaled(0.0)) for d in path.deflections]
+    last = path.deflections[-1]
+    if motion.moves:  # friction alone has no motion ramp (path_deck's times)
+        cases += [(last, z_start + gap + last, motion.scaled(f)) for f in path.motion_fractions]
+    states = tuple(
+        _combined_state(frd, mesh, faces, road, t, d, z, m, before + run.seconds_to(t))
+        for t, (d, z, m) in zip(times, cases, strict=True)
     )
     return PathSolution(reference, states, sum(r.seconds for r in runs), len(runs),
                         sum(r.increments for r in runs))

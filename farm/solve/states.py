@@ -9,6 +9,10 @@ import numpy as np
 from farm.ccx.frd import FrdFile
 from farm.errors import ResultsError
 from farm.mesh.tyremesh import TyreMesh
+from farm.specs import RoadMotion
+
+# Contact status codes of a tread node (combined loads, issue 13)
+OPEN, STICK, SLIP = 0, 1, 2
 
 
 @dataclass(frozen=True, eq=False)
@@ -34,6 +38,22 @@ class SolvedState:
     solve_seconds : float
         Solver seconds spent to reach this state: cumulative along a one-run path, the
         state's own iterations for the iterative road.
+
+    Combined loads only (None for a vertical path, issue 13):
+
+    motion : RoadMotion or None
+        Friction and the road's shift and tilt reached in this state (the path's motion
+        scaled to the state's fraction; zero shift and tilt at the deflections).
+    contact_status : ndarray of int8, shape (n_tread,)
+        Per outer tread node (grid order): :data:`OPEN` (no contact), :data:`STICK` or
+        :data:`SLIP` (shear stress at the Coulomb limit mu p; every contact node of a
+        frictionless road slips).
+    tread_slip : ndarray, shape (n_tread, 3)
+        Relative tangential displacement of each tread node with respect to the road
+        since it touched (elastic + sliding; ccx CSLIP), global axes, mm.
+    road_moment : ndarray, shape (3,)
+        Moment of the road's reactions about the contact centre (0, 0, ``road_z``),
+        N mm: an independent check of the tread forces' moment.
     """
 
     deflection: float
@@ -43,6 +63,10 @@ class SolvedState:
     tread_force: np.ndarray
     road_reaction: np.ndarray
     solve_seconds: float = float("nan")
+    motion: RoadMotion | None = None
+    contact_status: np.ndarray | None = None
+    tread_slip: np.ndarray | None = None
+    road_moment: np.ndarray | None = None
 
     def positions(self, mesh: TyreMesh, ids: np.ndarray) -> np.ndarray:
         """Current coordinates of nodes ``ids``, shape (len(ids), 3)."""

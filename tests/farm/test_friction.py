@@ -1,0 +1,287 @@
+"""Combined loads with Coulomb friction (issue 13): spec, deck and physics with real ccx.
+
+The ccx checks use the smallest full-model mesh (jobs/reproduce COARSE_MESH, 160
+hexahedra) at 20 mm and 200 kPa: each combined path is one ccx run of a few seconds,
+its motion sampled at several fractions. That mesh touches the road with only 3-5 tread
+nodes, which is enough for balances and limits that hold node by node; the default-mesh
+checks are slow tests.
+"""
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from farm.ccx import deck as D
+from farm.errors import SpecError
+from farm.experiment import run_load_path
+from farm.mesh import mesh_for
+from farm.presets import default_model
+from farm.solve.contact import path_deck
+from farm.solve.states import OPEN, SLIP, STICK
+from farm.specs import LoadPath, MeshDensity, RoadMotion, SolverSettings
+
+COARSE = default_model("full", mesh=MeshDensity(tread=4, sidewall=2, bead=1, circumferential=16))
+SETTINGS = SolverSettings()
+DEFLECTION, PRESSURE = 20.0, 0.2
+MU = 0.3
+SHIFT = 20.0  # mm: beyond full sliding at mu = 0.3 on this mesh (about 11 mm)
+FRACTIONS = (0.125, 0.25, 1.0)
+TILT = 3.0
+
+
+def _path(motion: RoadMotion | None, fractions=(1.0,)) -> LoadPath:
+    return LoadPath((DEFLECTION,), PRESSURE, motion, fractions)
+
+
+def _normal(tilt_deg: float) -> np.ndarray:
+    """The road's normal after a tilt about +x (the +y side rises)."""
+    a = math.radians(tilt_deg)
+    return np.array([0.0, -math.sin(a), math.cos(a)])
+
+
+# --- spec and deck (no solver) ----------------------------------------------------------
+
+def test_no_motion_is_the_vertical_path_and_its_deck():
+    mesh = mesh_for(COARSE)
+    plain = _path(None)
+    for still in (RoadMotion(), RoadMotion(friction=0.0, shift_x=0, tilt=-0.0)):
+        path = _path(still)
+        assert path.motion is None and path == plain and hash(path) == hash(plain)
+        assert path_deck(COARSE, mesh, path, SETTINGS, -400.0) == path_deck(
+            COARSE, mesh, plain, SETTINGS, -400.0)
+    deck = path_deck(COARSE, mesh, plain, SETTINGS, -400.0)[0]
+    assert "*FRICTION" not in deck and "ROAD_MOVE" not in deck
+    assert "ROAD, 1, 2, 0\nROAD, 3, 3, 21.25\n" in deck  # the road as before issue 13
+
+
+def test_friction_deck_has_the_coulomb_card_and_a_motion_ramp():
+    mesh = mesh_for(COARSE)
+    deck, times, _ = path_deck(COARSE, mesh, _path(RoadMotion(0.5, 0, 10.0, 0), (0.5, 1.0)),
+                               SETTINGS, -400.0)
+    lam = math.log(100) * COARSE.contact.pressure / COARSE.contact.clearance
+    assert D.stick_slope(COARSE.contact) == pytest.approx(lam) == pytest.approx(4.605, rel=1e-3)
+    assert f"EXPONENTIAL\n0.5, 0.5\n*FRICTION\n0.5, {lam:.12g}\n*CONTACT PAIR" in deck
+    assert times == [2.0, 2.5, 3.0]  # rise over [1, 2], move over [2, 3]
+    assert "*TIME POINTS, NAME=OUT\n1\n2\n2.5\n3\n" in deck
+    assert "\n0.25, 3, 1e-05, 0.5\n" in deck
+    # friction without motion: the vertical path's times and step, with the card
+    deck, times, _ = path_deck(COARSE, mesh, _path(RoadMotion(0.5, stick_slope=2.0)),
+                               SETTINGS, -400.0)
+    assert times == [2.0] and "*FRICTION\n0.5, 2\n" in deck and "\n0.25, 2, 1e-05" in deck
+
+
+def _final_road_displacement(deck: str, road: D.Road) -> np.ndarray:
+    """Each road node's displacement at the end of the motion, read back from the deck."""
+    amp = {}
+    lines = deck.splitlines()
+    for k, line in enumerate(lines):
+        if line.startswith("*AMPLITUDE, NAME=ROAD_"):
+            amp[line.split("=")[1]] = float(lines[k + 1].split(",")[-1])
+    ids = road.first_node + np.arange(len(road.xyz))
+    u = np.full((len(ids), 3), np.nan)
+    current = None
+    for line in lines:
+        if line.startswith("*"):
+            current = line.split("AMPLITUDE=")[1] if "AMPLITUDE=ROAD_" in line else None
+            continue
+        if current is None:
+            continue
+        node, first, _, value = (v.strip() for v in line.split(","))
+        rows = slice(None) if node == "ROAD" else int(node) - road.first_node
+        u[rows, int(first) - 1] = float(value) * amp[current]
+    return u
+
+
+@pytest.mark.parametrize(("shift", "tilt"), [((0.0, 0.0), 4.0), ((7.5, -12.0), -6.0)])
+def test_road_motion_is_a_rigid_rotation_about_the_contact_centre(shift, tilt):
+    mesh = mesh_for(COARSE)
+    road = D.road_slab(mesh, -400.0, 320.0, 168.0)
+    amps, bcs = D.road_motion_lines(road, 21.25, shift, tilt, 1.0, 2.0)
+    u = _final_road_displacement("\n".join(["*X", *amps, *bcs]), road)
+    assert np.isfinite(u).all()
+    moved = road.xyz + u
+    # rigid: every distance kept
+    d0 = np.linalg.norm(road.xyz[:, None] - road.xyz[None], axis=-1)
+    d1 = np.linalg.norm(moved[:, None] - moved[None], axis=-1)
+    assert np.abs(d1 - d0).max() < 1e-6
+    # the top plane turns to the tilted normal through the risen, shifted contact centre
+    top = moved[len(moved) // 2:]
+    centre = np.array([shift[0], shift[1], -400.0 + 21.25])
+    np.testing.assert_allclose((top - centre) @ _normal(tilt), 0.0, atol=1e-6)
+    np.testing.assert_allclose(u[:, 0], shift[0])
+
+
+@pytest.mark.parametrize(("kwargs", "match"), [
+    ({"friction": -0.1}, r"motion\.friction must be a number in \[0, 2\].*-0\.1"),
+    ({"friction": 2.5}, r"motion\.friction .* got 2\.5"),
+    ({"friction": float("nan")}, r"motion\.friction"),
+    ({"shift_y": 60.0}, r"motion\.shift_y must be a number in \[-50, 50\] mm, got 60"),
+    ({"shift_x": True}, r"motion\.shift_x"),
+    ({"tilt": 12.0}, r"motion\.tilt must be a number in \[-10, 10\] degrees, got 12"),
+    ({"stick_slope": 0.0}, r"motion\.stick_slope .* N/mm\^3, got 0"),
+])
+def test_bad_motion_is_refused_naming_the_key(kwargs, match):
+    with pytest.raises(SpecError, match=match):
+        RoadMotion(**kwargs)
+
+
+def test_motion_round_trips_and_leaves_the_derived_stick_slope_out():
+    m = RoadMotion(friction=0.8, shift_y=-5, tilt=2)
+    assert m.to_dict() == {"friction": 0.8, "shift_x": 0.0, "shift_y": -5.0, "tilt": 2.0}
+    assert RoadMotion.from_dict(m.to_dict()) == m
+    assert RoadMotion.from_dict({"friction": 1}) == RoadMotion(friction=1.0)
+    with pytest.raises(SpecError, match=r"unknown key motion\.mu"):
+        RoadMotion.from_dict({"mu": 0.5})
+    assert m.scaled(0.5) == RoadMotion(0.8, 0.0, -2.5, 1.0)
+
+
+@pytest.mark.parametrize(("motion", "fractions", "match"), [
+    (None, (0.5, 1.0), "need a road motion"),
+    (RoadMotion(friction=0.5), (0.5, 1.0), "need a road motion"),
+    (RoadMotion(shift_y=1.0), (0.5, 0.9), "end at 1"),
+    (RoadMotion(shift_y=1.0), (0.5, 0.5, 1.0), "strictly increasing"),
+    (RoadMotion(shift_y=1.0), (0.0, 1.0), r"\(0, 1\]"),
+])
+def test_bad_motion_fractions_are_refused(motion, fractions, match):
+    with pytest.raises(SpecError, match=match):
+        _path(motion, fractions)
+
+
+def test_motion_needs_the_contact_road_and_room_for_the_tilt():
+    motion = RoadMotion(friction=0.5, shift_y=5)
+    with pytest.raises(SpecError, match="need the contact road"):
+        LoadPath((20.0,), 0.0, motion).check_against(default_model("reduced"))
+    LoadPath((20.0,), 0.0, motion).check_against(
+        dataclasses.replace(default_model("reduced"), road="contact"))
+    with pytest.raises(SpecError, match="tilted road's rise"):
+        LoadPath((165.0,), 0.2, RoadMotion(tilt=10.0)).check_against(COARSE)
+    LoadPath((165.0,), 0.2).check_against(COARSE)
+
+
+# --- physics with ccx ---------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def vertical(ccx):
+    return run_load_path(COARSE, _path(None), SETTINGS)
+
+
+@pytest.fixture(scope="module")
+def lateral(ccx):
+    """Friction mu = 0.3, then the road shifted sideways by +SHIFT and by -SHIFT."""
+    return {sign: run_load_path(COARSE, _path(RoadMotion(MU, shift_y=sign * SHIFT), FRACTIONS),
+                                SETTINGS)
+            for sign in (1, -1)}
+
+
+@pytest.fixture(scope="module")
+def tilted(ccx):
+    """Frictionless: the road tilted by TILT degrees and shifted forward by 5 mm."""
+    return run_load_path(COARSE, _path(RoadMotion(0.0, 5.0, 0.0, TILT), (0.5, 1.0)), SETTINGS)
+
+
+def _all_states(lateral, tilted):
+    return [m for r in (*lateral.values(), tilted) for m in r.measurements]
+
+
+def test_states_carry_their_load_case(lateral):
+    r = lateral[1]
+    assert [m.deflection for m in r.measurements] == [DEFLECTION] * 4
+    assert [m.motion.shift_y for m in r.measurements] == [0.0, 2.5, 5.0, 20.0]
+    assert all(m.motion.friction == MU for m in r.measurements)
+    assert set(r.measurements[-1].combined_arrays()) == {
+        "contact_status", "tread_slip", "road_reaction", "road_moment"}
+    assert r.measurements[0].arrays().keys() == {
+        "displacement", "strain", "surface_strain", "reaction_force", "total_force", "moment"}
+
+
+def test_frictionless_motion_path_reproduces_the_vertical_path(vertical, tilted):
+    before, alone = tilted.measurements[0], vertical.measurements[0]
+    assert before.motion == RoadMotion() and alone.motion is None
+    np.testing.assert_allclose(before.total_force, alone.total_force,
+                               atol=1e-3 * alone.total_force[2])
+    np.testing.assert_allclose(before.reaction_force, alone.reaction_force,
+                               atol=1e-3 * np.abs(alone.reaction_force).max())
+    np.testing.assert_allclose(before.displacement, alone.displacement,
+                               atol=1e-3 * np.abs(alone.displacement).max())
+
+
+def test_nodal_forces_sum_to_the_road_reaction(lateral, tilted):
+    for m in _all_states(lateral, tilted):
+        size = np.linalg.norm(m.road_reaction)
+        assert size > 1000.0
+        # every component within 0.5 % of the force (x is ~0 without a longitudinal load)
+        assert np.abs(m.total_force - m.road_reaction).max() < 5e-3 * size
+        # moments differ by the force times the tread's float above the road (< c0)
+        gap = COARSE.contact.clearance
+        assert np.abs(m.moment - m.road_moment).max() < gap * size
+
+
+def test_each_node_obeys_coulomb(lateral):
+    for r in lateral.values():
+        for m in r.measurements:
+            f = m.reaction_force
+            fn = f[:, 2]  # untilted road: normal z
+            ft = np.hypot(f[:, 0], f[:, 1])
+            assert np.all(fn >= 0)
+            assert np.all(ft <= MU * fn * (1 + 1e-3) + 1e-9)
+            slips = m.contact_status == SLIP
+            np.testing.assert_allclose(ft[slips], MU * fn[slips], rtol=1e-3)
+            assert np.all(ft[m.contact_status == STICK] < MU * fn[m.contact_status == STICK])
+            assert np.all(f[m.contact_status == OPEN] == 0)
+
+
+def test_lateral_force_grows_with_the_shift_then_saturates_at_mu_fz(lateral):
+    m = lateral[1].measurements
+    fy = np.array([x.total_force[1] for x in m])
+    fz = np.array([x.total_force[2] for x in m])
+    assert abs(fy[0]) < 1e-6 * fz[0]  # before the motion: no lateral load
+    assert 0 < fy[1] < fy[2] < fy[3]  # the road drags the tread along +y
+    assert fy[2] == pytest.approx(2 * fy[1], rel=0.05)  # sticking: linear in the shift
+    assert fy[2] < 0.7 * MU * fz[2]
+    # 20 mm: the whole patch slides, the force is the Coulomb limit
+    assert fy[3] == pytest.approx(MU * fz[3], rel=2e-3)
+    status = m[3].contact_status
+    assert np.count_nonzero(status) >= 3 and np.all(status[status != OPEN] == SLIP)
+
+
+def _mirror_index(mesh):
+    """Index of each tread node's mirror image in y (grid order)."""
+    xyz = mesh.xyz(mesh.tread_nodes)
+    image = xyz * [1.0, -1.0, 1.0]
+    dist = np.linalg.norm(xyz[None] - image[:, None], axis=-1)
+    index = dist.argmin(axis=1)
+    assert dist[np.arange(len(xyz)), index].max() < 1e-6
+    return index
+
+
+def test_mirrored_lateral_shift_gives_mirrored_forces(lateral):
+    mirror = _mirror_index(mesh_for(COARSE))
+    flip = np.array([1.0, -1.0, 1.0])
+    for plus, minus in zip(lateral[1].measurements, lateral[-1].measurements, strict=True):
+        assert plus.motion.shift_y == -minus.motion.shift_y
+        scale = plus.total_force[2]
+        np.testing.assert_allclose(minus.total_force, plus.total_force * flip, atol=1e-3 * scale)
+        np.testing.assert_allclose(minus.reaction_force, plus.reaction_force[mirror] * flip,
+                                   atol=1e-3 * np.abs(plus.reaction_force).max())
+        np.testing.assert_array_equal(minus.contact_status, plus.contact_status[mirror])
+        # Mx = y Fz - z Fy and Mz = x Fy - y Fx change sign with the mirror, My does not
+        np.testing.assert_allclose(minus.moment, plus.moment * [-1, 1, -1],
+                                   atol=0.1 * scale)
+
+
+def test_tilted_road_pushes_along_its_normal_and_loads_the_rising_side(tilted):
+    last = tilted.measurements[-1]
+    assert last.motion == RoadMotion(0.0, 5.0, 0.0, TILT)
+    fx, fy, fz = last.total_force
+    # frictionless: every nodal force is along the tilted normal, so is their sum
+    assert fy / fz == pytest.approx(-math.tan(math.radians(TILT)), rel=1e-3)
+    assert abs(fx) < 1e-4 * fz  # the 5 mm forward shift moves nothing without friction
+    assert last.moment[0] > 0.01 * fz * 100  # more load on the +y side: Mx > 0
+    f = last.reaction_force
+    along = f @ _normal(TILT)
+    np.testing.assert_allclose(np.linalg.norm(f, axis=1), along, atol=1e-6 * fz)
+    half = tilted.measurements[1]  # half way: half the tilt
+    assert half.total_force[1] / half.total_force[2] == pytest.approx(
+        -math.tan(math.radians(TILT / 2)), rel=2e-3)
