@@ -2,12 +2,17 @@
 
 Run: .venv/bin/python benchmarks/bench_inverse.py [--quick] [--workers 2]
      .venv/bin/python benchmarks/bench_inverse.py --study [--coarse] [--workers 2]
+     .venv/bin/python benchmarks/bench_inverse.py --guesses|--regularisation [--coarse]
+                                                  [--out DIR]
 
 ``--study`` is the other benchmark (issue 16): the chapter-4 study of ``farm reproduce
 --quick`` (``--coarse``: on its test-sized mesh), run twice in one process, with
 ``jacobian = "full"`` (a finite-difference Jacobian at every accepted point) and with
 the reproduction's Jacobian reuse, each with a fresh evaluation cache; see
-:mod:`benchmarks.bench_inverse_study`.
+:mod:`benchmarks.bench_inverse_study`. ``--guesses`` (evaluations to converge and final
+nodal error per initial guess, the "tyre distribution" of §6.2 included) and
+``--regularisation`` (Tikhonov, smoothness and PCA masks on the noisy conditions, weights
+by the discrepancy principle) are in :mod:`benchmarks.bench_inverse_extras`.
 
 The thesis' ideal case (§4.3): the reduced model at 30 mm, no noise, initial guess 90 %
 of the true nodal forces, displacement objective (eq. 4.1). Both optimisers run on the
@@ -130,7 +135,30 @@ def main() -> None:
     parser.add_argument("--coarse", action="store_true", help="--study on the coarse mesh")
     parser.add_argument("--jacobians", default="full,shared",
                         help="--study: the Jacobian modes to run, comma-separated")
+    parser.add_argument("--guesses", action="store_true",
+                        help="initial guesses compared on the quick chapter-4 setup")
+    parser.add_argument("--regularisation", action="store_true",
+                        help="regularisation measured on the noisy conditions")
+    parser.add_argument("--out", default=None,
+                        help="--guesses/--regularisation: folder of the store and cache "
+                             "[default: a temporary one]")
+    parser.add_argument("--repeats", type=int, default=None,
+                        help="noisy repeats [default: 3 for --guesses, 2 --regularisation]")
     args = parser.parse_args()
+    if args.guesses or args.regularisation:
+        from pathlib import Path
+
+        import bench_inverse_extras as extras
+
+        with tempfile.TemporaryDirectory() as tmp:
+            out = Path(args.out or tmp).resolve()
+            out.mkdir(parents=True, exist_ok=True)
+            if args.guesses:
+                extras.compare_guesses(args.coarse, args.workers, out, args.repeats or 3)
+            if args.regularisation:
+                extras.compare_regularisation(args.coarse, args.workers, out,
+                                              args.repeats or 2)
+        return
     if args.study:
         from bench_inverse_study import compare
 

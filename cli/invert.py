@@ -148,19 +148,22 @@ def invert(study_file: Path = STUDY, scheduler: str = SCHEDULER, workers: int = 
 TITLES = {"forces": "Forces and moments, mean ± std over repeats (thesis Tables 4.1/4.3)",
           "rmse": "RMSE: U mm, strain microstrain (thesis Tables 4.2/4.4)",
           "nodal_errors": "Nodal force errors [N] (thesis Figs. 4.2/4.3)",
-          "cost": "Cost per solve (means)"}
+          "cost": "Cost per solve (means)",
+          "guesses": "Initial guesses: evaluations to converge, nodal errors of the guess and "
+                     "the solution [N] (issue 16)"}
 
 
 def _report(console: Console, store: str, group: str, folder: Path) -> list[Path]:
     """Tables (CSV, printed) and histograms (PNG) from the group as stored: the report
     shows what the store holds, and nothing the store lacks."""
-    from analysis.report import ch4
+    from analysis.report import ch4, ch4_extra
     from storage.solves import open_solves
 
     ds = open_solves(store, group)
     folder.mkdir(parents=True, exist_ok=True)
-    for name, frame in ch4.tables(ds).items():
+    guesses = ch4_extra.guesses(ds)
+    for name, frame in {**ch4.tables(ds), "guesses": guesses}.items():
         frame.to_csv(folder / f"{name}.csv", index=False)
-    for name, frame in ch4.views(ds).items():
+    for name, frame in {**ch4.views(ds), "guesses": guesses.round(4)}.items():
         print_frame(console, TITLES[name], frame)
     return ch4.histograms(ds, folder)

@@ -163,3 +163,39 @@ def test_a_group_of_the_first_layout_has_no_reference_row_values(tmp_path):
 def test_anything_but_a_solves_group_is_refused():
     with pytest.raises(MissingVariableError, match="not an inverse-solves group"):
         ch4.forces(xr.Dataset({"x_final": ("solve", [1.0])}))
+
+
+# ------------------------------------------------- issue 16: initial guesses, regularisation
+
+def test_guesses_table_has_evaluations_and_the_nodal_errors_of_guess_and_solution(ds):
+    from analysis.report import ch4_extra
+
+    g = ch4_extra.guesses(ds)
+    noise = g[(g["condition"] == "noise") & (g["method"] == "displacement")].iloc[0]
+    assert noise["solves"] == 3 and noise["evaluations"] == 4.0  # (4 + 6 + 2) / 3
+    # the guess: 0.9 x_true, errors -1, -2, -4 N in each of the three solves
+    assert noise["guess_rms"] == pytest.approx(np.sqrt((1 + 4 + 16) / 3))
+    # the solution: the two finished solves' errors (1, -1, 2, -1, 1, 0), pooled
+    e = np.array([1.0, -1.0, 2.0, -1.0, 1.0, 0.0])
+    assert noise["nodal_std"] == pytest.approx(e.std())
+    assert noise["nodal_rms"] == pytest.approx(np.sqrt(np.mean(e**2)))
+    assert noise["Fz"] == 70.0
+    assert noise["Fz_err_pct"] == pytest.approx(100 * (70.0 / 70.5 - 1))
+
+
+def test_regularisation_table_reads_the_chosen_weights_from_the_messages(tmp_path):
+    import dataclasses
+
+    from analysis.report import ch4_extra
+
+    tagged = [dataclasses.replace(s, message=f"discrepancy weight {w}; converged")
+              for s, w in zip(SOLVES[:2], ("0.25", "1e-2"), strict=True)]
+    write_solves(tmp_path / "s.zarr", "inverse-r", UNKNOWNS, tagged, ATTRS)
+    groups = {"none": open_solves(tmp_path / "s.zarr", "inverse-r"),
+              "plain": solves_dataset(UNKNOWNS, SOLVES[:2], ATTRS)}
+    r = ch4_extra.regularisation(groups)
+    assert list(r["setting"]) == ["none", "plain"]
+    assert r.iloc[0]["weight"] == pytest.approx(np.median([0.25, 1e-2]))
+    assert np.isnan(r.iloc[1]["weight"])  # a fixed weight records nothing
+    assert r.iloc[0]["thesis_nodal_std"] == 2.0  # Fig. 4.2, noise/displacement
+    assert r.iloc[0]["nodal_std"] == pytest.approx(np.array([1.0, -1, 2, -1, 1, 0]).std())

@@ -427,6 +427,7 @@ def test_farm_invert_reports_from_the_stored_group(stored, tmp_path):
     figures = _report(Console(file=out, width=200), study.store, study.group, tmp_path / "r")
     text = out.getvalue()
     assert "Tables 4.1/4.3" in text and "72 ± 2.8" in text and "358.28 ± 0.4" in text
-    for name in ("forces", "rmse", "nodal_errors", "cost", "per_solve"):
+    for name in ("forces", "rmse", "nodal_errors", "cost", "per_solve", "guesses"):
         assert (tmp_path / "r" / f"{name}.csv").stat().st_size > 0
+    assert "Initial guesses" in text
     assert [p.name for p in figures] == ["nodal_errors_noise.png", "nodal_errors_guess-90.png"]
