@@ -1,0 +1,81 @@
+"""Cost of combined loads (issue 13): ccx seconds of a combined-load experiment vs a
+vertical-only one on the same mesh (run: .venv/bin/python benchmarks/bench_combined.py
+[--quick] [--repeat N] [--deflection MM]).
+
+Each case is one load path at one deflection (200 kPa), solved in one ccx run; the
+inflation pre-run is cached before timing, so only the path run is counted. Printed side
+by side: wall seconds of ccx (the farm's ``solve_seconds``), CPU seconds of the ccx
+child processes (steadier on a shared machine), increments, and the ratio to the
+vertical-only experiment. Best of ``--repeat``. Nothing is asserted (noisy machines).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import resource
+
+from farm.experiment import run_load_path
+from farm.mesh import mesh_for
+from farm.presets import default_model
+from farm.solve.contact import touch_height
+from farm.specs import LoadPath, MeshDensity, RoadMotion, SolverSettings
+
+PRESSURE = 0.2
+CASES = {
+    "vertical (frictionless)": None,
+    "vertical, mu 0.8": RoadMotion(friction=0.8),
+    "lateral 10 mm, mu 0.8": RoadMotion(friction=0.8, shift_y=10.0),
+    "longitudinal 10 mm, mu 0.8": RoadMotion(friction=0.8, shift_x=10.0),
+    "tilt 3 deg, mu 0.8": RoadMotion(friction=0.8, tilt=3.0),
+    "x 5 + y 5 mm + tilt 2 deg, mu 0.8": RoadMotion(friction=0.8, shift_x=5.0, shift_y=5.0,
+                                                    tilt=2.0),
+}
+
+
+def _children_cpu() -> float:
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def measure(spec, deflection: float, motion: RoadMotion | None,
+            repeat: int) -> tuple[float, float, int]:
+    """Best wall and CPU seconds of the path's ccx run, and its increments."""
+    best = (float("inf"), float("inf"), 0)
+    for _ in range(repeat):
+        cpu = _children_cpu()
+        result = run_load_path(spec, LoadPath((deflection,), PRESSURE, motion), SolverSettings())
+        cpu = _children_cpu() - cpu
+        assert result.ccx_runs == 1  # the inflation came from the cache
+        best = min(best, (result.solve_seconds, cpu, result.increments))
+    return best
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true",
+                        help="the coarse full mesh (jobs/reproduce COARSE_MESH)")
+    parser.add_argument("--repeat", type=int, default=1)
+    parser.add_argument("--deflection", type=float, default=30.0)
+    args = parser.parse_args()
+    spec = default_model("full")
+    if args.quick:
+        spec = dataclasses.replace(spec, mesh=MeshDensity(tread=4, sidewall=2, bead=1,
+                                                          circumferential=16))
+    mesh = mesh_for(spec)
+    touch_height(spec, mesh, PRESSURE, SolverSettings())  # cache the inflation pre-run
+    print(f"full model, mesh {spec.mesh.meridional} x {spec.mesh.circumferential} "
+          f"({mesh.n_elements} hexahedra), {args.deflection:g} mm, {PRESSURE * 1000:g} kPa, "
+          f"best of {args.repeat}")
+    print(f"{'case':36s} {'ccx wall s':>10s} {'ccx CPU s':>10s} {'incr':>5s} "
+          f"{'wall ratio':>10s} {'CPU ratio':>10s}")
+    base = None
+    for name, motion in CASES.items():
+        wall, cpu, inc = measure(spec, args.deflection, motion, args.repeat)
+        base = base or (wall, cpu)
+        print(f"{name:36s} {wall:10.2f} {cpu:10.2f} {inc:5d} {wall / base[0]:10.2f} "
+              f"{cpu / base[1]:10.2f}")
+
+
+if __name__ == "__main__":
+    main()
