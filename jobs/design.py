@@ -263,6 +263,9 @@ def parse_models(data: Any, base: ModelSpec, where: str = "models") -> ModelsSpe
     if "num_levels" in t and method != "morris":
         raise v.fail(f"{where}.num_levels", "is Morris' grid; only for method = 'morris'")
     num_levels = v.integer(t.get("num_levels", 4), f"{where}.num_levels", low=2, high=100)
+    if num_levels % 2:  # Morris' jump p / (2 (p - 1)) keeps the levels symmetric only then
+        raise v.fail(f"{where}.num_levels", f"must be even (SALib: an odd grid biases the "
+                     f"sample), got {num_levels}")
     seed = v.integer(t.get("seed", 0), f"{where}.seed", low=0, high=v.MAX_SEED)
     params = v.table(t["parameters"], f"{where}.parameters", set(t["parameters"])
                      if isinstance(t["parameters"], dict) else set())

@@ -289,3 +289,8 @@ def test_the_model_space_example_is_a_valid_sobol_design():
     assert all(m.reinforcement is not None for m in d.models)
     # cords and materials leave the mesh alone: far fewer meshes than models
     assert len({mesh_key(m) for m in d.models}) < len(d.distinct()) / 2
+
+
+def test_morris_needs_an_even_grid():
+    with pytest.raises(StudyError, match="num_levels: must be even"):
+        study(SOBOL.replace('"sobol"', '"morris"').replace("n = 8", "n = 2\nnum_levels = 3"))
