@@ -10,7 +10,8 @@ new mesh). Each sweep starts from an empty mesh cache.
 
 - serial: in this process, per model (the two sweeps interleaved), the mesh
   (``farm.mesh.mesh_for``: built, or a hit of the in-process memo) and the load path's
-  ccx run (``farm.run_load_path``), timed apart; per experiment = (mesh + ccx + measurement) / experiments.
+  ccx run (``farm.run_load_path``), timed apart; per experiment = (mesh + ccx +
+  measurement) / experiments.
 - farm: ``jobs.sweep.run_sweep`` on the embedded cluster (``--workers``), wall seconds
   per experiment, cluster start included; the client meshes each group's model once
   (``ensure_group``) and the workers load it from the shared disk cache.
