@@ -30,6 +30,10 @@ _EXPORTS = {
     "totals_operator": "analysis.noise",
     "nodal_average_std": "analysis.noise",
     "NoiseResult": "analysis.noise",
+    "SobolIndices": "analysis.sensitivity",
+    "MorrisScreening": "analysis.sensitivity",
+    "read_outputs": "analysis.sensitivity_data",
+    "OutputRequest": "analysis.sensitivity_data",
     "AnalysisError": "analysis.errors",
 }
 
