@@ -41,7 +41,7 @@ import functools
 import itertools
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 from scipy.stats import qmc
@@ -50,9 +50,6 @@ from farm.specs import ModelSpec
 from jobs import validate as v
 from jobs.errors import StudyError
 from jobs.identity import DIGITS, model_hash
-
-if TYPE_CHECKING:
-    from jobs.study import Study
 
 METHODS = ("grid", "lhs", "sobol", "morris")
 MODELS_KEYS = {"method", "n", "seed", "num_levels", "parameters"}
@@ -158,7 +155,15 @@ def group_name(model: ModelSpec) -> str:
     return f"{model.kind}-{model_hash(model)[:10]}"
 
 
-def model_design(study: Study) -> ModelDesign | None:
+class Designed(Protocol):
+    """What :func:`model_design` reads of a :class:`jobs.study.Study` (jobs.study imports
+    this module: naming the class here would be an import cycle)."""
+
+    model: ModelSpec
+    models: ModelsSpec | None
+
+
+def model_design(study: Designed) -> ModelDesign | None:
     """The study's design (None for a study without ``[models]``); deterministic."""
     spec = getattr(study, "models", None)
     return None if spec is None else design(study.model, spec)
