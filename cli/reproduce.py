@@ -112,7 +112,7 @@ def _dataset(opts):
 def _inverse(opts):
     """Chapter 4: the inverse study, then Tables 4.1-4.4 and Figs. 4.2/4.3 beside the thesis,
     drawn from the study's group as stored (what the report shows is what the store holds)."""
-    from analysis.report import ch4
+    from analysis.report import ch4, ch4_extra
     from analysis.report.reproduction import StageResult
     from jobs.reproduce import inverse
     from storage.solves import open_solves
@@ -125,6 +125,8 @@ def _inverse(opts):
     if run.reports["ch4"].results:
         ds = open_solves(study.store, study.group)
         stage.tables.update(_ch4_tables(ch4, ds))
+        stage.tables["Initial guesses: evaluations to converge, nodal errors of the guess and "
+                     "of the solution, N (issue 16)"] = ch4_extra.guesses(ds).round(4)
         for path in ch4.histograms(ds, opts.out / "ch4"):
             stage.figures[f"Nodal force errors, {path.stem.removeprefix('nodal_errors_')} "
                           "(thesis Figs. 4.2/4.3)"] = path

@@ -134,3 +134,19 @@ def test_a_group_of_another_mesh_is_refused(data):
         check_mesh(ts, ts.tread_nodes[:-1], ts.tread_xyz[:-1])
     with pytest.raises(StudyError, match=r"distribution\.group"):
         check_mesh(ts, ts.tread_nodes, ts.tread_xyz + 1.0)
+
+
+def test_the_full_reproduction_trains_the_distribution_on_its_chapter_3_sweep(tmp_path):
+    from jobs.inverse.study import parse_inverse_study
+    from jobs.reproduce.inverse import study_text
+    from jobs.reproduce.options import Options
+
+    studies = {}
+    for quick in (True, False):
+        opts = Options(out=tmp_path, store=str(tmp_path / "thesis.zarr"), quick=quick)
+        studies[quick] = parse_inverse_study(study_text(opts), "ch4.toml", tmp_path)
+    assert studies[True].distribution is None  # the quick run stays within its budget
+    full = studies[False]
+    assert full.distribution.group == opts.group("reduced") == "reduced-table-3.1-default"
+    assert full.distribution.store == opts.store
+    assert [c.initial for c in full.conditions if c.name == "distribution"] == ["distribution"]
