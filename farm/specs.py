@@ -326,19 +326,24 @@ STICK_SLOPE = (1e-3, 1e4)  # N/mm^3
 
 @dataclass(frozen=True)
 class RoadMotion:
-    """Combined load case: Coulomb friction and a motion of the road after the deflection.
+    """Combined load case: Coulomb friction, a tilted road, and a shift after the deflection.
 
-    The road first reaches the path's last deflection (straight up, as in a vertical
-    experiment, but with friction), then, in the same ccx run, translates by
-    (``shift_x``, ``shift_y``) mm and rotates by ``tilt`` degrees about the x axis
-    through the contact centre (the point of the road plane under the wheel centre,
-    TYDEX C, thesis §2.5). Axes: x forward, y lateral, z up; a positive tilt lifts the
+    The road is tilted by ``tilt`` degrees about the x axis through the contact centre
+    (the point of the road plane under the wheel centre, TYDEX C, thesis §2.5) while it
+    is still clear of the tyre, then pushed up to the path's deflections (with
+    friction), then, in the same ccx run, slid in its own plane by ``shift_x`` mm along
+    x and ``shift_y`` mm along its (tilted) lateral axis (0, cos tilt, sin tilt).
+    The tilt comes first because ccx keeps a sticking node's tangential spring in the
+    frame it was built in: rotating the road under sticking nodes gives that spring a
+    normal part the contact output does not report (measured: tread moments 2 % off the
+    road's at 3 degrees, docs/combined-loads.md). A camber test rig loads an inclined
+    wheel the same way. Axes: x forward, y lateral, z up; a positive tilt lifts the
     road on the +y side, i.e. the wheel leans by ``-tilt`` relative to the road.
 
     Parameters
     ----------
     friction : Coulomb coefficient mu >= 0 between tread and road; 0 is frictionless.
-    shift_x, shift_y : road translation along x (longitudinal) and y (lateral), mm.
+    shift_x, shift_y : road translation along x (longitudinal) and its lateral axis, mm.
     tilt : road rotation about +x (right hand), degrees.
     stick_slope : tangential penalty stiffness lambda of ccx's ``*FRICTION``, N/mm^3
         (shear stress per mm of elastic slip); None derives it from the contact law
@@ -369,18 +374,18 @@ class RoadMotion:
 
     @property
     def moves(self) -> bool:
-        """Whether the road moves after the deflection (a shift or a tilt)."""
-        return bool(self.shift_x or self.shift_y or self.tilt)
+        """Whether the road moves after the deflection (a shift)."""
+        return bool(self.shift_x or self.shift_y)
 
     @property
     def is_identity(self) -> bool:
-        """No friction and no motion: the vertical experiment itself."""
-        return not (self.friction or self.moves or self.stick_slope is not None)
+        """No friction, tilt or shift: the vertical experiment itself."""
+        return not (self.friction or self.moves or self.tilt or self.stick_slope is not None)
 
     def scaled(self, fraction: float) -> RoadMotion:
-        """The motion ``fraction`` of the way along its ramp (same friction)."""
+        """The shift ``fraction`` of the way along its ramp (same friction and tilt)."""
         return dataclasses.replace(self, shift_x=fraction * self.shift_x,
-                                   shift_y=fraction * self.shift_y, tilt=fraction * self.tilt)
+                                   shift_y=fraction * self.shift_y)
 
     def to_dict(self) -> dict[str, Any]:
         data = dataclasses.asdict(self)
@@ -401,10 +406,10 @@ class LoadPath:
     axis measured from first touch of the unloaded (inflated) tyre; results are
     produced at each of them. ``pressure`` is the inflation pressure in MPa.
 
-    ``motion`` (combined loads, contact road only) adds Coulomb friction to the whole
-    path and, after the last deflection, ramps the road's shift and tilt; results are
-    produced at each of ``motion_fractions`` (strictly increasing in (0, 1], ending at
-    1) of that ramp, after those of the deflections. A motion that is no motion
+    ``motion`` (combined loads, contact road only) adds Coulomb friction and the road's
+    tilt to the whole path and, after the last deflection, ramps the road's shift;
+    results are produced at each of ``motion_fractions`` (strictly increasing in (0, 1],
+    ending at 1) of that ramp, after those of the deflections. A motion that is no motion
     (:attr:`RoadMotion.is_identity`) is stored as None: the vertical path itself.
     """
 
@@ -445,8 +450,8 @@ class LoadPath:
         if f == (1.0,):
             return
         if self.motion is None or not self.motion.moves:
-            raise SpecError(f"motion_fractions {list(f)} need a road motion (a shift or a "
-                            "tilt) to divide; leave them at [1.0]")
+            raise SpecError(f"motion_fractions {list(f)} need a road shift to divide; "
+                            "leave them at [1.0]")
         if not (f and all(math.isfinite(v) and 0 < v <= 1 for v in f) and f[-1] == 1.0
                 and all(b > a for a, b in itertools.pairwise(f))):
             raise SpecError("motion_fractions must be strictly increasing in (0, 1] and end "

@@ -167,47 +167,50 @@ def stick_slope(law: ContactLaw) -> float:
 
 
 def road_motion_lines(road: Road, travel: float, shift: tuple[float, float], tilt: float,
-                      t_rise: float, t_move: float) -> tuple[list[str], list[str]]:
-    """Road boundary conditions of a combined load: rise, then shift and tilt.
+                      t0: float, tilt_time: float) -> tuple[list[str], list[str]]:
+    """Road boundary conditions of a combined load: tilt, rise, then shift.
 
     Every road node is prescribed (the slab stays rigid and its reactions sum to the
-    road's force on the tyre). Over step time [t_rise, t_rise + 1] the road rises by
-    ``travel``; over [t_move, t_move + 1] it translates by ``shift`` (x, y, mm) and
-    rotates by ``tilt`` degrees about the x axis through the contact centre (0, 0, top
-    of the risen road). A node's dof has one amplitude in ccx (a second ``*BOUNDARY``
-    replaces the first), so dof 3, which moves in both ramps, gets an absolute
-    amplitude per distinct final lift; dofs 1 and 2 move only in the second ramp.
-    Linear ramps of the nodes' end displacements keep the slab's top plane flat at
-    every instant (an affine map), rotating through chords rather than arcs.
+    road's force on the tyre). Over step time [t0, t0 + tilt_time] the road, still
+    clear of the tyre, rotates by ``tilt`` degrees about the x axis through (0, 0,
+    ``road.z_top``); over [t0 + tilt_time, t0 + 1] it rises by ``travel``; over
+    [t0 + 1, t0 + 2] it slides in its own plane by ``shift`` (mm along x and along its
+    tilted lateral axis (0, cos tilt, sin tilt)). A node's dof has one
+    amplitude in ccx (a second ``*BOUNDARY`` replaces the first), so dofs 2 and 3 get
+    absolute amplitudes per group of nodes with the same rotation (a row of the slab);
+    dof 1 moves only in the last ramp. The rotation is exact at the end of its ramp
+    (linear ramps of the end displacements keep the top plane flat, an affine map).
 
     Returns the amplitude lines (model definition) and the boundary lines (the step).
     """
     xyz = road.xyz
     ids = np.arange(road.first_node, road.first_node + len(xyz))
     angle = math.radians(tilt)
-    y, z = xyz[:, 1], xyz[:, 2] - road.z_top  # about the axis through the contact centre
-    uy = shift[1] + y * (math.cos(angle) - 1.0) - z * math.sin(angle)
-    uz = y * math.sin(angle) + z * (math.cos(angle) - 1.0)
-    uz = np.round(uz, 9) + 0.0  # one amplitude per distinct lift, deck-stable
-    lines = ["*AMPLITUDE, NAME=ROAD_MOVE", f"0, 0, {_num(t_move)}, 0, {_num(t_move + 1)}, 1"]
-    lifts = np.unique(uz)
-    for k, lift in enumerate(lifts):
-        points = [(0.0, 0.0), (t_rise, 0.0), (t_rise + 1, travel), (t_move, travel),
-                  (t_move + 1, travel + lift)]
-        # ccx ignores an amplitude from a repeated time on: each time once
-        points = [pt for i, pt in enumerate(points) if i == 0 or pt[0] > points[i - 1][0]]
-        lines += [f"*AMPLITUDE, NAME=ROAD_Z{k + 1}",
-                  ", ".join(f"{_num(t)}, {_num(v)}" for t, v in points)]
-    return lines, _road_motion_boundary(ids, uy, uz, lifts, shift[0])
+    y, z = xyz[:, 1], xyz[:, 2] - road.z_top
+    rot = np.stack([y * (math.cos(angle) - 1.0) - z * math.sin(angle),
+                    y * math.sin(angle) + z * (math.cos(angle) - 1.0)], axis=1)
+    rot = np.round(rot, 9) + 0.0  # deck-stable values, one amplitude pair per row
+    groups, index = np.unique(rot, axis=0, return_inverse=True)
+    index = np.ravel(index)
+    lines = ["*AMPLITUDE, NAME=ROAD_MOVE", f"0, 0, {_num(t0 + 1)}, 0, {_num(t0 + 2)}, 1"]
+    bcs = ["*BOUNDARY, AMPLITUDE=ROAD_MOVE", f"ROAD, 1, 1, {_num(shift[0])}"]
+    t1 = t0 + tilt_time
+    for k, (uy, uz) in enumerate(groups):
+        sy, sz = shift[1] * math.cos(angle), shift[1] * math.sin(angle)  # in the road plane
+        for dof, points in ((2, [(t1, uy), (t0 + 1, uy), (t0 + 2, uy + sy)]),
+                            (3, [(t1, uz), (t0 + 1, uz + travel), (t0 + 2, uz + travel + sz)])):
+            name = f"ROAD_{k + 1}_{dof}"
+            lines += [f"*AMPLITUDE, NAME={name}", _amplitude([(0.0, 0.0), (t0, 0.0), *points])]
+            bcs.append(f"*BOUNDARY, AMPLITUDE={name}")
+            bcs += [f"{i}, {dof}, {dof}, 1" for i in ids[index == k]]
+    return lines, bcs
 
 
-def _road_motion_boundary(ids, uy, uz, lifts, shift_x) -> list[str]:
-    lines = ["*BOUNDARY, AMPLITUDE=ROAD_MOVE", f"ROAD, 1, 1, {_num(shift_x)}"]
-    lines += [f"{i}, 2, 2, {_num(v)}" for i, v in zip(ids, np.round(uy, 9) + 0.0, strict=True)]
-    for k, lift in enumerate(lifts):
-        lines.append(f"*BOUNDARY, AMPLITUDE=ROAD_Z{k + 1}")
-        lines += [f"{i}, 3, 3, 1" for i in ids[uz == lift]]
-    return lines
+def _amplitude(points: list[tuple[float, float]]) -> str:
+    """Amplitude data line; ccx ignores an amplitude from a repeated time on, so each
+    time appears once (the first of equal times; equal times carry equal values)."""
+    kept = [pt for i, pt in enumerate(points) if i == 0 or pt[0] > points[i - 1][0]]
+    return ", ".join(f"{_num(t)}, {_num(v)}" for t, v in kept)
 
 
 def static_step_lines(period: float, settings: SolverSettings) -> list[str]:

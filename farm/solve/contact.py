@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import math
 import os
 from collections.abc import Callable
 
@@ -133,25 +134,48 @@ def _road(spec: ModelSpec, mesh: TyreMesh, z_road: float) -> D.Road:
                        half_width=0.6 * spec.geometry.section_width)
 
 
-def _combined_deck(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: SolverSettings,
-                   touch_z: float) -> tuple[str, list[float], float]:
-    """Combined loads (issue 13): friction throughout; after the rise, shift and tilt.
+TILT_TIME = 0.25  # fraction of the rise ramp in which a tilted road turns, still clear
 
-    One more ramp of one unit of step time follows the road's rise (so increments stay
-    fractions of a ramp, as for the vertical path): [t0 + 1, t0 + 2] moves the road.
-    Splitting the motion from the rise keeps each ramp's contact changes small; the
-    vertical part is the vertical path's, with friction.
-    """
-    motion = path.motion
-    gap = road_gap(spec)
+
+def _combined_gap(spec: ModelSpec, path: LoadPath) -> float:
+    """Initial clearance of a combined path's road: a tilted road must turn clear of
+    the tyre, whose tread spans +-section_width/2 (the tilt lifts one side by that
+    times the sine)."""
+    lift = 0.5 * spec.geometry.section_width * math.sin(math.radians(abs(path.motion.tilt)))
+    return road_gap(spec) + lift
+
+
+def _combined_times(spec: ModelSpec, path: LoadPath) -> list[float]:
+    """Output times of a combined path: its deflections, then its shift fractions."""
+    gap = _combined_gap(spec, path)
     travel = gap + path.deflections[-1]
     t0 = 1.0 if spec.inflated else 0.0
-    times = [t0 + (gap + d) / travel for d in path.deflections]
-    times += [t0 + 1.0 + f for f in path.motion_fractions] if motion.moves else []
+    s = TILT_TIME if path.motion.tilt else 0.0
+    times = [t0 + s + (1.0 - s) * (gap + d) / travel for d in path.deflections]
+    return times + ([t0 + 1.0 + f for f in path.motion_fractions] if path.motion.moves else [])
+
+
+def _combined_deck(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: SolverSettings,
+                   touch_z: float) -> tuple[str, list[float], float]:
+    """Combined loads (issue 13): friction throughout, a tilt before the rise, a shift after.
+
+    The shift gets a ramp of its own, one unit of step time after the rise (increments
+    stay fractions of a ramp, as for the vertical path): [t0 + 1, t0 + 2]. A tilted road
+    first turns in the first TILT_TIME of the rise ramp, started lower by the tilt's
+    lift, so that its plane passes through the contact centre at each deflection's height
+    (deflection keeps its meaning: the travel of the road under the wheel centre from the
+    untilted road's first touch).
+    """
+    motion = path.motion
+    gap = _combined_gap(spec, path)
+    travel = gap + path.deflections[-1]
+    t0 = 1.0 if spec.inflated else 0.0
+    times = _combined_times(spec, path)
     z_road = touch_z - gap
     road = _road(spec, mesh, z_road)
     amplitudes, boundary = D.road_motion_lines(
-        road, travel, (motion.shift_x, motion.shift_y), motion.tilt, t0, t0 + 1.0)
+        road, travel, (motion.shift_x, motion.shift_y), motion.tilt, t0,
+        TILT_TIME if motion.tilt else 0.0)
     pressure: list[str] = []
     if spec.inflated:
         amplitudes += ["*AMPLITUDE, NAME=INFLATE", "0, 0, 1, 1, 2, 1"]
@@ -345,12 +369,13 @@ def solve_contact_path(spec: ModelSpec, mesh: TyreMesh, path: LoadPath,
 def _combined_solution(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, frd: FrdFile,
                        faces: np.ndarray, runs: list[CcxRun], times: list[float],
                        z_start: float) -> PathSolution:
-    """States of a combined-load path: the deflections (with friction), then the motion.
+    """States of a combined-load path: the deflections (friction, tilt), then the shift.
 
-    The contact centre stays at (0, 0, top of the road at the last deflection): the
-    road tilts about the x axis through it and the wheel centre does not move.
+    The contact centre stays at (0, 0, height of the road under the wheel centre at the
+    last deflection): the tilted road's plane passes through it, the wheel centre does
+    not move, and a shift slides the road in its own plane.
     """
-    gap = road_gap(spec)
+    gap = _combined_gap(spec, path)
     road = _road(spec, mesh, z_start)
     run = runs[-1]
     before = sum(r.seconds for r in runs[:-1])

@@ -94,11 +94,12 @@ def _final_road_displacement(deck: str, road: D.Road) -> np.ndarray:
     return u
 
 
-@pytest.mark.parametrize(("shift", "tilt"), [((0.0, 0.0), 4.0), ((7.5, -12.0), -6.0)])
-def test_road_motion_is_a_rigid_rotation_about_the_contact_centre(shift, tilt):
+@pytest.mark.parametrize(("shift", "tilt"), [((0.0, 0.0), 4.0), ((7.5, -12.0), -6.0),
+                                              ((0.0, 9.0), 0.0)])
+def test_road_motion_is_rigid_and_keeps_the_contact_centre_on_the_road(shift, tilt):
     mesh = mesh_for(COARSE)
     road = D.road_slab(mesh, -400.0, 320.0, 168.0)
-    amps, bcs = D.road_motion_lines(road, 21.25, shift, tilt, 1.0, 2.0)
+    amps, bcs = D.road_motion_lines(road, 21.25, shift, tilt, 1.0, 0.25 if tilt else 0.0)
     u = _final_road_displacement("\n".join(["*X", *amps, *bcs]), road)
     assert np.isfinite(u).all()
     moved = road.xyz + u
@@ -106,11 +107,19 @@ def test_road_motion_is_a_rigid_rotation_about_the_contact_centre(shift, tilt):
     d0 = np.linalg.norm(road.xyz[:, None] - road.xyz[None], axis=-1)
     d1 = np.linalg.norm(moved[:, None] - moved[None], axis=-1)
     assert np.abs(d1 - d0).max() < 1e-6
-    # the top plane turns to the tilted normal through the risen, shifted contact centre
+    # the top plane has the tilted normal and passes through the risen contact centre,
+    # however far it slid (in its own plane)
     top = moved[len(moved) // 2:]
-    centre = np.array([shift[0], shift[1], -400.0 + 21.25])
-    np.testing.assert_allclose((top - centre) @ _normal(tilt), 0.0, atol=1e-6)
+    np.testing.assert_allclose((top - [0.0, 0.0, -400.0 + 21.25]) @ _normal(tilt), 0.0,
+                               atol=1e-6)
     np.testing.assert_allclose(u[:, 0], shift[0])
+    slid = (moved - _final_road_displacement(
+        "\n".join(["*X", *D.road_motion_lines(road, 21.25, (0.0, 0.0), tilt, 1.0, 0.25)[0],
+                   *D.road_motion_lines(road, 21.25, (0.0, 0.0), tilt, 1.0, 0.25)[1]]), road)
+        - road.xyz)
+    a = math.radians(tilt)
+    np.testing.assert_allclose(slid, np.tile([shift[0], shift[1] * math.cos(a),
+                                              shift[1] * math.sin(a)], (len(u), 1)), atol=1e-8)
 
 
 @pytest.mark.parametrize(("kwargs", "match"), [
@@ -134,12 +143,12 @@ def test_motion_round_trips_and_leaves_the_derived_stick_slope_out():
     assert RoadMotion.from_dict({"friction": 1}) == RoadMotion(friction=1.0)
     with pytest.raises(SpecError, match=r"unknown key motion\.mu"):
         RoadMotion.from_dict({"mu": 0.5})
-    assert m.scaled(0.5) == RoadMotion(0.8, 0.0, -2.5, 1.0)
+    assert m.scaled(0.5) == RoadMotion(0.8, 0.0, -2.5, 2.0)  # the tilt comes first, whole
 
 
 @pytest.mark.parametrize(("motion", "fractions", "match"), [
-    (None, (0.5, 1.0), "need a road motion"),
-    (RoadMotion(friction=0.5), (0.5, 1.0), "need a road motion"),
+    (None, (0.5, 1.0), "need a road shift"),
+    (RoadMotion(friction=0.5, tilt=1.0), (0.5, 1.0), "need a road shift"),
     (RoadMotion(shift_y=1.0), (0.5, 0.9), "end at 1"),
     (RoadMotion(shift_y=1.0), (0.5, 0.5, 1.0), "strictly increasing"),
     (RoadMotion(shift_y=1.0), (0.0, 1.0), r"\(0, 1\]"),
@@ -176,9 +185,15 @@ def lateral(ccx):
 
 
 @pytest.fixture(scope="module")
+def frictionless(ccx):
+    """mu = 0: the road slid sideways by 10 mm after the deflection."""
+    return run_load_path(COARSE, _path(RoadMotion(0.0, shift_y=10.0), (0.5, 1.0)), SETTINGS)
+
+
+@pytest.fixture(scope="module")
 def tilted(ccx):
-    """Frictionless: the road tilted by TILT degrees and shifted forward by 5 mm."""
-    return run_load_path(COARSE, _path(RoadMotion(0.0, 5.0, 0.0, TILT), (0.5, 1.0)), SETTINGS)
+    """Frictionless: the road tilted by TILT degrees before it meets the tyre."""
+    return run_load_path(COARSE, _path(RoadMotion(0.0, tilt=TILT)), SETTINGS)
 
 
 def _all_states(lateral, tilted):
@@ -196,15 +211,19 @@ def test_states_carry_their_load_case(lateral):
         "displacement", "strain", "surface_strain", "reaction_force", "total_force", "moment"}
 
 
-def test_frictionless_motion_path_reproduces_the_vertical_path(vertical, tilted):
-    before, alone = tilted.measurements[0], vertical.measurements[0]
-    assert before.motion == RoadMotion() and alone.motion is None
-    np.testing.assert_allclose(before.total_force, alone.total_force,
-                               atol=1e-3 * alone.total_force[2])
-    np.testing.assert_allclose(before.reaction_force, alone.reaction_force,
-                               atol=1e-3 * np.abs(alone.reaction_force).max())
-    np.testing.assert_allclose(before.displacement, alone.displacement,
-                               atol=1e-3 * np.abs(alone.displacement).max())
+def test_frictionless_combined_path_reproduces_the_vertical_path(vertical, frictionless):
+    alone = vertical.measurements[0]
+    assert alone.motion is None and [m.motion.shift_y for m in frictionless.measurements] == [
+        0.0, 5.0, 10.0]
+    # mu = 0: the deflection state is the vertical one, and sliding the road moves nothing
+    for m in frictionless.measurements:
+        np.testing.assert_allclose(m.total_force, alone.total_force,
+                                   atol=1e-3 * alone.total_force[2])
+        np.testing.assert_allclose(m.reaction_force, alone.reaction_force,
+                                   atol=1e-3 * np.abs(alone.reaction_force).max())
+        np.testing.assert_allclose(m.displacement, alone.displacement,
+                                   atol=1e-3 * np.abs(alone.displacement).max())
+        np.testing.assert_allclose(m.strain, alone.strain, atol=1e-3 * np.abs(alone.strain).max())
 
 
 def test_nodal_forces_sum_to_the_road_reaction(lateral, tilted):
@@ -272,16 +291,15 @@ def test_mirrored_lateral_shift_gives_mirrored_forces(lateral):
 
 
 def test_tilted_road_pushes_along_its_normal_and_loads_the_rising_side(tilted):
-    last = tilted.measurements[-1]
-    assert last.motion == RoadMotion(0.0, 5.0, 0.0, TILT)
-    fx, fy, fz = last.total_force
+    (m,) = tilted.measurements
+    assert m.motion == RoadMotion(tilt=TILT) and m.deflection == DEFLECTION
+    fx, fy, fz = m.total_force
     # frictionless: every nodal force is along the tilted normal, so is their sum
     assert fy / fz == pytest.approx(-math.tan(math.radians(TILT)), rel=1e-3)
-    assert abs(fx) < 1e-4 * fz  # the 5 mm forward shift moves nothing without friction
-    assert last.moment[0] > 0.01 * fz * 100  # more load on the +y side: Mx > 0
-    f = last.reaction_force
-    along = f @ _normal(TILT)
-    np.testing.assert_allclose(np.linalg.norm(f, axis=1), along, atol=1e-6 * fz)
-    half = tilted.measurements[1]  # half way: half the tilt
-    assert half.total_force[1] / half.total_force[2] == pytest.approx(
-        -math.tan(math.radians(TILT / 2)), rel=2e-3)
+    assert abs(fx) < 1e-6 * fz
+    f = m.reaction_force
+    np.testing.assert_allclose(np.linalg.norm(f, axis=1), f @ _normal(TILT), atol=1e-6 * fz)
+    # the road rises on the +y side: more load there, Mx = sum(y Fz - z Fy) > 0
+    assert m.moment[0] > 10.0 * fz
+    y = mesh_for(COARSE).xyz(mesh_for(COARSE).tread_nodes)[:, 1]
+    assert f[y > 1, 2].sum() > f[y < -1, 2].sum()
