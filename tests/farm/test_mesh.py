@@ -1,6 +1,9 @@
 """The gmsh mesh: counts, named sets, orientation, faces, grids and volume."""
 
 import dataclasses
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -126,3 +129,34 @@ def test_cache_round_trip(tmp_path):
     np.testing.assert_array_equal(loaded.inner_grid, first.inner_grid)
     assert loaded.node_sets.keys() == first.node_sets.keys()
     assert loaded.tread_rows == first.tread_rows and loaded.mesh_key == first.mesh_key
+
+
+_AFTER_A_SESSION = """
+import dataclasses, os, signal, socket
+from farm.mesh import build_mesh
+from farm.presets import default_model
+from farm.specs import MeshDensity
+build_mesh(dataclasses.replace(default_model("reduced"), mesh=MeshDensity(2, 1, 1, 4)))
+# a write to a socket whose peer is gone: BrokenPipeError, not death by SIGPIPE
+a, b = socket.socketpair()
+b.close()
+try:
+    a.send(b"x" * 65536)
+except BrokenPipeError:
+    print("broken pipe raised")
+try:
+    os.kill(os.getpid(), signal.SIGINT)
+except KeyboardInterrupt:
+    print("ctrl-c raised")
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="signal dispositions: Linux")
+def test_meshing_leaves_the_signal_dispositions_alone():
+    # gmsh.initialize resets SIGPIPE and SIGINT to their defaults; a process that meshed
+    # once then died of SIGPIPE at its next write to a closed socket (CI, exit 141).
+    # A fresh interpreter, so the test session's own state plays no part.
+    proc = subprocess.run([sys.executable, "-c", _AFTER_A_SESSION], capture_output=True,
+                          text=True, timeout=120, cwd=Path(__file__).resolve().parents[2])
+    assert proc.returncode == 0, (proc.returncode, proc.stderr[-2000:])
+    assert proc.stdout.split("\n")[:2] == ["broken pipe raised", "ctrl-c raised"], proc.stdout
