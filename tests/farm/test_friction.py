@@ -303,3 +303,52 @@ def test_tilted_road_pushes_along_its_normal_and_loads_the_rising_side(tilted):
     assert m.moment[0] > 10.0 * fz
     y = mesh_for(COARSE).xyz(mesh_for(COARSE).tread_nodes)[:, 1]
     assert f[y > 1, 2].sum() > f[y < -1, 2].sum()
+
+
+# --- the default full mesh (slow) ---------------------------------------------------------
+
+FULL = default_model("full")
+
+
+@pytest.mark.slow
+@pytest.mark.ccx
+def test_default_mesh_frictionless_motion_reproduces_the_vertical_store_values():
+    alone = run_load_path(FULL, LoadPath((30.0,), PRESSURE), SETTINGS).measurements[0]
+    slid = run_load_path(FULL, LoadPath((30.0,), PRESSURE, RoadMotion(0.0, 10.0, -10.0)),
+                         SETTINGS).measurements
+    for m in slid:
+        for name, value in alone.arrays().items():
+            got = m.arrays()[name]
+            np.testing.assert_allclose(got, value, atol=1e-3 * np.abs(value).max(), err_msg=name)
+
+
+@pytest.mark.slow
+@pytest.mark.ccx
+def test_default_mesh_combined_load_balances_obeys_coulomb_and_cambers():
+    motion = RoadMotion(0.8, shift_x=5.0, shift_y=5.0, tilt=2.0)
+    result = run_load_path(FULL, LoadPath((30.0,), PRESSURE, motion, (0.5, 1.0)), SETTINGS)
+    n = _normal(motion.tilt)
+    for m in result.measurements:
+        size = np.linalg.norm(m.road_reaction)
+        assert np.abs(m.total_force - m.road_reaction).max() < 5e-3 * size
+        assert np.abs(m.moment - m.road_moment).max() < FULL.contact.clearance * size
+        f = m.reaction_force
+        fn = f @ n
+        ft = np.linalg.norm(f - np.outer(fn, n), axis=1)
+        assert np.all(fn >= 0) and np.all(ft <= motion.friction * fn * (1 + 1e-3) + 1e-9)
+    first, last = result.measurements[0], result.measurements[-1]
+    # the road slid forward and sideways: it drags the tread along both
+    assert last.total_force[0] > first.total_force[0] + 100
+    assert last.total_force[1] > first.total_force[1] + 100
+    assert first.moment[0] > 0 and first.total_force[1] < 0  # camber: load on the +y side
+
+
+@pytest.mark.slow
+@pytest.mark.ccx
+def test_default_mesh_longitudinal_force_saturates_at_mu_fz():
+    result = run_load_path(FULL, LoadPath((30.0,), PRESSURE, RoadMotion(0.3, shift_x=40.0),
+                                          (0.25, 1.0)), SETTINGS)
+    quarter, last = result.measurements[1:]
+    assert 0 < quarter.total_force[0] < last.total_force[0]
+    assert last.total_force[0] == pytest.approx(0.3 * last.total_force[2], rel=5e-3)
+    assert abs(last.total_force[1]) < 1e-3 * last.total_force[2]
