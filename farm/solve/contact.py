@@ -12,6 +12,11 @@ Per-node road forces: in node-to-surface contact the slave nodes are free (their
 zero), so the force on each tread node is its contact pressure times its slave area.
 ccx's slave area is a quarter of each adjacent slave face in the current configuration;
 with that, the tread forces sum to the road's reaction within 0.01 % (measured).
+
+Combined loads (issue 13, docs/combined-loads.md): a path with a ``RoadMotion`` adds
+Coulomb friction (``*FRICTION``), tilts the road before it meets the tyre and slides it
+after the deflection in a ramp of its own; the tread forces are then 3-D (CPRESS and
+CSHEAR in ccx's contact frame), with a stick/slip state per node.
 """
 
 from __future__ import annotations
@@ -380,13 +385,14 @@ def _combined_solution(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, frd: Frd
     run = runs[-1]
     before = sum(r.seconds for r in runs[:-1])
     motion = path.motion
-    if spec.inflated:
-        reference = _combined_state(frd, mesh, faces, road, 1.0, 0.0, np.nan, motion.scaled(0))
+    still = RoadMotion(friction=motion.friction, stick_slope=motion.stick_slope)
+    if spec.inflated:  # inflated, road clear and not yet tilted
+        reference = _combined_state(frd, mesh, faces, road, 1.0, 0.0, np.nan, still)
     else:
         n_tread = mesh.tread_nodes.size
         reference = SolvedState(0.0, np.nan, np.zeros((mesh.n_nodes, 3)),
                                 np.zeros((mesh.inner_nodes.size, 6)), np.zeros((n_tread, 3)),
-                                np.zeros(3), motion=motion.scaled(0),
+                                np.zeros(3), motion=still,
                                 contact_status=np.zeros(n_tread, dtype=np.int8),
                                 tread_slip=np.zeros((n_tread, 3)), road_moment=np.zeros(3))
     cases = [(d, z_start + gap + d, motion.scaled(0.0)) for d in path.deflections]
