@@ -113,12 +113,12 @@ class LoopResult:
 
 
 def _objective(study: InverseStudy, problem: Problem, spec: LoopSpec, seed,
-               mask: np.ndarray | None, scale: float, weight: float | None = None
-               ) -> Objective:
+               mask: np.ndarray | None, scale: float, weight: float | None = None,
+               center: np.ndarray | None = None) -> Objective:
     opt = spec.optimizer
     weight = opt.weight if weight is None else weight
     return Objective(problem, spec.method, study.noise if spec.condition.noise else None,
-                     opt.noise_draw, seed, mask, (opt.regularisation, weight, scale))
+                     opt.noise_draw, seed, mask, (opt.regularisation, weight, scale), center)
 
 
 def run_loop(study: InverseStudy, problem: Problem, spec: LoopSpec, evaluator: Evaluator,
@@ -136,27 +136,39 @@ def run_loop(study: InverseStudy, problem: Problem, spec: LoopSpec, evaluator: E
     x0 = initial_guess(problem, spec.condition, seed, probe, evaluator, state.stats,
                        distribution)
     scale = max(float(np.mean(np.abs(x0))), 1e-9)
-    weight = spec.optimizer.weight
-    if spec.optimizer.weight_rule == "discrepancy":
-        weight = _discrepancy(study, problem, spec, seed, mask, scale, x0, evaluator, state)
-    objective = _objective(study, problem, spec, seed, mask, scale, weight)
+    opt = spec.optimizer
     xs: list[np.ndarray] = []
     fs: list[float] = []
+    current: list[Objective] = []
 
     def batch(points):
         results = evaluator.run([problem.forward_evaluation(p) for p in points], state.stats)
         out = []
         for p, result in zip(points, results, strict=True):
-            r = objective.residuals(result, p, len(fs))
+            r = current[0].residuals(result, p, len(fs))
             xs.append(np.array(p, dtype=float))
             fs.append(float(np.linalg.norm(r)))
             out.append(r)
         state.best = float(np.min(fs))
         return out
 
-    shared = (_shared_jacobians(study, problem, spec, evaluator, state, mask, scale, weight)
-              if spec.optimizer.jacobian == "shared" else None)
-    outcome = _optimise(spec.optimizer, batch, x0, stop, shared)
+    def solve(start: np.ndarray, weight: float) -> optimizers.Outcome:
+        current[:] = [_objective(study, problem, spec, seed, mask, scale, weight, x0)]
+        shared = (_shared_jacobians(study, problem, spec, evaluator, state, mask, scale, weight)
+                  if opt.jacobian == "shared" else None)
+        return _optimise(opt, batch, start, stop, shared)
+
+    weight = opt.weight
+    if opt.weight_rule == "discrepancy" and spec.condition.noise:
+        # two stages: the unregularised solution, λ from the linearisation there, then
+        # the regularised solve from it (jobs/inverse/regularisation.py)
+        first = solve(x0, 0.0)
+        weight = _discrepancy(study, problem, spec, seed, mask, scale, first.x, x0, evaluator,
+                              state)
+        outcome = solve(first.x, weight)
+    else:
+        outcome = solve(x0, 0.0 if opt.weight_rule == "discrepancy" else weight)
+        weight = 0.0 if opt.weight_rule == "discrepancy" else weight
     last = evaluator.run([problem.forward_evaluation(outcome.x)], state.stats)[0]
     final = None if isinstance(last, Failed) else last.measurement
     status = "failed" if final is None else outcome.status
@@ -175,30 +187,28 @@ WEIGHT_TAG = "discrepancy weight"
 
 
 def _discrepancy(study: InverseStudy, problem: Problem, spec: LoopSpec, seed, mask,
-                 scale: float, x0: np.ndarray, evaluator: Evaluator, state: LoopState
-                 ) -> float:
-    """λ by the discrepancy principle on the linearisation at x0 (jobs.inverse.regularisation).
+                 scale: float, x1: np.ndarray, x0: np.ndarray, evaluator: Evaluator,
+                 state: LoopState) -> float:
+    """λ by the discrepancy principle on the linearisation at x1, the unregularised
+    solution (jobs.inverse.regularisation); x0 is the guess (the centre of ``guess``).
 
-    The Jacobian's points are x0 and its forward-difference columns, the very points the
-    optimiser's first full Jacobian evaluates: they are solved once (the evaluator
-    caches them), so choosing λ costs no extra solver run. No noise: λ = 0.
+    One forward-difference Jacobian at x1 (n evaluations; the regularised solve's first
+    Jacobian at x1 then comes from the evaluator's cache).
     """
-    if not spec.condition.noise:
-        return 0.0
     data = _objective(study, problem, spec, seed, mask, scale, 0.0)
-    h, points = fd_points(x0, np.full(problem.n, spec.optimizer.fd_step),
+    h, points = fd_points(x1, np.full(problem.n, spec.optimizer.fd_step),
                           np.full(problem.n, np.inf))
-    results = evaluator.run([problem.forward_evaluation(p) for p in [x0, *points]],
+    results = evaluator.run([problem.forward_evaluation(p) for p in [x1, *points]],
                             state.stats)
     r = [data.data_residuals(res.measurement, 0) if not isinstance(res, Failed) else None
          for res in results]
     if any(v is None for v in r):
         return spec.optimizer.weight  # a failed column: no linearisation to choose on
-    reg = _objective(study, problem, spec, seed, mask, scale, 1.0).reg
+    unit = _objective(study, problem, spec, seed, mask, scale, 1.0, x0)
     noise = study.noise
     delta = expected_noise_norm(spec.method, noise.displacement, noise.strain, data.n_nodes)
-    return discrepancy_weight(fd_jacobian(r[0], r[1:], h), r[0], reg, x0, delta,
-                              spec.optimizer.discrepancy)
+    return discrepancy_weight(fd_jacobian(r[0], r[1:], h), r[0], unit.reg, x1 - unit.center,
+                              delta, spec.optimizer.discrepancy)
 
 
 GTOL_OFF = 1e-15

@@ -15,10 +15,12 @@ thesis: "compared to a noisy version of the virtual experiment at each iteration
 per solve, one draw for the whole loop. Draws are seeded by (study seed, condition,
 repeat[, evaluation index]), so a loop replays identically on resume.
 
-Regularisation (beyond the thesis; §5.2 names both) appends rows sqrt(λ) L x / s:
-``tikhonov`` (L = I, towards zero forces) or ``smoothness`` (L = first differences of
-consecutive unknowns along each tread row); s is the mean initial-guess force, so λ is
-dimensionless relative to the data term's units squared.
+Regularisation (beyond the thesis; §5.2 names both) appends rows sqrt(λ) L (x - c) / s:
+``tikhonov`` (L = I, c = 0: towards zero forces), ``smoothness`` (L = first differences
+of consecutive unknowns along each tread row, c = 0) or ``guess`` (L = I, c = x0:
+towards the initial guess, the prior that §6.2's "physically meaningful initial guess"
+- e.g. the statistical tyre distribution - provides); s is the mean initial-guess force,
+so λ is dimensionless relative to the data term's units squared.
 """
 
 from __future__ import annotations
@@ -51,11 +53,15 @@ class Objective:
     mask : ndarray of bool, shape (n_inner,) or None
         Inner nodes that enter the objective (None: all).
     regularisation : (kind, weight, scale)
+    center : ndarray, shape (n,) or None
+        c of the regularisation rows: the initial guess for ``guess`` (None: zero, which
+        changes the residuals but not their Jacobian), else zero.
     """
 
     def __init__(self, problem: Problem, method: str, noise: NoiseSettings | None, draw: str,
                  seed: Sequence[int], mask: np.ndarray | None = None,
-                 regularisation: tuple[str, float, float] = ("none", 0.0, 1.0)) -> None:
+                 regularisation: tuple[str, float, float] = ("none", 0.0, 1.0),
+                 center: np.ndarray | None = None) -> None:
         self.problem, self.method, self.noise, self.draw = problem, method, noise, draw
         self.seed = [int(s) for s in seed]
         n_inner = problem.reference.displacement.shape[0]
@@ -65,6 +71,8 @@ class Objective:
         kind, weight, scale = regularisation
         self.reg = _operator(problem, kind) * np.sqrt(weight) / scale if kind != "none" \
             else np.zeros((0, problem.n))
+        self.center = (np.asarray(center, dtype=float) if kind == "guess" and center is not None
+                       else np.zeros(problem.n))
 
     def measured(self, index: int) -> tuple[np.ndarray, np.ndarray]:
         """The (noisy) reference displacement and strain seen at evaluation ``index``."""
@@ -95,7 +103,8 @@ class Objective:
         """All residuals of evaluation ``index`` at ``x`` (penalty if it failed)."""
         if isinstance(result, Failed):
             return np.full(self.size(), PENALTY)
-        return np.concatenate([self.data_residuals(result.measurement, index), self.reg @ x])
+        return np.concatenate([self.data_residuals(result.measurement, index),
+                               self.reg @ (x - self.center)])
 
 
 def noise_stream(seed: Sequence[int], draw: str, index: int) -> list[int]:
@@ -105,7 +114,7 @@ def noise_stream(seed: Sequence[int], draw: str, index: int) -> list[int]:
 
 def _operator(problem: Problem, kind: str) -> np.ndarray:
     """L of the regularisation term, shape (rows, n)."""
-    if kind == "tikhonov":
+    if kind in ("tikhonov", "guess"):
         return np.eye(problem.n)
     rows = []
     for r in np.unique(problem.grid[:, 0]):  # consecutive unknowns along each tread row

@@ -9,13 +9,16 @@ the noise in the residual and τ >= 1 a safety factor. A smaller λ fits the noi
 larger one throws information away. It needs the noise level, which every condition of
 a study states (§4.4: 1 mm on U, 0.04 % on strain), and never the true forces.
 
-The data residual of a λ is that of the regularised Gauss-Newton step from the loop's
-start x0 on the Jacobian J there (a linearisation: one Jacobian, the one the loop
-computes first anyway, so the choice costs no extra solver run):
+The data residual of a λ is that of the regularised Gauss-Newton step from a point x1
+on the Jacobian J there (a linearisation):
 
-    d(λ) = argmin ||r0 + J d||² + λ ||L (x0 + d) / s||²,   ρ(λ) = ||r0 + J d(λ)||,
+    d(λ) = argmin ||r1 + J d||² + λ ||L (x1 + d - c) / s||²,   ρ(λ) = ||r1 + J d(λ)||,
 
-ρ increases with λ, so the λ with ρ(λ) = τ δ is found by bisection in log λ.
+ρ increases with λ, so the λ with ρ(λ) = τ δ is found by bisection in log λ. The loop
+(``jobs/inverse/loop.py``) takes x1 = the unregularised solution, where the
+linearisation holds for the regularised one nearby: a first measurement chose it at the
+initial guess instead, and from the uniform guess one Gauss-Newton step could not reach
+the noise level (ρ(0) > δ), so λ fell to its lower bound.
 """
 
 from __future__ import annotations
@@ -44,7 +47,9 @@ def expected_noise_norm(method: str, sigma_u: float, sigma_e: float, n_nodes: in
 
 def gauss_newton_step(jac: np.ndarray, r0: np.ndarray, reg: np.ndarray, x0: np.ndarray,
                       weight: float) -> np.ndarray:
-    """d minimising ||r0 + J d||² + weight ||R (x0 + d)||², R = L / s, shape (n,)."""
+    """d minimising ||r0 + J d||² + weight ||R (x0 + d)||², R = L / s, shape (n,).
+
+    (A regularisation centred on c: pass x0 - c.)"""
     a = np.vstack([jac, np.sqrt(weight) * reg])
     b = np.concatenate([-r0, -np.sqrt(weight) * (reg @ x0)])
     return np.linalg.lstsq(a, b, rcond=None)[0]
@@ -92,6 +97,7 @@ def discrepancy_weight(jac: np.ndarray, r0: np.ndarray, reg: np.ndarray, x0: np.
     reg : ndarray, shape (k, n)
         L / s, the regularisation operator without its weight.
     x0 : ndarray, shape (n,)
+        The linearisation point, less the regularisation's centre c.
     noise_norm : float
         δ, the expected norm of the noise in ``r0`` (:func:`expected_noise_norm`).
     tau : float

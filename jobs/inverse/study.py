@@ -29,7 +29,7 @@
     [optimizers.least-squares]            # TRF, Jacobian columns solved in parallel
     max_evaluations = 200
     fd_step_n = 0.25
-    regularisation = "none"               # or "tikhonov", "smoothness"
+    regularisation = "none"               # or "tikhonov", "smoothness", "guess" (towards x0)
     weight = 0.0                          # λ, or "discrepancy": each loop picks its own
     discrepancy = 1.0                     # τ: residual norm = τ x expected noise norm
     jacobian = "shared"                   # or "broyden", "full" (docs/inverse.md)
@@ -79,7 +79,7 @@ INITIALS = ("scaled", "uniform", "offset", "distribution")
 # weight = λ, or "discrepancy": the loop chooses λ (jobs/inverse/regularisation.py)
 WEIGHT_RULES = ("fixed", "discrepancy")
 NOISE_DRAWS = ("per_evaluation", "per_solve")
-REGULARISATIONS = ("none", "tikhonov", "smoothness")
+REGULARISATIONS = ("none", "tikhonov", "smoothness", "guess")  # guess: towards x0
 # full: a finite-difference Jacobian at every accepted point (scipy's TRF); broyden:
 # secant updates between full ones; shared: broyden + full ones shared between loops
 JACOBIANS = ("full", "broyden", "shared")
@@ -258,7 +258,7 @@ def _optimizer(name: str, data: Any) -> OptimizerSettings:
                      "regularisation")
     if rule == "discrepancy" and reg == "none":
         raise v.fail(f"{where}.weight", "\"discrepancy\" chooses a regularisation weight: "
-                     "set regularisation = \"tikhonov\" or \"smoothness\"")
+                     "set regularisation = \"tikhonov\", \"smoothness\" or \"guess\"")
     tau = _positive(t, "discrepancy", where, 1.0, MAX_SCALE)
     return OptimizerSettings(**common, fd_step=_positive(t, "fd_step_n", where, 0.25, MAX_FORCE_N),
                              regularisation=reg, weight=weight,

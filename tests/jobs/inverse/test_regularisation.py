@@ -134,3 +134,106 @@ def test_discrepancy_and_distribution_keys_parse():
 def test_bad_keys_are_one_clear_error(extra, match):
     with pytest.raises(StudyError, match=match):
         parse(extra)
+
+
+# ------------------------------------------- the two-stage loop on a linear forward model
+
+N_INNER, N_UNKNOWN = 30, 8
+
+
+def _linear_map():
+    """Inner displacements (mm) of forces on 8 tread nodes: a wide smoothing kernel, so
+    that 1 mm noise hides how the load is split between neighbours (as in §4.4)."""
+    s = np.linspace(0, 1, 3 * N_INNER)[:, None]
+    t = np.linspace(0, 1, N_UNKNOWN)[None, :]
+    return 0.2 * np.exp(-((s - t) ** 2) / 0.05)
+
+
+def _linear_forward(x):
+    from jobs.guard import Solved
+
+    u = (_linear_map() @ np.asarray(x)).reshape(N_INNER, 3)
+    z = np.zeros((N_INNER, 3))
+    return Solved((Measurement(30.0, 0.0, u, z, z, np.zeros((2, 3)), np.zeros(3),
+                               np.zeros(3), np.zeros(3), 2, 0.0),), 0.0)
+
+
+class LinearProblem(Problem):
+    def forward_evaluation(self, x):
+        from jobs.identity import value_key
+        from jobs.loops.evaluator import Evaluation
+
+        return Evaluation(value_key({"x": [round(float(v), 9) for v in x]}), _linear_forward,
+                          tuple(float(v) for v in x), "linear")
+
+
+def _linear_problem():
+    x_true = 30 + 15 * np.sin(np.linspace(0, np.pi, N_UNKNOWN))  # smooth along the row
+    ref = _linear_forward(x_true).measurement
+    grid = np.column_stack([np.zeros(N_UNKNOWN, int), np.arange(N_UNKNOWN)])
+    return LinearProblem(None, None, "t", None, 30.0, 0.0, np.arange(1, N_UNKNOWN + 1),
+                         x_true, grid, np.zeros((N_UNKNOWN, 3)), ref)
+
+
+# τ > 1 (Engl, Hanke & Neubauer §4.3): with 90 residuals and 8 unknowns the least-squares
+# residual itself is sqrt(82/90) δ ± 8 %, so τ = 1 leaves some draws unregularised
+TAU = 1.2
+
+
+def _solve(regularisation: str, weight: str, repeat: int):
+    from jobs.inverse.loop import LoopState, expand_loops, run_loop
+    from jobs.loops.cache import EvaluationCache
+    from jobs.loops.evaluator import Evaluator
+
+    study = parse(f"""
+        [optimizers.least-squares]
+        max_evaluations = 200
+        fd_step_n = 0.1
+        jacobian = "broyden"
+        regularisation = "{regularisation}"
+        weight = {weight}
+        discrepancy = {TAU}
+        [[conditions]]
+        name = "noise"
+        methods = ["displacement"]
+        repeats = {repeat + 1}
+        """)
+    spec = expand_loops(study)[repeat]
+    problem = _linear_problem()
+    ev = Evaluator(None, EvaluationCache(None))
+    return run_loop(study, problem, spec, ev, LoopState(spec.label, 200)), problem, study
+
+
+def test_the_loop_chooses_the_weight_at_its_unregularised_solution():
+    result, problem, study = _solve("smoothness", '"discrepancy"', 0)
+    assert result.weight > 1e-6 and "discrepancy weight" in result.message
+    # the data residual of the regularised solution matches the expected noise norm
+    obj = Objective(problem, "displacement", study.noise, "per_solve",
+                    _seed(study, result.spec))
+    data = np.linalg.norm(obj.data_residuals(result.final, 0))
+    delta = expected_noise_norm("displacement", 1.0, 4e-4, N_INNER)
+    assert data == pytest.approx(TAU * delta, rel=0.02)  # linear: the linearisation is exact
+
+
+def _seed(study, spec):
+    from jobs.inverse.loop import loop_seed
+
+    return loop_seed(study, spec)
+
+
+def test_regularised_by_the_discrepancy_principle_beats_unregularised_on_a_smooth_truth():
+    errors = {"none": [], "smoothness": []}
+    for repeat in range(3):
+        for reg, weight in (("none", "0.0"), ("smoothness", '"discrepancy"')):
+            result, problem, _ = _solve(reg, weight, repeat)
+            errors[reg].append(np.sqrt(np.mean((result.x - problem.x_true) ** 2)))
+    assert np.mean(errors["smoothness"]) < 0.7 * np.mean(errors["none"])
+
+
+def test_guess_regularisation_pulls_towards_the_initial_guess():
+    problem = _linear_problem()
+    x0 = problem.x_true + 5.0
+    obj = Objective(problem, "displacement", None, "per_solve", [0],
+                    regularisation=("guess", 4.0, 2.0), center=x0)
+    r = obj.residuals(_linear_forward(problem.x_true), problem.x_true, 0)
+    np.testing.assert_allclose(r[-N_UNKNOWN:], 2.0 * (problem.x_true - x0) / 2.0)
