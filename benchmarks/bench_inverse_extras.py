@@ -20,11 +20,13 @@ replays it; the store in ``DIR`` keeps every group, so the tables can be redrawn
   exist only at the scaled/uniform guesses). Printed: evaluations and rounds to
   converge, the nodal error of the guess and of the solution, Fz
   (:func:`analysis.report.ch4_extra.guesses`).
-- ``--regularisation``: the noisy conditions (``noise``: 90 %; ``guess-uniform``) with
-  ``repeats`` draws, once per setting: none; ``tikhonov`` and ``smoothness`` with the
-  weight each loop chooses by the discrepancy principle (jobs/inverse/regularisation.py:
-  from the noise level, never the truth); a PCA mask (``farm analyse pca`` on the
-  chapter-3 sweep, keep 50 % of the inner nodes, §6.2), alone and with smoothness.
+- ``--regularisation``: the noisy conditions (``noise``: 90 %; ``guess-uniform``; and
+  ``distribution``, the §6.2 guess) with ``repeats`` draws, once per setting: none;
+  ``tikhonov`` (towards zero), ``smoothness`` and ``guess`` (towards the initial guess)
+  with the weight each loop chooses by the discrepancy principle at its unregularised
+  solution (jobs/inverse/regularisation.py: from the noise level, never the truth); a
+  PCA mask (``farm analyse pca`` on the chapter-3 sweep, keep 50 % of the inner nodes,
+  §6.2).
   Printed: nodal error std and Fz error per setting beside the thesis' values
   (:func:`analysis.report.ch4_extra.regularisation`).
 
@@ -55,8 +57,8 @@ GUESSES = (("scaled-90", "scaled", 0.9, 0.0), ("guess-90", "scaled", 0.9, 4.0),
            ("offset", "offset", 1.0, 0.0), ("distribution", "distribution", 1.0, 0.0))
 # label -> (regularisation, mask?)
 SETTINGS = {"none": ("none", False), "tikhonov": ("tikhonov", False),
-            "smoothness": ("smoothness", False), "mask": ("none", True),
-            "mask+smoothness": ("smoothness", True)}
+            "smoothness": ("smoothness", False), "guess": ("guess", False),
+            "mask": ("none", True)}
 
 
 def _head(name: str, opts: Options, cache: Path, regularisation: str = "none",
@@ -91,12 +93,15 @@ def training_sweep(opts: Options, workers: int) -> str:
     return study.group_name
 
 
+def _distribution(opts: Options, group: str) -> str:
+    return (f'[distribution]\nstore = "{opts.store}"\ngroup = "{group}"\n'
+            "components = 3\ndegree = 2\nexclude_within_mm = 0.5\n")
+
+
 def guesses_text(opts: Options, cache: Path, group: str, repeats: int = 3) -> str:
     # broyden, not shared: every loop pays for its own Jacobians (shared ones exist only
     # at the scaled/uniform guesses and would flatter them)
-    text = _head("guesses", opts, cache, jacobian="broyden")
-    text += (f'[distribution]\nstore = "{opts.store}"\ngroup = "{group}"\n'
-             "components = 3\ndegree = 2\nexclude_within_mm = 0.5\n")
+    text = _head("guesses", opts, cache, jacobian="broyden") + _distribution(opts, group)
     for noise in (False, True):
         for name, initial, scale, sigma in GUESSES:
             label = f"{name}{'-noise' if noise else ''}"
@@ -147,8 +152,10 @@ def compare_regularisation(coarse: bool, workers: int, out: Path, repeats: int =
     for label, (reg, masked) in SETTINGS.items():
         name = "reg-" + label.replace("+", "-")
         text = _head(name, opts, out / "evaluations", reg, mask if masked else None)
+        text += _distribution(opts, group)
         text += _condition("noise", "scaled", 0.9, 0.0, True, repeats)
         text += _condition("guess-uniform", "uniform", 1.0, 4.0, True, repeats)
+        text += _condition("distribution", "distribution", 1.0, 0.0, True, repeats)
         study, _ = _run(text, name, workers)
         groups[label] = open_solves(study.store, study.group)
     _print("regularisation on the noisy conditions (weights by the discrepancy principle; "

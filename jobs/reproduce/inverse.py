@@ -33,18 +33,25 @@ CONDITIONS = (("ideal", "scaled", 0.9, 0.0, False), ("noise", "scaled", 0.9, 0.0
               ("guess-uniform", "uniform", 1.0, 4.0, True))
 # beyond the thesis (§6.2): the "tyre distribution" guess, with noise, no guess jitter
 DISTRIBUTION = ("distribution", "distribution", 1.0, 0.0, True)
+# --full: the noisy conditions again, once per regularisation (weights: discrepancy principle)
+REGULARISED = ("tikhonov", "smoothness", "guess")
 
 
-def study_text(opts: Options, jacobian: str = JACOBIAN) -> str:
+def study_text(opts: Options, jacobian: str = JACOBIAN, regularisation: str = "none") -> str:
     """The inverse study of the reproduction (written next to the report).
 
     ``jacobian``: how least squares gets its Jacobians (``full`` is the path before
-    issue 16; benchmarks/bench_inverse.py --study compares the two).
+    issue 16; benchmarks/bench_inverse.py --study compares the two). ``regularisation``
+    other than "none": the study of ``regularised_text``.
     """
+    regularised = regularisation != "none"
     repeats = 1 if opts.coarse else 2 if opts.quick else 10
-    optimizers = ['"least-squares"'] if opts.quick else ['"nelder-mead"', '"least-squares"']
+    optimizers = (['"least-squares"'] if opts.quick or regularised
+                  else ['"nelder-mead"', '"least-squares"'])
     mesh = f"[model.mesh]\n{COARSE_MESH['reduced']}\n" if opts.coarse else ""
-    lines = [f'[study]\nname = "ch4-{"quick" if opts.quick else "full"}-{opts.mesh_tag()}"',
+    suffix = f"-{regularisation}" if regularised else ""
+    lines = [f'[study]\nname = "ch4-{"quick" if opts.quick else "full"}-{opts.mesh_tag()}'
+             f'{suffix}"',
              f'store = "{opts.store}"\nseed = 0\n',
              f'[model]\nkind = "reduced"\nmaterials = "{MATERIALS}"\n{mesh}',
              "[reference]\ndeflection_mm = 30\n",
@@ -52,8 +59,10 @@ def study_text(opts: Options, jacobian: str = JACOBIAN) -> str:
              # ccx's .frd carries six significant digits: relative changes of the cost
              # below ~1e-5 are rounding, and polishing them cost 2-4x the rounds
              "[optimizers.least-squares]\nmax_evaluations = 200\nfd_step_n = 0.1\n"
-             f'tolerance = 1e-5\njacobian = "{jacobian}"\n']
-    if not opts.quick:
+             f'tolerance = 1e-5\njacobian = "{jacobian}"\n'
+             + (f'regularisation = "{regularisation}"\nweight = "discrepancy"\n'
+                if regularised else "")]
+    if not opts.quick and not regularised:
         lines.append('[optimizers.nelder-mead]\nmax_evaluations = 600\n'
                      'noise_draw = "per_evaluation"\n')
     conditions = CONDITIONS
@@ -62,11 +71,20 @@ def study_text(opts: Options, jacobian: str = JACOBIAN) -> str:
                      "exclude_within_mm = 0.5\n")
         conditions += (DISTRIBUTION,)
     for name, initial, scale, sigma, noise in conditions:
+        if regularised and not noise:  # nothing to regularise against
+            continue
         lines.append(f'[[conditions]]\nname = "{name}"\nmethods = ["displacement", "strain"]\n'
                      f'optimizers = [{", ".join(optimizers)}]\ninitial = "{initial}"\n'
                      f"scale = {scale}\nguess_sigma_n = {sigma}\n"
                      f"noise = {str(noise).lower()}\nrepeats = {repeats if noise else 1}\n")
     return "\n".join(lines)
+
+
+def regularised_text(opts: Options, regularisation: str) -> str:
+    """The noisy conditions of the full study (the distribution guess included), least
+    squares regularised by ``regularisation`` with the weight the discrepancy principle
+    chooses from the noise level (jobs/inverse/regularisation.py)."""
+    return study_text(opts, regularisation=regularisation)
 
 
 def run(opts: Options, log: Log | None = None, progress: ProgressFor | None = None) -> StageRun:
@@ -88,6 +106,20 @@ def run(opts: Options, log: Log | None = None, progress: ProgressFor | None = No
     log(f"ch4: {report.summary()}")
     stage.ccx_runs, stage.solver_seconds = report.totals.solved, report.totals.solver_seconds
     stage.notes += notes(report)
+    for reg in () if opts.quick else REGULARISED:  # same cache: stage 1 replays the above
+        name = f"ch4-{reg}"
+        text = regularised_text(opts, reg)
+        study = parse_inverse_study(text, f"{name}.toml", opts.out)
+        stage.texts[name], stage.studies[name] = text, study
+        extra = run_inverse(study, cluster=opts.cluster_spec(),
+                            progress=progress(name) if progress else None)
+        stage.reports[name] = extra
+        log(f"{name}: {extra.summary()}")
+        stage.ccx_runs += extra.totals.solved
+        stage.solver_seconds += extra.totals.solver_seconds
+        stage.notes += [f"{name} ({reg} regularisation, weights by the discrepancy principle): "
+                        f"{len(extra.results)} solves, {extra.totals.solved} solved by ccx"]
+        stage.notes += [f"{name} {label}: {error}" for label, error in extra.errors.items()]
     stage.wall_seconds = time.perf_counter() - start
     return stage
 

@@ -150,3 +150,19 @@ def test_the_full_reproduction_trains_the_distribution_on_its_chapter_3_sweep(tm
     assert full.distribution.group == opts.group("reduced") == "reduced-table-3.1-default"
     assert full.distribution.store == opts.store
     assert [c.initial for c in full.conditions if c.name == "distribution"] == ["distribution"]
+
+
+def test_the_full_reproduction_regularises_its_noisy_conditions(tmp_path):
+    from jobs.inverse.study import parse_inverse_study
+    from jobs.reproduce.inverse import REGULARISED, regularised_text
+    from jobs.reproduce.options import Options
+
+    opts = Options(out=tmp_path, store=str(tmp_path / "thesis.zarr"), quick=False)
+    for reg in REGULARISED:
+        study = parse_inverse_study(regularised_text(opts, reg), f"{reg}.toml", tmp_path)
+        (opt,) = study.optimizers
+        assert (opt.name, opt.regularisation, opt.weight_rule) == (
+            "least-squares", reg, "discrepancy")
+        assert all(c.noise for c in study.conditions)
+        assert "distribution" in {c.name for c in study.conditions}
+        assert study.group == f"inverse-ch4-full-default-{reg}"
