@@ -22,10 +22,28 @@ elementary-effect trajectories of ``r (D + 1)`` rows (Morris 1991, Campolongo et
 
 Ranges ``[low, high]`` are for float fields. Integer and text fields (mesh densities,
 ``road``, ``cut_faces``) take ``{levels = [...]}``: the design's unit coordinate ``u``
-picks level ``floor(u k)`` of ``k`` (every level equally likely under LHS/Sobol'), or
-``round(u (k - 1))`` on Morris' grid (so that every Morris step changes the level it
-moves). Values are rounded to :data:`jobs.identity.DIGITS` decimals before they reach a
-model, so that ids do not hang on the last bit of a float.
+picks level ``floor(u k)`` of ``k`` under LHS, ``round(u (k - 1))`` on Morris' grid (so
+that every Morris step changes the level it moves), and under Sobol' the level of a
+randomly relabelled stratum, see :func:`sobol_level`. Values are rounded to
+:data:`jobs.identity.DIGITS` decimals before they reach a model, so that ids do not
+hang on the last bit of a float.
+
+Why Sobol' levels are not ``floor(u k)``: Saltelli's estimators need the B matrix to be
+an independent redraw of A, so that the swap A -> AB_j changes a parameter in the share
+``1 - 1/k`` of the rows that two independent draws of ``k`` equally likely levels
+differ in (Saltelli 2002; Saltelli et al. 2010, the Jansen estimator of ST averages
+``(f(A) - f(AB_j))^2``, and rows whose swap changes nothing add exactly 0). Two levels
+from ``floor(2 u)`` read only the first binary digit of a Sobol' coordinate, and every
+Sobol' dimension's first direction number is 1: for some column pairs (j, j + D) of the
+2D-dimensional sequence, e.g. the sixth parameter of six, the first digits of A and B
+are the same in every row, or opposite in every row, whatever the scrambling seed.
+Then the swap never changes the level (indices 0 by construction) or always does (ST
+doubled for two levels). Each column of N = 2^m Sobol' points has one point in each of
+the N strata ``[s/N, (s+1)/N)``; relabelling the strata by a random permutation seeded
+from the design's seed and the parameter's position keeps that (each level still taken
+N/k times when k divides N) but breaks the digit pattern shared by A and B. It cannot
+rule out an unlucky draw, so :func:`check_swaps` refuses a design whose swaps change a
+level parameter implausibly rarely or often for independent draws (another seed fixes it).
 
 :func:`model_design` is deterministic (seeded samplers): the analysis side regenerates
 the design from the study file to line the rows up with the store's groups. Rows with
@@ -55,6 +73,13 @@ METHODS = ("grid", "lhs", "sobol", "morris")
 MODELS_KEYS = {"method", "n", "seed", "num_levels", "parameters"}
 FIXED_FIELDS = ("kind",)  # one study, one model kind (its inflation and load checks)
 MAX_ROWS = 100_000  # rows a design may have before its models are made (memory bound)
+#: A sobol design is refused when a level parameter's A -> AB_j swap changes it in a number
+#: of base rows that independent draws of A and B would give with a two-sided binomial
+#: probability below this (or in fewer than MIN_SWAPPED base rows: an index resting on one
+#: difference has no meaningful bootstrap interval). 1 %: N = 8 two-level designs are refused
+#: when 0 or 8 of 8 rows change (p = 0.008), kept from 1 to 7.
+SWAP_P_VALUE = 0.01
+MIN_SWAPPED = 2
 
 
 @dataclass(frozen=True)
@@ -310,24 +335,104 @@ def unit_sample(spec: ModelsSpec) -> np.ndarray:
     raise ValueError(f"no unit sample for method {spec.method!r}")  # grid: see _rows
 
 
+def sobol_level(u: float, k: int, strata: np.ndarray) -> int:
+    """The level index (0..k-1) a Sobol' coordinate ``u`` picks: the relabelled stratum.
+
+    ``strata`` is a permutation of ``range(N)``, N the design's base sample size: ``u``'s
+    stratum ``floor(u N)`` becomes ``strata[...]``, whose share of N gives the level.
+    Why not ``floor(u k)``: see the module note (A and B share first digits).
+    """
+    n = len(strata)
+    s = min(math.floor(u * n), n - 1)
+    return min(int(strata[s]) * k // n, k - 1)
+
+
+def level_strata(spec: ModelsSpec, j: int) -> np.ndarray:
+    """The stratum permutation of parameter ``j`` of a sobol design (seeded: deterministic)."""
+    return np.random.default_rng([spec.seed, j]).permutation(spec.n)
+
+
 def _rows(spec: ModelsSpec) -> list[tuple[Any, ...]]:
     """Each row's values (the fields' own types), in the design's order."""
     if spec.method == "grid":
         return list(itertools.product(*(p.levels for p in spec.parameters)))
     unit = np.clip(unit_sample(spec), 0.0, 1.0)
+    strata = {j: level_strata(spec, j) for j, p in enumerate(spec.parameters)
+              if p.levels is not None and spec.method == "sobol"}
     rows = []
     for u_row in unit:
         row = []
-        for p, u in zip(spec.parameters, u_row, strict=True):
+        for j, (p, u) in enumerate(zip(spec.parameters, u_row, strict=True)):
             if p.levels is None:
                 row.append(round(float(p.low + u * (p.high - p.low)), DIGITS))
                 continue
             k = len(p.levels)
-            index = (round(u * (k - 1)) if spec.method == "morris"
-                     else min(math.floor(u * k), k - 1))
+            if spec.method == "morris":
+                index = round(u * (k - 1))
+            elif spec.method == "sobol":
+                index = sobol_level(u, k, strata[j])
+            else:
+                index = min(math.floor(u * k), k - 1)
             row.append(p.levels[int(index)])
         rows.append(tuple(row))
     return rows
+
+
+def swapped_rows(spec: ModelsSpec, rows: list[tuple[Any, ...]]) -> dict[str, int]:
+    """Per level parameter, the base rows (sobol) or trajectories (morris) in which the
+    design's swap (A -> AB_j) or step actually changes its value."""
+    d = len(spec.parameters)
+    out = {}
+    for j, p in enumerate(spec.parameters):
+        if p.levels is None:
+            continue
+        if spec.method == "sobol":
+            blocks = [rows[i:i + d + 2] for i in range(0, len(rows), d + 2)]
+            out[p.path] = sum(b[0][j] != b[1 + j][j] for b in blocks)
+        elif spec.method == "morris":
+            blocks = [rows[i:i + d + 1] for i in range(0, len(rows), d + 1)]
+            out[p.path] = sum(len({r[j] for r in b}) > 1 for b in blocks)
+    return out
+
+
+def check_swaps(spec: ModelsSpec, rows: list[tuple[Any, ...]]) -> None:
+    """Refuse a design whose level parameter its own swaps (nearly) never move.
+
+    Sobol': the count c of base rows whose A -> AB_j swap changes the level must be at
+    least :data:`MIN_SWAPPED` and plausible for independent A and B (two-sided binomial
+    test of c out of N at ``1 - 1/k``, :data:`SWAP_P_VALUE`). Morris: every trajectory
+    must move every level parameter (a step that keeps the level is an elementary
+    effect of 0 divided by a nonzero step). Raises one StudyError naming the parameter.
+    """
+    if spec.method not in ("sobol", "morris"):
+        return
+    from scipy.stats import binomtest
+
+    for p in spec.parameters:
+        if p.levels is None:
+            continue
+        c = swapped_rows(spec, rows)[p.path]
+        where = f'models.parameters."{p.path}"'
+        k = len(p.levels)
+        if spec.method == "morris":
+            if c < spec.n:
+                raise StudyError(
+                    f"{where}: the morris design (n = {spec.n}, num_levels = "
+                    f"{spec.num_levels}, seed = {spec.seed}) moves it in {c} of {spec.n} "
+                    f"trajectories only: its {p.allowed()} map several grid levels to one, so "
+                    "a step that keeps the level would count as an effect of 0; give "
+                    "num_levels >= the number of levels, or fewer levels")
+            continue
+        expected = spec.n * (1 - 1 / k)
+        p_value = binomtest(c, spec.n, 1 - 1 / k).pvalue
+        if c < MIN_SWAPPED or p_value < SWAP_P_VALUE:
+            raise StudyError(
+                f"{where}: the sobol design (n = {spec.n}, seed = {spec.seed}) changes its "
+                f"level in {c} of {spec.n} base rows of Saltelli's A -> AB_j swap, where "
+                f"independent draws of its {p.allowed()} would change it in about "
+                f"{expected:g} (binomial p = {p_value:.2g}): its Sobol' indices would be 0 "
+                "or biased by the design, not by the model; use another seed, more levels "
+                "or a larger n")
 
 
 def _overrides(names: tuple[str, ...], row: tuple[Any, ...]) -> dict:
@@ -358,6 +463,7 @@ def design(base: ModelSpec, spec: ModelsSpec) -> ModelDesign:
     """The design of ``spec`` over ``base``: matrix, models and groups (validated)."""
     names = tuple(p.path for p in spec.parameters)
     rows = _rows(spec)
+    check_swaps(spec, rows)
     models, seen = [], {}
     for k, row in enumerate(rows):
         if row not in seen:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
 from pathlib import Path
@@ -286,6 +287,8 @@ def test_the_model_space_example_is_a_valid_sobol_design():
     d = model_design(s)
     assert d.method == "sobol" and d.matrix.shape == (8 * (6 + 2), 6)
     assert {m.mesh.circumferential for m in d.models} == {16, 24}
+    # its mesh swap moves the level in half the base rows (seed 0 of floor(2 u): none)
+    assert _swaps(d, d.names.index("mesh.circumferential")) == 4
     assert all(m.reinforcement is not None for m in d.models)
     # cords and materials leave the mesh alone: far fewer meshes than models
     assert len({mesh_key(m) for m in d.models}) < len(d.distinct()) / 2
@@ -294,3 +297,89 @@ def test_the_model_space_example_is_a_valid_sobol_design():
 def test_morris_needs_an_even_grid():
     with pytest.raises(StudyError, match="num_levels: must be even"):
         study(SOBOL.replace('"sobol"', '"morris"').replace("n = 8", "n = 2\nnum_levels = 3"))
+
+
+# ------------------------------------------------- level parameters under Saltelli's swap
+# Issue 15 review: with level = floor(2 u), the sixth of six parameters reads the first
+# binary digit of Sobol' dimensions 6 and 12, which agree (or disagree) in every row for
+# every scrambling seed: its A -> AB_j swap never (or always) changed it.
+
+SIX = """
+[models]
+method = "sobol"
+n = 8
+seed = SEED
+[models.parameters]
+"materials.tread.youngs_modulus" = [2.0, 6.0]
+"materials.sidewall.youngs_modulus" = [5.0, 15.0]
+"geometry.sidewall_thickness" = [8.0, 12.0]
+"materials.tread.poisson_ratio" = [0.45, 0.49]
+"materials.sidewall.poisson_ratio" = [0.45, 0.49]
+"mesh.circumferential" = { levels = [8, 12] }
+"""
+
+
+def _swaps(d, j):
+    """Base rows whose A -> AB_j swap changes column j."""
+    D = len(d.names)
+    blocks = d.matrix.reshape(-1, D + 2, D)
+    return int(np.sum(blocks[:, 0, j] != blocks[:, 1 + j, j]))
+
+
+def test_first_digit_mapping_never_swaps_the_sixth_parameter_so_it_is_refused():
+    from jobs.design import check_swaps, parse_models
+
+    base = study("").model
+    spec = parse_models(__import__("tomllib").loads(SIX.replace("SEED", "0"))["models"], base)
+    unit = salib_sobol.sample({"num_vars": 6, "names": list("abcdef"), "bounds": [[0, 1]] * 6},
+                              8, calc_second_order=False, scramble=True, seed=0)
+    first_digit = [(*r[:5], (8, 12)[int(r[5] >= 0.5)]) for r in unit]
+    blocks = np.array([r[5] for r in first_digit]).reshape(8, 8)
+    assert np.array_equal(blocks[:, 0], blocks[:, 6])  # the defect: AB_6 never moves it
+    with pytest.raises(StudyError, match=r'"mesh.circumferential".*0 of 8 base rows.*seed'):
+        check_swaps(spec, first_digit)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_relabelled_strata_swap_levels_in_plausible_shares_and_keep_balance(seed):
+    try:
+        d = model_design(study(SIX.replace("SEED", str(seed))))
+    except StudyError as e:  # an unlucky seed is refused, never silently kept
+        assert '"mesh.circumferential"' in str(e) and "another seed" in str(e)
+        return
+    c = _swaps(d, 5)
+    assert 2 <= c <= 6  # binomial(8, 1/2) at 1 %: 0 and 8 are refused
+    A = d.matrix.reshape(8, 8, 6)[:, 0, 5]
+    B = d.matrix.reshape(8, 8, 6)[:, -1, 5]
+    for col in (A, B):  # one Sobol' point per stratum: each level exactly N / k times
+        assert np.unique(col, return_counts=True)[1].tolist() == [4, 4]
+
+
+def test_most_seeds_are_kept_and_their_swaps_average_half_the_rows():
+    counts = []
+    for seed in range(20):
+        with contextlib.suppress(StudyError):
+            counts.append(_swaps(model_design(study(SIX.replace("SEED", str(seed)))), 5))
+    assert len(counts) >= 17  # P(refused) is a few per cent per seed
+    assert 3.0 <= np.mean(counts) <= 5.0  # independent A, B: 8 * (1 - 1/2) = 4
+
+
+def test_morris_level_steps_always_move_the_level():
+    d = model_design(study(SIX.replace("sobol", "morris").replace("n = 8", "n = 4")
+                           .replace("SEED", "0")))
+    traj = d.matrix.reshape(4, 7, 6)
+    assert all(len(set(t[:, 5])) == 2 for t in traj)
+
+
+def test_a_morris_trajectory_that_keeps_a_level_is_refused():
+    # SALib's grids always move a level (the step is over half the level spacing), so the
+    # check is a safety net: fed rows whose second trajectory keeps the mesh level.
+    from jobs.design import check_swaps
+
+    spec = study(SIX.replace("sobol", "morris").replace("n = 8", "n = 2")
+                 .replace("SEED", "0")).models
+    moving = [(2.0, 5.0, 8.0, 0.45, 0.45, 8)] * 6 + [(2.0, 5.0, 8.0, 0.45, 0.45, 12)]
+    kept = [(2.0, 5.0, 8.0, 0.45, 0.45, 8)] * 7
+    check_swaps(spec, moving + moving)
+    with pytest.raises(StudyError, match=r'"mesh.circumferential".*1 of 2 trajectories'):
+        check_swaps(spec, moving + kept)
