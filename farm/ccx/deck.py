@@ -200,17 +200,19 @@ def road_motion_lines(road: Road, travel: float, shift: tuple[float, float], til
         for dof, points in ((2, [(t1, uy), (t0 + 1, uy), (t0 + 2, uy + sy)]),
                             (3, [(t1, uz), (t0 + 1, uz + travel), (t0 + 2, uz + travel + sz)])):
             name = f"ROAD_{k + 1}_{dof}"
-            lines += [f"*AMPLITUDE, NAME={name}", _amplitude([(0.0, 0.0), (t0, 0.0), *points])]
+            lines += [f"*AMPLITUDE, NAME={name}", *_amplitude([(0.0, 0.0), (t0, 0.0), *points])]
             bcs.append(f"*BOUNDARY, AMPLITUDE={name}")
             bcs += [f"{i}, {dof}, {dof}, 1" for i in ids[index == k]]
     return lines, bcs
 
 
-def _amplitude(points: list[tuple[float, float]]) -> str:
-    """Amplitude data line; ccx ignores an amplitude from a repeated time on, so each
-    time appears once (the first of equal times; equal times carry equal values)."""
+def _amplitude(points: list[tuple[float, float]]) -> list[str]:
+    """Amplitude data lines: at most four (time, value) pairs a line (ccx reads no more
+    from one line: a fifth pair is silently dropped), each time once (the first of
+    equal times; equal times carry equal values)."""
     kept = [pt for i, pt in enumerate(points) if i == 0 or pt[0] > points[i - 1][0]]
-    return ", ".join(f"{_num(t)}, {_num(v)}" for t, v in kept)
+    pairs = [f"{_num(t)}, {_num(v)}" for t, v in kept]
+    return [", ".join(pairs[k:k + 4]) for k in range(0, len(pairs), 4)]
 
 
 def static_step_lines(period: float, settings: SolverSettings) -> list[str]:
