@@ -31,6 +31,8 @@ from jobs.guard import Failed, Result, Solved
 KEY = re.compile(r"[0-9a-f]{64}")
 LAYOUT = 2  # of the .npz files: 2 = typed results (1 = loose arrays, before 2026-11)
 _FIELDS = tuple(f.name for f in dataclasses.fields(Measurement))
+# fields that may be None (not written when they are): a missing required one is a bad file
+_OPTIONAL = frozenset(f.name for f in dataclasses.fields(Measurement) if f.default is None)
 
 
 def encode(result: Result) -> dict[str, np.ndarray]:
@@ -42,7 +44,11 @@ def encode(result: Result) -> dict[str, np.ndarray]:
            "ccx_runs": np.array(result.ccx_runs), "increments": np.array(result.increments),
            "states": np.array(len(result.measurements))}
     for k, m in enumerate(result.measurements):
-        out |= {f"m{k}.{name}": np.asarray(getattr(m, name)) for name in _FIELDS}
+        # fields that are None (the combined-load ones of a vertical path, issue 13) are
+        # left out: np.asarray(None) is an object array, which np.load refuses without
+        # pickle, so the whole file read as absent and resume-by-replay re-solved it
+        out |= {f"m{k}.{name}": np.asarray(getattr(m, name)) for name in _FIELDS
+                if getattr(m, name) is not None}
     return out
 
 
@@ -52,7 +58,9 @@ def decode(arrays: Mapping[str, np.ndarray]) -> Result | None:
         return None
     if "failed" in arrays:
         return Failed(str(arrays["failed"]), str(arrays["outcome"]))
-    ms = tuple(Measurement(**{name: _scalar(arrays[f"m{k}.{name}"]) for name in _FIELDS})
+    ms = tuple(Measurement(**{name: _scalar(arrays[f"m{k}.{name}"])
+                              if f"m{k}.{name}" in arrays or name not in _OPTIONAL else None
+                              for name in _FIELDS})
                for k in range(int(arrays["states"])))
     return Solved(ms, float(arrays["solve_seconds"]), int(arrays["ccx_runs"]),
                   int(arrays["increments"]))
