@@ -142,6 +142,11 @@ def main() -> None:
     parser.add_argument("--out", default=None,
                         help="--guesses/--regularisation: folder of the store and cache "
                              "[default: a temporary one]")
+    parser.add_argument("--tau", type=float, default=1.0,
+                        help="--regularisation: τ of the discrepancy principle")
+    parser.add_argument("--settings", default=None,
+                        help="--regularisation: comma-separated subset of none, tikhonov, "
+                             "smoothness, guess, mask")
     parser.add_argument("--repeats", type=int, default=None,
                         help="noisy repeats [default: 3 for --guesses, 2 --regularisation]")
     args = parser.parse_args()
@@ -156,8 +161,10 @@ def main() -> None:
             if args.guesses:
                 extras.compare_guesses(args.coarse, args.workers, out, args.repeats or 3)
             if args.regularisation:
+                settings = (tuple(args.settings.split(",")) if args.settings
+                            else tuple(extras.SETTINGS))
                 extras.compare_regularisation(args.coarse, args.workers, out,
-                                              args.repeats or 2)
+                                              args.repeats or 2, args.tau, settings)
         return
     if args.study:
         from bench_inverse_study import compare

@@ -62,9 +62,10 @@ SETTINGS = {"none": ("none", False), "tikhonov": ("tikhonov", False),
 
 
 def _head(name: str, opts: Options, cache: Path, regularisation: str = "none",
-          mask: Path | None = None, jacobian: str = "shared") -> str:
+          mask: Path | None = None, jacobian: str = "shared", tau: float = 1.0) -> str:
     mesh = f"[model.mesh]\n{COARSE_MESH['reduced']}\n" if opts.coarse else ""
-    weight = 'weight = "discrepancy"\n' if regularisation != "none" else ""
+    weight = (f'weight = "discrepancy"\ndiscrepancy = {tau}\n' if regularisation != "none"
+              else "")
     text = (f'[study]\nname = "{name}"\nstore = "{opts.store}"\ncache = "{cache}"\nseed = 0\n'
             f'[model]\nkind = "reduced"\nmaterials = "thesis-calibrated"\n{mesh}'
             "[reference]\ndeflection_mm = 30\n[noise]\ndisplacement_mm = 1.0\nstrain = 4e-4\n"
@@ -144,14 +145,19 @@ def pca_mask(opts: Options, group: str, out: Path) -> Path:
     return folder / "eigen_vectors.csv"
 
 
-def compare_regularisation(coarse: bool, workers: int, out: Path, repeats: int = 2) -> None:
+def compare_regularisation(coarse: bool, workers: int, out: Path, repeats: int = 2,
+                           tau: float = 1.0, settings: tuple[str, ...] = tuple(SETTINGS)
+                           ) -> None:
+    """``tau``: the discrepancy principle's τ; ``settings``: labels of :data:`SETTINGS`."""
     opts = Options(out=out, store=str(out / "thesis.zarr"), quick=True, coarse=coarse)
     group = training_sweep(opts, workers)
-    mask = pca_mask(opts, group, out)
+    mask = pca_mask(opts, group, out) if any(SETTINGS[s][1] for s in settings) else None
     groups = {}
-    for label, (reg, masked) in SETTINGS.items():
-        name = "reg-" + label.replace("+", "-")
-        text = _head(name, opts, out / "evaluations", reg, mask if masked else None)
+    for label in settings:
+        reg, masked = SETTINGS[label]
+        name = "reg-" + label.replace("+", "-") + (f"-tau{tau:g}" if tau != 1.0 else "")
+        text = _head(name, opts, out / "evaluations", reg, mask if masked else None,
+                     tau=tau)
         text += _distribution(opts, group)
         text += _condition("noise", "scaled", 0.9, 0.0, True, repeats)
         text += _condition("guess-uniform", "uniform", 1.0, 4.0, True, repeats)
