@@ -1,4 +1,4 @@
-"""Errors (and the one warning) of the analysis layer.
+"""Errors (and the warnings) of the analysis layer.
 
 Each error is one line that says what was asked, what the store holds and how to fix
 it; the ``farm analyse`` CLI prints ``str(error)``. Errors caused by bad input also
@@ -19,6 +19,7 @@ __all__ = [
     "AnalysisError",
     "CommonMeshError",
     "ComponentsError",
+    "DegenerateDesignWarning",
     "DesignError",
     "EmptySelectionError",
     "IncompleteDesignError",
@@ -96,3 +97,8 @@ class SchedulerError(AnalysisError, ConnectionError):
 
 class UndefinedVarianceWarning(UserWarning):
     """A fraction of variance explained is 0/0 (data without variance): reported as NaN."""
+
+
+class DegenerateDesignWarning(UserWarning):
+    """A parameter is (nearly) never changed by its own swap in a Sobol' design: its
+    indices would be 0 by construction, not by the model, and are reported as NaN."""

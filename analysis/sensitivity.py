@@ -37,6 +37,7 @@ from sklearn.base import BaseEstimator
 from sklearn.utils.validation import check_is_fitted
 
 from analysis.errors import (
+    DegenerateDesignWarning,
     DesignError,
     NonFiniteError,
     ParameterError,
@@ -46,6 +47,17 @@ from analysis.errors import (
 __all__ = [
     "MorrisScreening", "SobolIndices", "ci_width", "morris_rows", "sobol_rows",
 ]
+
+#: A parameter whose A -> AB_j swap changes it in fewer base rows than this has NaN
+#: indices. Why: the Jansen ST estimator averages (f(A) - f(AB_j))^2 over the N base rows
+#: and Saltelli's S1 averages f(B) (f(AB_j) - f(A)); a row whose swap leaves the parameter
+#: as it was adds exactly 0 to both. With no such row the indices are 0 +- 0 whatever the
+#: model does; with one, the estimate is one difference and the bootstrap (which misses
+#: that row in about (1 - 1/N)^N ~ 37 % of its resamples) cannot give it an interval.
+#: Continuous parameters of a Sobol' design change in every row; level parameters (mesh
+#: densities) in about 1 - 1/k of them, see jobs.design.
+MIN_SWAPPED_ROWS = 2
+NOT_ESTIMABLE = "not estimable: never varied by the design"
 
 # Tolerance of the design-structure checks: the values of a SALib design may have
 # travelled through text (TOML, JSON) and back, which keeps them to ~1e-15 relative.
@@ -210,6 +222,11 @@ class SobolIndices(BaseEstimator):
         k, the number of output columns of y.
     problem_ : dict
         The SALib problem (``num_vars``, ``names``, ``bounds``).
+    swapped_rows_ : ndarray of shape (D,)
+        Base rows whose A -> AB_j swap changes parameter j (N for a continuous one).
+    estimable_ : ndarray of shape (D,), bool
+        ``swapped_rows_ >= MIN_SWAPPED_ROWS``; the indices of the others are NaN and
+        fit raises a :class:`~analysis.errors.DegenerateDesignWarning`.
 
     Outputs without variance over the design have NaN indices and raise an
     :class:`~analysis.errors.UndefinedVarianceWarning` (their indices are 0/0).
@@ -267,6 +284,18 @@ class SobolIndices(BaseEstimator):
         self.problem_ = {"num_vars": D, "names": list(names), "bounds": bounds.tolist()}
         k = Y.shape[1]
         out = {key: np.full((k, D), np.nan) for key in ("S1", "S1_conf", "ST", "ST_conf")}
+        swapped = self._swapped(X, D)
+        estimable = swapped >= MIN_SWAPPED_ROWS
+        if not estimable.all():
+            warnings.warn(
+                "; ".join(f"{names[j]!r} is changed by its A -> AB_{j + 1} swap in "
+                          f"{swapped[j]} of {n_base} base rows" for j in np.flatnonzero(~estimable))
+                + f": Sobol' indices need at least {MIN_SWAPPED_ROWS} (rows whose swap changes "
+                "nothing add 0 to every estimator): reported as NaN, not estimable; the design "
+                "never varied it (a two-level parameter from the first digit of a Sobol' "
+                "coordinate): sample another seed or a larger N",
+                DegenerateDesignWarning, stacklevel=2,
+            )
         for j in range(k):
             if not _variance_ok(Y[:, j], f"y[:, {j}]", "Sobol indices"):
                 continue
@@ -277,12 +306,20 @@ class SobolIndices(BaseEstimator):
                     seed=np.random.default_rng(self.seed),
                 )
             for key in out:
-                out[key][j] = res[key]
+                out[key][j] = np.where(estimable, res[key], np.nan)
+        self.swapped_rows_, self.estimable_ = swapped, estimable
         self.first_order_, self.first_order_conf_ = out["S1"], out["S1_conf"]
         self.total_order_, self.total_order_conf_ = out["ST"], out["ST_conf"]
         self.n_base_samples_, self.n_outputs_ = n_base, k
         self.n_features_in_ = D
         return self
+
+    @staticmethod
+    def _swapped(X: np.ndarray, D: int) -> np.ndarray:
+        """Base rows whose A -> AB_j swap changes parameter j, shape (D,)."""
+        blocks = X.reshape(-1, D + 2, D)
+        return np.array([int(np.sum(~_same(blocks[:, 0, j], blocks[:, 1 + j, j])))
+                         for j in range(D)])
 
     @staticmethod
     def _check_structure(X: np.ndarray, names: tuple[str, ...]) -> int:
@@ -321,11 +358,14 @@ class SobolIndices(BaseEstimator):
         Returns
         -------
         pandas.DataFrame
-            Columns output, parameter, S1, S1_conf, ST, ST_conf.
+            Columns output, parameter, S1, S1_conf, ST, ST_conf, swapped_rows (base
+            rows whose swap changes the parameter) and note (:data:`NOT_ESTIMABLE` for
+            a parameter with fewer than :data:`MIN_SWAPPED_ROWS`, else empty).
         """
         check_is_fitted(self, "first_order_")
         outs = _output_names(output_names, self.n_outputs_)
         D = self.n_features_in_
+        note = np.where(self.estimable_, "", NOT_ESTIMABLE)
         return pd.DataFrame({
             "output": np.repeat(outs, D),
             "parameter": np.tile(self.problem_["names"], self.n_outputs_),
@@ -333,6 +373,8 @@ class SobolIndices(BaseEstimator):
             "S1_conf": self.first_order_conf_.ravel(),
             "ST": self.total_order_.ravel(),
             "ST_conf": self.total_order_conf_.ravel(),
+            "swapped_rows": np.tile(self.swapped_rows_, self.n_outputs_),
+            "note": np.tile(note, self.n_outputs_),
         })
 
 

@@ -27,7 +27,7 @@ import pandas as pd
 from analysis.errors import ParameterError, UndefinedVarianceWarning
 from analysis.report import markdown
 from analysis.report.plots import DPI, _figure
-from analysis.sensitivity import MorrisScreening, SobolIndices
+from analysis.sensitivity import MIN_SWAPPED_ROWS, MorrisScreening, SobolIndices
 from analysis.sensitivity_data import OutputRequest, read_outputs
 from analysis.studies.common import Report
 
@@ -74,7 +74,7 @@ def run(
     outputs = read_outputs(store, groups, request)
     with warnings.catch_warnings():  # outputs without variance: "undefined" in the summary
         warnings.simplefilter("ignore", UndefinedVarianceWarning)
-        est.fit(matrix, outputs.y)
+        est.fit(matrix, outputs.y)  # a DegenerateDesignWarning goes on: the CLI shows it
     report = Report(Path(out))
     table = est.to_frame(outputs.labels)
     report.csv("sensitivity", table)
@@ -151,7 +151,9 @@ def _short(name: str) -> str:
 def ranking(table: pd.DataFrame, method: str) -> pd.DataFrame:
     """Per output, the parameters from most to least influential (ST, or mu*) with CIs.
 
-    Outputs whose indices are undefined (no variance over the design) say so.
+    Outputs whose indices are undefined (no variance over the design) say so; parameters
+    the design never varied (Sobol' ``note``, see :data:`analysis.sensitivity.NOT_ESTIMABLE`)
+    come last, as "not estimable", never as 0 ± 0.
     """
     key, conf = ("ST", "ST_conf") if method == "sobol" else ("mu_star", "mu_star_conf")
     rows = []
@@ -160,10 +162,16 @@ def ranking(table: pd.DataFrame, method: str) -> pd.DataFrame:
             rows.append({"output": output, "ranking": "undefined: the output does not vary "
                          "over the design"})
             continue
-        part = part.sort_values(key, ascending=False)
-        text = "; ".join(f"{p} {v:.3g} ± {c:.2g}"
-                         for p, v, c in zip(part["parameter"], part[key], part[conf],
-                                            strict=True))
+        if "note" not in part:  # Morris: its design moves every parameter (checked)
+            part = part.assign(note="", swapped_rows=0)
+        lost = part[part["note"] != ""]
+        part = part[part["note"] == ""].sort_values(key, ascending=False)
+        text = "; ".join(
+            [f"{p} {v:.3g} ± {c:.2g}"
+             for p, v, c in zip(part["parameter"], part[key], part[conf], strict=True)]
+            + [f"{p} {n} (changed in {s} base rows)"
+               for p, n, s in zip(lost["parameter"], lost["note"], lost["swapped_rows"],
+                                  strict=True)])
         rows.append({"output": output, "ranking": text})
     return pd.DataFrame(rows)
 
@@ -187,6 +195,11 @@ def _summary(report: Report, est, method: str, table: pd.DataFrame, outputs: pd.
         f"{conf_level:.0%} level (half-width z times the bootstrap standard deviation, "
         "as SALib reports it)."
     )
+    if "note" in table and (table["note"] != "").any():
+        lost = table.loc[table["note"] != "", "parameter"].unique()
+        text += (f" Not estimable ({', '.join(map(str, lost))}): the design's A -> AB_j swaps "
+                 f"changed them in fewer than {MIN_SWAPPED_ROWS} base rows, so their indices "
+                 "would be 0 by construction; they are reported as NaN, not as 0.")
     path = markdown.write(
         report.out / "summary.md",
         "Global sensitivity analysis of the model choices (thesis §6.2)",

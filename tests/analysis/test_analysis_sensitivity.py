@@ -15,13 +15,14 @@ from sklearn.base import clone
 from analysis.errors import (
     CommonMeshError,
     ComponentsError,
+    DegenerateDesignWarning,
     DesignError,
     IncompleteDesignError,
     NonFiniteError,
     ParameterError,
     UndefinedVarianceWarning,
 )
-from analysis.sensitivity import MorrisScreening, SobolIndices, ci_width
+from analysis.sensitivity import NOT_ESTIMABLE, MorrisScreening, SobolIndices, ci_width
 from analysis.sensitivity_data import OutputRequest, read_outputs, tread_areas
 from analysis.synthetic import make_store
 
@@ -89,8 +90,10 @@ def test_sobol_to_frame_and_ci_width(ishigami):
     X, y = ishigami
     est = SobolIndices(ISHIGAMI["names"], ISHIGAMI["bounds"], num_resamples=100).fit(X, y)
     frame = est.to_frame(["f"])
-    assert list(frame.columns) == ["output", "parameter", "S1", "S1_conf", "ST", "ST_conf"]
+    assert list(frame.columns) == ["output", "parameter", "S1", "S1_conf", "ST", "ST_conf",
+                                   "swapped_rows", "note"]
     assert frame["parameter"].tolist() == ["x1", "x2", "x3"]
+    assert frame["swapped_rows"].tolist() == [1024] * 3 and (frame["note"] == "").all()
     np.testing.assert_array_equal(frame["ST"], est.total_order_[0])
     width = ci_width(est)
     assert width["S1"] == pytest.approx(2 * est.first_order_conf_.mean())
@@ -172,6 +175,100 @@ def test_an_output_without_variance_gives_nan_and_a_warning(ishigami):
     with pytest.warns(UndefinedVarianceWarning, match="same in every row"):
         est = SobolIndices(ISHIGAMI["names"], ISHIGAMI["bounds"], num_resamples=10).fit(X, Y)
     assert np.isnan(est.total_order_[1]).all() and np.isfinite(est.total_order_[0]).all()
+
+
+# ---- degenerate swaps (issue 15 review) -------------------------------------------------
+# Six parameters, N = 8, the sixth a two-level choice taken from floor(2 u): the first
+# binary digit of Sobol' dimensions 6 and 12, the same in every row (the model-space
+# example's mesh.circumferential): its AB_6 rows equal the A rows.
+SIX = {"num_vars": 6, "names": [f"x{i}" for i in range(6)], "bounds": [[0.0, 1.0]] * 6}
+
+
+def _six(first_digit: bool, seed: int = 0):
+    X = sobol_sample.sample(SIX, 8, calc_second_order=False, seed=seed)
+    if first_digit:
+        X[:, 5] = np.floor(2 * X[:, 5])
+    return X
+
+
+def _f(X):
+    """Depends on the two-level x5 most: ST of x5 is far from 0."""
+    return X[:, 0] + 0.5 * X[:, 1] ** 2 + 3.0 * X[:, 5] + X[:, 0] * X[:, 5]
+
+
+def test_a_parameter_its_swap_never_changes_is_nan_and_warned_not_zero():
+    X = _six(first_digit=True)
+    blocks = X.reshape(8, 8, 6)
+    assert np.array_equal(blocks[:, 0, 5], blocks[:, 6, 5])  # the degenerate design
+    est = SobolIndices(SIX["names"], SIX["bounds"], num_resamples=50)
+    raw = salib_sobol.analyze(SIX, _f(X), calc_second_order=False, num_resamples=50,
+                              seed=np.random.default_rng(0))
+    assert raw["ST"][5] == 0.0 and raw["S1"][5] == 0.0  # what SALib alone reports
+    with pytest.warns(DegenerateDesignWarning, match=r"'x5'.*0 of 8 base rows"):
+        est.fit(X, _f(X))
+    assert est.swapped_rows_.tolist() == [8, 8, 8, 8, 8, 0]
+    for attr in ("first_order_", "first_order_conf_", "total_order_", "total_order_conf_"):
+        values = getattr(est, attr)[0]
+        assert np.isnan(values[5]) and np.isfinite(values[:5]).all()
+        np.testing.assert_array_equal(  # the other parameters as SALib computes them
+            values[:5], raw[{"first_order_": "S1", "first_order_conf_": "S1_conf",
+                             "total_order_": "ST", "total_order_conf_": "ST_conf"}[attr]][:5])
+    frame = est.to_frame(["f"])
+    assert frame["note"].tolist() == [""] * 5 + [NOT_ESTIMABLE]
+
+
+def test_the_ranking_says_not_estimable_instead_of_zero():
+    from analysis.studies.sensitivity import ranking
+
+    X = _six(first_digit=True)
+    with pytest.warns(DegenerateDesignWarning):
+        est = SobolIndices(SIX["names"], SIX["bounds"], num_resamples=20).fit(X, _f(X))
+    text = ranking(est.to_frame(["f"]), "sobol")["ranking"].iloc[0]
+    assert text.endswith("x5 not estimable: never varied by the design (changed in 0 base rows)")
+    assert "x5 0 ±" not in text and text.startswith("x0 ")
+
+
+def test_one_changed_row_is_not_enough_and_two_are(recwarn):
+    X = _six(first_digit=True)
+    for changed, estimable in ((1, False), (2, True)):
+        Z = X.copy()
+        for n in range(changed):  # flip x5 in AB_6 and B of base row n (a consistent design)
+            Z[n * 8 + 6, 5] = Z[n * 8 + 7, 5] = 1.0 - Z[n * 8, 5]
+        est = SobolIndices(SIX["names"], SIX["bounds"], num_resamples=20).fit(Z, _f(Z))
+        assert est.swapped_rows_[5] == changed
+        assert bool(est.estimable_[5]) is estimable
+        assert np.isnan(est.total_order_[0, 5]) is not estimable
+
+
+def test_an_estimable_design_with_a_level_parameter_is_salibs_result_unchanged():
+    import warnings
+
+    X = sobol_sample.sample(SIX, 8, calc_second_order=False, seed=0)
+    X[:, 5] = np.floor(2 * X[:, 4])  # the fifth column's digit pair does differ: 4 of 8
+    X = X.reshape(8, 8, 6)
+    X[:, 1:-1, 5] = X[:, :1, 5]  # a level parameter: AB_j rows keep A's level ...
+    X[:, 6, 5] = X[:, -1, 5]     # ... except its own swap, from B
+    X = X.reshape(64, 6)
+    est = SobolIndices(SIX["names"], SIX["bounds"], num_resamples=50)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DegenerateDesignWarning)
+        est.fit(X, _f(X))
+    assert 2 <= est.swapped_rows_[5] < 8 and est.estimable_.all()
+    raw = salib_sobol.analyze(SIX, _f(X), calc_second_order=False, num_resamples=50,
+                              seed=np.random.default_rng(0))
+    np.testing.assert_array_equal(est.total_order_[0], raw["ST"])
+    np.testing.assert_array_equal(est.first_order_conf_[0], raw["S1_conf"])
+    assert est.total_order_[0, 5] > 0.3  # x5 dominates _f
+
+
+def test_morris_refuses_a_parameter_a_trajectory_never_moves():
+    problem = {"num_vars": 3, "names": ["a", "b", "c"], "bounds": [[0.0, 1.0]] * 3}
+    X = morris_sample.sample(problem, 4, num_levels=4, seed=2)
+    traj = X.reshape(4, 4, 3)
+    traj[1, :, 2] = traj[1, 0, 2]  # trajectory 1 never moves c
+    with pytest.raises(DesignError, match="changes 0 parameters"):
+        MorrisScreening(problem["names"], problem["bounds"]).fit(traj.reshape(16, 3),
+                                                                np.arange(16.0))
 
 
 # ---- contact area --------------------------------------------------------------------

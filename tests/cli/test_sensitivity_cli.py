@@ -97,7 +97,8 @@ def test_sobol_report_ranks_the_parameter_fz_depends_on(sobol_study, tmp_path):
                   "--components", 1, "--num-resamples", 200)
     assert "wrote 5 files" in result.output
     table = pd.read_csv(out / "sensitivity.csv")
-    assert list(table.columns) == ["output", "parameter", "S1", "S1_conf", "ST", "ST_conf"]
+    assert list(table.columns) == ["output", "parameter", "S1", "S1_conf", "ST", "ST_conf",
+                                   "swapped_rows", "note"]
     outputs = list(dict.fromkeys(table["output"]))
     assert outputs == [f"{q} d={d}mm p=200kPa" for d in (20, 30) for q in
                        ("Fz", "contact_nodes", "contact_area", "displacement PC1")]
