@@ -12,7 +12,9 @@ case (deflection, pressure) this module reads that one experiment and derives:
 - field outputs: the first m principal-component scores, across the design's rows, of
   the inner-surface ``displacement``, ``strain`` or ``surface_strain`` field at that
   load case (the field of one row flattened to N x 3 values, centred over the rows, as
-  thesis §5.3 centres its X): which model choices change what T2Cam would see.
+  thesis §5.3 centres its X): which model choices change what T2Cam would see. Groups
+  whose meshes differ only round the tyre (``mesh.circumferential``) are compared at the
+  coarsest group's nodes, each meridional row interpolated along the angle.
 
 Reads through :mod:`storage` only (``open_dataset``, ``select``, ``verify_done``).
 A Sobol' or Morris design cannot drop rows: any row without a done experiment is one
@@ -142,7 +144,10 @@ def read_outputs(store: Any, groups: Sequence[str], request: OutputRequest) -> D
         Some rows have no done experiment at an asked load case (missing, pending or
         failed): the message counts them and names the groups.
     CommonMeshError
-        A field output over groups whose inner surfaces differ in node count or grid.
+        A field output over groups whose inner surfaces differ in their meridional rows
+        (groups that differ only in the circumferential count are resampled onto the
+        coarsest one's nodes, see the module's section on fields across meshes), or a
+        sector that would have to be extrapolated.
     ParameterError
         Several pressures at a deflection and none asked; several experiments of one
         group at one load case (other load parameters differ).
@@ -356,16 +361,11 @@ def _field_scores(chosen: dict, unique: list[str], row_of: np.ndarray,
     first = unique[0]
     odd = [g for g in unique
            if shapes[g] != shapes[first] or not _same_grid(grids[g], grids[first])]
-    if odd:
-        raise CommonMeshError(
-            f"field outputs need a common mesh: group {first!r} has {shapes[first][0]} inner "
-            f"nodes but {odd[0]!r} has {shapes[odd[0]][0]}"
-            + (" (same count, other grid)" if shapes[odd[0]] == shapes[first] else "")
-            + f"; {len(odd)} of {len(unique)} groups differ. Drop geometry/mesh parameters "
-            "from the design's [models] table, or analyse scalar outputs only"
-        )
-    per_group = np.stack([
-        np.asarray(chosen[g][name].values[0], dtype=float).ravel() for g in unique])
+    if odd:  # only the circumferential count may differ: resample onto the coarsest
+        per_group = _resampled(chosen, unique, name, shapes, grids, odd)
+    else:  # a common mesh: the fields as stored, nothing interpolated
+        per_group = np.stack([
+            np.asarray(chosen[g][name].values[0], dtype=float).ravel() for g in unique])
     F = per_group[row_of]
     # numerical rank: variation below 1e-10 of the field's own size is round-off (rows
     # that are the same field up to the last digits must not make a PCA score)
@@ -395,3 +395,107 @@ def _same_grid(a, b) -> bool:
     if a is None or b is None:
         return a is b
     return all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
+
+
+# ------------------------------------------------------------- fields across meshes
+# A design with a mesh-density parameter (mesh.circumferential: elements round the tyre)
+# gives groups whose inner surfaces have the same meridional rows (inner_row) but more
+# or fewer columns (inner_col). Their fields are compared at the coarsest group's nodes:
+# each meridional row is interpolated linearly along the angle round the spin axis (y,
+# TYDEX C, docs/schema.md), periodically for a full tyre (360 degrees) and within the
+# sector's own angles for a reduced model (which is not periodic). Linear interpolation
+# of a smooth field has an error of at most h^2 / 8 max|f''| for a column spacing h (the
+# finer groups' spacing, as every target node lies between two of their columns).
+# Displacements are vectors in x, y, z: interpolating them as such would shorten a
+# radial displacement between two columns by cos(h / 2) (2 % at 16 columns), so they are
+# interpolated as radial, axial and tangential components and turned back at the target
+# node's angle. Strains are already in the local surface frame (docs/schema.md) and are
+# interpolated component by component. Different meridional counts (tread, sidewall or
+# bead densities) stay a CommonMeshError: rows of different meshes are not one curve.
+
+
+def _angles(xyz: np.ndarray) -> np.ndarray:
+    """Angle round the spin axis y, 0 at the contact centre (-z), increasing towards +x."""
+    return np.arctan2(xyz[:, 0], -xyz[:, 2])
+
+
+def _periodic(theta_by_col: np.ndarray) -> bool:
+    """A row of column angles (sorted) closes round the tyre: the gap from its last column
+    back to its first is no wider than 1.5 times its widest column spacing."""
+    if len(theta_by_col) < 3:
+        return False
+    gaps = np.diff(theta_by_col)
+    return bool(2 * np.pi - (theta_by_col[-1] - theta_by_col[0]) <= 1.5 * gaps.max())
+
+
+def _resampled(chosen: dict, unique: list[str], name: str, shapes: dict, grids: dict,
+               odd: list[str]) -> np.ndarray:
+    """Each group's field at the coarsest group's inner nodes, shape (groups, N * c)."""
+    first = unique[0]
+    missing = [g for g in unique if grids[g] is None or "inner_xyz" not in chosen[g]]
+    rows = {g: np.unique(grids[g][0]) for g in unique if g not in missing}
+    differ = missing or [g for g in unique if not np.array_equal(rows[g], rows[first])]
+    if differ:
+        g = differ[0]
+        raise CommonMeshError(
+            f"field outputs need a common mesh: group {first!r} has {shapes[first][0]} inner "
+            f"nodes but {g!r} has {shapes[g][0]}"
+            + (" (no inner grid to resample)" if missing else
+               f" ({len(rows[first])} vs {len(rows[g])} meridional rows: only the "
+               "circumferential count may differ, and is resampled)")
+            + f"; {len(odd)} of {len(unique)} groups differ. Drop tread/sidewall/bead mesh "
+            "parameters from the design's [models] table, or analyse scalar outputs only"
+        )
+    target = min(unique, key=lambda g: (shapes[g][0], unique.index(g)))
+    t_row, _ = grids[target]
+    t_theta = _angles(_xyz(chosen[target]))
+    out = []
+    for g in unique:
+        values = np.asarray(chosen[g][name].values[0], dtype=float)  # (N_g, c)
+        if g == target:
+            out.append(values.ravel())
+            continue
+        row = grids[g][0]
+        theta = _angles(_xyz(chosen[g]))
+        local = _to_cylindrical(values, theta) if name == "displacement" else values
+        at = np.empty((len(t_row), values.shape[1]))
+        for r in np.unique(t_row):
+            src = np.flatnonzero(row == r)
+            src = src[np.argsort(theta[src])]
+            dst = np.flatnonzero(t_row == r)
+            at[dst] = _interp_row(theta[src], local[src], t_theta[dst], g, int(r))
+        if name == "displacement":
+            at = _from_cylindrical(at, t_theta)
+        out.append(at.ravel())
+    return np.stack(out)
+
+
+def _xyz(ds) -> np.ndarray:
+    return np.asarray(ds["inner_xyz"].transpose("inner_node", "component").values, dtype=float)
+
+
+def _interp_row(theta: np.ndarray, values: np.ndarray, at: np.ndarray, group: str,
+                row: int) -> np.ndarray:
+    """Linear interpolation of one meridional row (columns sorted by angle) at ``at``."""
+    if _periodic(theta):
+        return np.column_stack([np.interp(at, theta, v, period=2 * np.pi) for v in values.T])
+    tol = 1e-9 * max(1.0, float(np.ptp(theta)))
+    if at.min() < theta[0] - tol or at.max() > theta[-1] + tol:
+        raise CommonMeshError(
+            f"field outputs: row {row} of group {group!r} spans the angles "
+            f"{np.degrees(theta[0]):.4g} to {np.degrees(theta[-1]):.4g} deg, the coarsest "
+            f"group's nodes {np.degrees(at.min()):.4g} to {np.degrees(at.max()):.4g} deg: a "
+            "sector cannot be extrapolated (the groups are not one sector)"
+        )
+    return np.column_stack([np.interp(at, theta, v) for v in values.T])
+
+
+def _to_cylindrical(u: np.ndarray, theta: np.ndarray) -> np.ndarray:
+    """x, y, z components -> (radial, axial y, tangential) at angle theta, shape (N, 3)."""
+    s, c = np.sin(theta), np.cos(theta)  # position (R sin t, y, -R cos t): e_r = (s, 0, -c)
+    return np.column_stack([u[:, 0] * s - u[:, 2] * c, u[:, 1], u[:, 0] * c + u[:, 2] * s])
+
+
+def _from_cylindrical(w: np.ndarray, theta: np.ndarray) -> np.ndarray:
+    s, c = np.sin(theta), np.cos(theta)
+    return np.column_stack([w[:, 0] * s + w[:, 2] * c, w[:, 1], -w[:, 0] * c + w[:, 2] * s])

@@ -425,3 +425,126 @@ def test_output_requests_are_checked(kw, message):
     with pytest.raises(ParameterError, match=message):
         OutputRequest(**kw)
 
+
+
+# ---- field outputs across circumferential mesh densities ----------------------------
+R_RING = 300.0
+
+
+def _ring_field(theta, r, amp):
+    """Known smooth fields on a full ring: displacement as (radial, axial, tangential)
+    and the local-frame strain, functions of the angle and the meridional row."""
+    radial = amp * (1.0 + r) * (1.0 + 0.3 * np.cos(theta) + 0.1 * np.sin(2 * theta))
+    disp = np.column_stack([radial, 0.2 * np.sin(theta), 0.5 * np.cos(theta)])
+    strain = np.column_stack([amp * (1 + r) * np.cos(theta), np.sin(theta),
+                              0.1 * np.cos(2 * theta)])
+    return disp, strain
+
+
+def _cartesian(w, theta):
+    s, c = np.sin(theta), np.cos(theta)
+    return np.column_stack([w[:, 0] * s + w[:, 2] * c, w[:, 1], -w[:, 0] * c + w[:, 2] * s])
+
+
+def _ring(store, group, cols, amp=1.0, phase=0.1, field=_ring_field):
+    """A synthetic full-tyre group: 4 meridional rows of ``cols`` nodes round the y axis."""
+    make_store(store, group=group, **{**TINY, "cols": cols, "include_strain": True})
+    root = zarr.open_group(str(store), path=group, mode="r+")
+    r, c = root["inner_row"][:], root["inner_col"][:]
+    theta = phase + 2 * PI * c / cols
+    root["inner_xyz"][:] = np.column_stack(
+        [R_RING * np.sin(theta), 50.0 * (r - 1.5), -R_RING * np.cos(theta)])
+    disp, strain = field(theta, r, amp)
+    root["displacement"][:] = np.repeat(_cartesian(disp, theta)[None], 2, axis=0)
+    root["strain"][:] = np.repeat(strain[None], 2, axis=0)
+    return theta, r
+
+
+def _chosen(store, groups):
+    import storage
+
+    return {g: storage.open_dataset(store, g).isel(experiment=[0]) for g in groups}
+
+
+@pytest.mark.parametrize("name", ["displacement", "strain"])
+def test_a_finer_ring_is_resampled_onto_the_coarse_nodes_within_interpolation_error(
+        tmp_path, name):
+    from analysis.sensitivity_data import _field_scores, _grid, _resampled
+
+    store = tmp_path / "rings.zarr"
+    theta, r = _ring(store, "coarse", 16, phase=0.0)
+    _ring(store, "fine", 24, amp=1.5, phase=0.05)  # other angles: nothing coincides
+    chosen = _chosen(store, ["fine", "coarse"])
+    shapes = {g: chosen[g][name].shape[1:] for g in chosen}
+    grids = {g: _grid(chosen[g]) for g in chosen}
+    got = _resampled(chosen, ["fine", "coarse"], name, shapes, grids, ["coarse"])
+    assert got.shape == (2, 16 * 4 * 3)
+    disp, strain = _ring_field(theta, r, 1.5)
+    exact = _cartesian(disp, theta) if name == "displacement" else strain
+    # linear interpolation: |error| <= h^2 / 8 max|f''|, h the fine spacing; f'' of the
+    # fields above is at most 4 (1 + r) (0.3 + 4 * 0.1) * 1.5 <= 17 (radial, row 3)
+    h = 2 * PI / 24
+    error = np.abs(got[0].reshape(-1, 3) - exact)
+    assert error.max() <= h**2 / 8 * 17
+    assert error.max() > 1e-6  # it did interpolate (the angles do not coincide)
+    np.testing.assert_array_equal(got[1], chosen["coarse"][name].values[0].ravel())
+    # PCA scores of the two groups: defined, one mode (they differ by 1.5x)
+    scores, explained = _field_scores(chosen, ["fine", "coarse"], np.array([0, 1]),
+                                      OutputRequest((20.0,), scalars=(), field=name,
+                                                    components=1))
+    assert scores.shape == (2, 1) and explained[0] == pytest.approx(1.0)
+
+
+def test_a_uniform_radial_displacement_is_resampled_exactly():
+    """Interpolated as x, y, z vectors, a radial field would shrink by cos(h/2) between
+    columns; as radial/axial/tangential components it stays exact."""
+    import tempfile
+
+    from analysis.sensitivity_data import _grid, _resampled
+
+    def uniform(theta, r, amp):
+        disp = np.column_stack([np.full_like(theta, 2.0), np.zeros_like(theta),
+                                np.zeros_like(theta)])
+        return disp, np.zeros((len(theta), 3))
+
+    with tempfile.TemporaryDirectory() as tmp:
+        store = f"{tmp}/uniform.zarr"
+        _ring(store, "coarse", 12, field=uniform, phase=0.0)
+        _ring(store, "fine", 8, field=uniform, phase=0.2)  # now the coarsest is 'fine'
+        chosen = _chosen(store, ["coarse", "fine"])
+        grids = {g: _grid(chosen[g]) for g in chosen}
+        shapes = {g: chosen[g]["displacement"].shape[1:] for g in chosen}
+        got = _resampled(chosen, ["coarse", "fine"], "displacement", shapes, grids, ["fine"])
+    assert got.shape == (2, 8 * 4 * 3)
+    np.testing.assert_allclose(got[0], got[1], atol=1e-12)
+
+
+def test_field_scores_over_a_mesh_density_design_follow_the_field_amplitude(tmp_path):
+    store = tmp_path / "design.zarr"
+    amps = [0.5, 1.0, 1.5, 2.0, 2.5, 3.0]
+    groups = [f"g{i}" for i in range(len(amps))]
+    for i, (g, a) in enumerate(zip(groups, amps, strict=True)):
+        _ring(store, g, (16, 24)[i % 2], amp=a, phase=0.03 * i)
+    out = read_outputs(store, groups, OutputRequest((20.0,), scalars=(), field="strain",
+                                                    components=1))
+    pc1 = out.y[:, 0]
+    assert abs(np.corrcoef(pc1, amps)[0, 1]) > 0.999
+    assert out.table["explained_variance"].iloc[0] > 0.99
+
+
+def test_a_common_mesh_is_not_resampled(design_store, monkeypatch):
+    """Groups on one mesh: the stored fields, never interpolated (the PCA of the raw fields)."""
+    import analysis.sensitivity_data as data
+
+    path, X, groups = design_store
+
+    def boom(*args, **kwargs):
+        raise AssertionError("a common mesh must not be resampled")
+
+    monkeypatch.setattr(data, "_resampled", boom)
+    after = read_outputs(path, groups, OutputRequest((20.0,), scalars=(), field="displacement",
+                                                     components=1))
+    F = np.stack([X[i, 1] * _pattern(24).ravel() * (20.0 / 30.0) for i in range(len(X))])
+    F = F - F.mean(axis=0)
+    U, S, _ = np.linalg.svd(F, full_matrices=False)
+    np.testing.assert_allclose(np.abs(after.y[:, 0]), np.abs(U[:, 0] * S[0]), rtol=1e-9)
