@@ -1,6 +1,6 @@
 """Cost of combined loads (issue 13): ccx seconds of a combined-load experiment vs a
 vertical-only one on the same mesh (run: .venv/bin/python benchmarks/bench_combined.py
-[--quick] [--repeat N] [--deflection MM]).
+[--quick] [--repeat N] [--deflection MM] [--only TEXT]).
 
 Each case is one load path at one deflection (200 kPa), solved in one ccx run; the
 inflation pre-run is cached before timing, so only the path run is counted. Printed side
@@ -57,6 +57,8 @@ def main() -> None:
                         help="the coarse full mesh (jobs/reproduce COARSE_MESH)")
     parser.add_argument("--repeat", type=int, default=1)
     parser.add_argument("--deflection", type=float, default=30.0)
+    parser.add_argument("--only", default="", help="cases whose name contains this text "
+                        "(the vertical frictionless baseline always runs)")
     args = parser.parse_args()
     spec = default_model("full")
     if args.quick:
@@ -71,6 +73,8 @@ def main() -> None:
           f"{'wall ratio':>10s} {'CPU ratio':>10s}")
     base = None
     for name, motion in CASES.items():
+        if base is not None and args.only not in name:
+            continue
         wall, cpu, inc = measure(spec, args.deflection, motion, args.repeat)
         base = base or (wall, cpu)
         print(f"{name:36s} {wall:10.2f} {cpu:10.2f} {inc:5d} {wall / base[0]:10.2f} "

@@ -356,7 +356,9 @@ def test_default_mesh_combined_load_balances_obeys_coulomb_and_cambers():
 @pytest.mark.slow
 @pytest.mark.ccx
 def test_default_mesh_longitudinal_force_saturates_at_mu_fz():
-    result = run_load_path(FULL, LoadPath((30.0,), PRESSURE, RoadMotion(0.3, shift_x=40.0),
+    # measured: Fx = 1346 N at 3.75 mm, 1698.6 N = 0.3 Fz from 7.5 mm on (17 nodes sliding);
+    # a 40 mm slide stopped with "too many cutbacks" (docs/combined-loads.md)
+    result = run_load_path(FULL, LoadPath((30.0,), PRESSURE, RoadMotion(0.3, shift_x=15.0),
                                           (0.25, 1.0)), SETTINGS)
     quarter, last = result.measurements[1:]
     assert 0 < quarter.total_force[0] < last.total_force[0]
