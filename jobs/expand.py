@@ -2,10 +2,11 @@
 
 An experiment is one (model, load case) pair; its id comes from :mod:`jobs.identity`
 (model spec, mesh key, solver version and load case): the same inputs give the same id,
-any change gives a new one. Cases with the same model and pressure
+any change gives a new one. Cases with the same model, pressure and road motion
 form one load path - one ccx run for all its deflections, the big saving measured on the
 physics layer - optionally split into pieces of ``max_path_length`` deflections to spread
-a long path over several workers. A path's task key derives from its experiments' ids,
+a long path over several workers. A combined-load case whose road shifts is a path of
+its own (:func:`plan` says why). A path's task key derives from its experiments' ids,
 so Dask never runs the same path twice at once.
 """
 
@@ -17,8 +18,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import qmc
 
+from farm.specs import RoadMotion
 from jobs.identity import experiment_id, legacy_experiment_id, path_key, resolve_ids
-from jobs.study import Study
+from jobs.study import MOTION_PARAMETERS, Study
 
 
 @dataclass(frozen=True)
@@ -28,40 +30,69 @@ class Experiment:
     id: str
     deflection: float  # mm
     pressure: float  # MPa
+    motion: RoadMotion | None = None  # combined loads; None: the vertical experiment
 
 
 @dataclass(frozen=True)
 class PathPlan:
-    """The experiments of one load path (one pressure, increasing deflections)."""
+    """The experiments of one load path (one pressure and road motion, increasing
+    deflections)."""
 
     key: str
     pressure: float
     experiments: tuple[Experiment, ...]
+    motion: RoadMotion | None = None
 
     @property
     def deflections(self) -> tuple[float, ...]:
         return tuple(e.deflection for e in self.experiments)
 
 
-def load_cases(study: Study) -> list[tuple[float, float]]:
-    """(deflection mm, pressure MPa) of every case: the grid, or the sampled design."""
+def cases(study: Study) -> list[tuple[float, float, RoadMotion | None]]:
+    """(deflection mm, pressure MPa, road motion or None) of every case: the grid, or
+    the sampled design, each design point with every listed value of what it does not
+    sample. Without combined-load keys: exactly the vertical cases of before, in order."""
+    listed = {"deflection": study.deflections or (None,),
+              "pressure": study.pressures or (None,),
+              **dict(study.motions)}
+    order = ("deflection", "pressure", *(n for n in MOTION_PARAMETERS if n in listed))
     if study.sampling is None:
-        return [(d, p) for p, d in itertools.product(study.pressures, study.deflections)]
-    s = study.sampling
-    names = [name for name, _, _ in s.ranges]
-    engine = (qmc.LatinHypercube(d=len(names), seed=s.seed) if s.method == "lhs"
-              else qmc.Sobol(d=len(names), scramble=True, seed=s.seed))
-    unit = engine.random(s.n)
-    points = qmc.scale(unit, [low for _, low, _ in s.ranges], [high for _, _, high in s.ranges])
-    fixed = {"deflection": study.deflections or (None,), "pressure": study.pressures or (None,)}
-    cases = []
-    for row in points:
-        values = dict(zip(names, row, strict=True))
-        for d, p in itertools.product(*(
-            ([values[k]] if k in values else fixed[k]) for k in ("deflection", "pressure")
-        )):
-            cases.append((round(float(d), 9), round(float(p), 12)))
-    return cases
+        rows = [{}]
+        names: list[str] = []
+    else:
+        s = study.sampling
+        names = [name for name, _, _ in s.ranges]
+        engine = (qmc.LatinHypercube(d=len(names), seed=s.seed) if s.method == "lhs"
+                  else qmc.Sobol(d=len(names), scramble=True, seed=s.seed))
+        unit = engine.random(s.n)
+        points = qmc.scale(unit, [low for _, low, _ in s.ranges],
+                           [high for _, _, high in s.ranges])
+        rows = [dict(zip(names, row, strict=True)) for row in points]
+        order = (*order, *(n for n in names if n not in order))
+    out = []
+    for values in rows:
+        if study.sampling is None:
+            # the grid of before: every pressure x every deflection (pressure outer)
+            axes = [("pressure", listed["pressure"]), ("deflection", listed["deflection"]),
+                    *((n, listed[n]) for n in MOTION_PARAMETERS if n in listed)]
+        else:
+            axes = [(k, [values[k]] if k in values else listed[k]) for k in order]
+        for combo in itertools.product(*(vals for _, vals in axes)):
+            case = dict(zip((k for k, _ in axes), combo, strict=True))
+            motion = {n: round(float(case[n]), 9) + 0.0 for n in MOTION_PARAMETERS if n in case}
+            m = RoadMotion(**motion) if motion else None
+            out.append((round(float(case["deflection"]), 9), round(float(case["pressure"]), 12),
+                        None if m is None or m.is_identity else m))
+    return out
+
+
+def load_cases(study: Study) -> list[tuple[float, float]]:
+    """(deflection mm, pressure MPa) of every case (:func:`cases` without the motion)."""
+    return [(d, p) for d, p, _ in cases(study)]
+
+
+def _motion_key(m: RoadMotion | None) -> tuple:
+    return () if m is None else tuple(sorted(m.to_dict().items()))
 
 
 def plan(study: Study, solver: str, held: frozenset[str] = frozenset()) -> list[PathPlan]:
@@ -69,22 +100,32 @@ def plan(study: Study, solver: str, held: frozenset[str] = frozenset()) -> list[
 
     ``held``: the ids the study's group already holds; an experiment stored under its
     recipe-1 id keeps it (:func:`jobs.identity.resolve_ids`).
+
+    Grouping: cases of one pressure and one road motion share a ccx run. A motion's
+    friction and tilt act on the whole path (the road is tilted before contact and
+    friction holds from the first touch), so every deflection of such a path is the
+    state of its own experiment; but the shift is ramped after the LAST deflection
+    only (``LoadPath``: the states at the earlier deflections are unshifted). A case
+    with a shift therefore gets a path of its own, one deflection, and its experiment
+    is the path's final state.
     """
-    by_pressure: dict[float, set[float]] = {}
-    for d, p in load_cases(study):
-        by_pressure.setdefault(p, set()).add(d)
+    groups: dict[tuple, tuple[float, RoadMotion | None, set[float]]] = {}
+    for d, p, m in cases(study):
+        key = (p, _motion_key(m))
+        groups.setdefault(key, (p, m, set()))[2].add(d)
     paths = []
-    for p in sorted(by_pressure):
-        cases = sorted(by_pressure[p])
-        ids = [experiment_id(study.model, d, p, solver) for d in cases]
-        if held:
+    for key in sorted(groups):
+        p, m, ds = groups[key]
+        found = sorted(ds)
+        ids = [experiment_id(study.model, d, p, solver, m) for d in found]
+        if held and m is None:  # recipe-1 ids exist only for vertical experiments
             ids = resolve_ids(ids, [legacy_experiment_id(study.model, d, p, solver)
-                                    for d in cases], held)
-        experiments = [Experiment(i, d, p) for i, d in zip(ids, cases, strict=True)]
-        size = study.max_path_length or len(experiments)
+                                    for d in found], held)
+        experiments = [Experiment(i, d, p, m) for i, d in zip(ids, found, strict=True)]
+        size = 1 if m is not None and m.moves else (study.max_path_length or len(experiments))
         for k in range(0, len(experiments), size):
             piece = tuple(experiments[k:k + size])
-            paths.append(PathPlan(path_key(e.id for e in piece), p, piece))
+            paths.append(PathPlan(path_key(e.id for e in piece), p, piece, m))
     return paths
 
 
@@ -93,7 +134,13 @@ def experiments(paths: list[PathPlan]) -> list[Experiment]:
     return [e for path in paths for e in path.experiments]
 
 
-def parameters(exps: list[Experiment]) -> dict[str, np.ndarray]:
-    """The load-case parameters the store keeps per experiment."""
-    return {"deflection": np.array([e.deflection for e in exps]),
-            "pressure": np.array([e.pressure for e in exps])}
+def parameters(exps: list[Experiment], combined: bool = False) -> dict[str, np.ndarray]:
+    """The load-case parameters the store keeps per experiment: deflection (mm) and
+    pressure (MPa); with ``combined`` (a study with combined-load keys) also friction,
+    shift_x (mm), shift_y (mm) and tilt (deg), 0 for a vertical case among them."""
+    out = {"deflection": np.array([e.deflection for e in exps]),
+           "pressure": np.array([e.pressure for e in exps])}
+    if combined:
+        for name in MOTION_PARAMETERS:
+            out[name] = np.array([getattr(e.motion, name) if e.motion else 0.0 for e in exps])
+    return out

@@ -28,7 +28,7 @@ from collections.abc import Iterable, Mapping
 import numpy as np
 
 from farm.mesh.version import mesh_key
-from farm.specs import ModelSpec, content_hash
+from farm.specs import ModelSpec, RoadMotion, content_hash
 
 RECIPE = 2  # 1: experiment ids without the mesh key (stores written before 2026-11)
 DIGITS = 9  # forces (N) and displacements (mm) in keys and decks are rounded to 1e-9
@@ -49,14 +49,24 @@ def ingredients(model: ModelSpec, solver: str) -> dict:
     return {"model": model.to_dict(), "mesh": mesh_key(model), "solver": solver}
 
 
-def _load(deflection: float, pressure: float) -> dict:
-    return {"deflection_mm": round(float(deflection), 9),
+def _load(deflection: float, pressure: float, motion: RoadMotion | None = None) -> dict:
+    load = {"deflection_mm": round(float(deflection), 9),
             "pressure_mpa": round(float(pressure), 12)}
+    # Combined loads (issue 13, docs/combined-loads.md): the motion's canonical dict joins
+    # the load case only when there is a motion, as ModelSpec.reinforcement joins the
+    # model's, so every vertical experiment keeps the id it had before. A motion at its
+    # defaults is no motion (LoadPath normalises it to None): same id as vertical.
+    if motion is not None and not motion.is_identity:
+        load["motion"] = motion.to_dict()
+    return load
 
 
-def experiment_id(model: ModelSpec, deflection: float, pressure: float, solver: str) -> str:
-    """Id of one virtual experiment: model, mesh, solver and load case."""
-    return content_hash({**ingredients(model, solver), "load": _load(deflection, pressure)})
+def experiment_id(model: ModelSpec, deflection: float, pressure: float, solver: str,
+                  motion: RoadMotion | None = None) -> str:
+    """Id of one virtual experiment: model, mesh, solver and load case (with its road
+    motion, for a combined-load experiment)."""
+    return content_hash({**ingredients(model, solver),
+                         "load": _load(deflection, pressure, motion)})
 
 
 def legacy_experiment_id(model: ModelSpec, deflection: float, pressure: float,

@@ -27,6 +27,10 @@ A study names a store, a model and its load cases::
     # seed = 0
     # deflection_mm = [10, 40]
     # pressure_kpa = [80, 200]
+    # friction = [0.3, 1.0]           # combined loads (road = "contact"), also as lists
+    # shift_x_mm = [-5, 5]            #   in [loads]: Coulomb mu, the road's slide along
+    # shift_y_mm = [-5, 5]            #   x and y after the deflection (mm), its tilt
+    # tilt_deg = [-4, 4]              #   about x (degrees): docs/combined-loads.md
 
     [solver]                          # optional, as farm.specs.SolverSettings
     timeout_s = 1800
@@ -58,7 +62,16 @@ from typing import Any
 
 import storage
 from farm.errors import SpecError
-from farm.specs import MAX_PRESSURE_MPA, LoadPath, ModelSpec, SolverSettings
+from farm.specs import (
+    FRICTION,
+    MAX_PRESSURE_MPA,
+    SHIFT_MM,
+    TILT_DEG,
+    LoadPath,
+    ModelSpec,
+    RoadMotion,
+    SolverSettings,
+)
 from jobs import validate as v
 from jobs.design import ModelsSpec, design, parse_models
 from jobs.errors import StudyError
@@ -66,7 +79,18 @@ from jobs.identity import model_hash
 from storage.paths import describe
 
 SAMPLING_METHODS = ("lhs", "sobol")
-LOAD_KEYS = {"pressure_kpa", "deflection_mm", "sample"}
+#: Combined-load keys of a study file -> (store parameter = RoadMotion field, bounds).
+#: The bounds are RoadMotion's own (farm.specs), so a study is refused at the boundary
+#: for exactly what the physics layer would refuse (docs/combined-loads.md).
+MOTION_KEYS = {
+    "friction": ("friction", FRICTION),
+    "shift_x_mm": ("shift_x", SHIFT_MM),
+    "shift_y_mm": ("shift_y", SHIFT_MM),
+    "tilt_deg": ("tilt", TILT_DEG),
+}
+#: The store's names of the combined-load parameters (RoadMotion's fields), in order.
+MOTION_PARAMETERS = tuple(name for name, _ in MOTION_KEYS.values())
+LOAD_KEYS = {"pressure_kpa", "deflection_mm", "sample", *MOTION_KEYS}
 MAX_KPA = 1000 * MAX_PRESSURE_MPA
 
 
@@ -103,6 +127,15 @@ class Study:
     source: str
     storage_options: dict[str, Any] | None = field(default=None, hash=False)
     models: ModelsSpec | None = None  # a design over model fields (jobs.design)
+    # combined loads: (parameter, listed values) of the motion keys listed in [loads]
+    motions: tuple[tuple[str, tuple[float, ...]], ...] = ()
+
+    @property
+    def combined(self) -> bool:
+        """Whether the study gives combined-load keys (listed or sampled): its group then
+        holds the parameters friction, shift_x, shift_y, tilt and the combined variables."""
+        sampled = {name for name, _, _ in self.sampling.ranges} if self.sampling else set()
+        return bool(self.motions) or bool(sampled & set(MOTION_PARAMETERS))
 
     @property
     def location(self) -> str:
@@ -122,25 +155,30 @@ class Study:
 
 
 def _sampling(data: Any, where: str) -> Sampling:
-    t = v.table(data, where, {"method", "n", "seed", "deflection_mm", "pressure_kpa"},
-                {"method", "n"})
+    t = v.table(data, where, {"method", "n", "seed", "deflection_mm", "pressure_kpa",
+                              *MOTION_KEYS}, {"method", "n"})
     method = v.choice(t["method"], f"{where}.method", SAMPLING_METHODS)
     n = v.integer(t["n"], f"{where}.n", low=1)
     v.EXPERIMENTS.check(n, f"{where}.n", f"a design of n = {n} points")
     seed = v.integer(t.get("seed", 0), f"{where}.seed", low=0, high=v.MAX_SEED)
     ranges = []
-    for key, name, scale, top in (("deflection_mm", "deflection", 1.0, None),
-                                  ("pressure_kpa", "pressure", 1e-3, MAX_KPA)):
+    # the order of the design's dimensions: deflection, pressure as ever (a vertical
+    # study draws the points it drew before), then the motion's fields
+    for key, name, scale, bottom, top in (
+            ("deflection_mm", "deflection", 1.0, 0, None),
+            ("pressure_kpa", "pressure", 1e-3, 0, MAX_KPA),
+            *((k, name, 1.0, *bounds) for k, (name, bounds) in MOTION_KEYS.items())):
         if key in t:
             r = t[key]
             if not (isinstance(r, list) and len(r) == 2):
                 raise v.fail(f"{where}.{key}", f"must be [low, high], got {v.shown(r)}")
-            low, high = (v.number(x, f"{where}.{key}", low=0, high=top) for x in r)
+            low, high = (v.number(x, f"{where}.{key}", low=bottom, high=top) for x in r)
             if not low < high:
                 raise v.fail(f"{where}.{key}", f"needs low < high, got {v.shown(r)}")
             ranges.append((name, low * scale, high * scale))
     if not ranges:
-        raise v.fail(where, "give a range for deflection_mm and/or pressure_kpa")
+        raise v.fail(where, "give a range for deflection_mm, pressure_kpa or a combined-load "
+                     f"key ({', '.join(MOTION_KEYS)})")
     return Sampling(method, n, seed, tuple(ranges))
 
 
@@ -148,10 +186,19 @@ def _loads(data: Any, model: ModelSpec):
     t = v.table(data, "loads", LOAD_KEYS)
     sampling = _sampling(t["sample"], "loads.sample") if "sample" in t else None
     sampled = {name for name, _, _ in sampling.ranges} if sampling else set()
-    clash = sorted(k for k in {"pressure_kpa", "deflection_mm"} & set(t)
-                   if k.split("_")[0] in sampled)
+    names = {"pressure_kpa": "pressure", "deflection_mm": "deflection",
+             **{k: name for k, (name, _) in MOTION_KEYS.items()}}
+    clash = sorted(k for k in names if k in t and names[k] in sampled)
     if clash:
         raise v.fail(f"loads.{clash[0]}", "is both sampled and listed; give it in one place")
+    motions = tuple((name, v.values(t[key], f"loads.{key}", low=bounds[0], high=bounds[1]))
+                    for key, (name, bounds) in MOTION_KEYS.items() if key in t)
+    if (motions or sampled & set(MOTION_PARAMETERS)) and model.road != "contact":
+        key = next(k for k, (name, _) in MOTION_KEYS.items()
+                   if k in t or name in sampled)
+        where = f"loads.{key}" if key in t else f"loads.sample.{key}"
+        raise v.fail(where, f"combined loads need the contact road (model.road = "
+                     f"\"contact\"), the model has road = {v.shown(model.road)}")
     # an inflated model needs a pressure > 0; the reduced one takes 0 (checked later)
     pressures = (tuple(p / 1000 for p in v.values(t["pressure_kpa"], "loads.pressure_kpa",
                                                    low=0, high=MAX_KPA, strict=model.inflated))
@@ -166,19 +213,20 @@ def _loads(data: Any, model: ModelSpec):
             raise v.fail("loads.pressure_kpa", "is required for the inflated full model")
         pressures = (0.0,)
     pressures = pressures or ()
-    _check_count(pressures, deflections, sampling)
-    return pressures, deflections, sampling
+    _check_count(pressures, deflections, sampling, motions=motions)
+    return pressures, deflections, sampling, motions
 
 
 def _check_count(pressures: tuple, deflections: tuple, sampling: Sampling | None,
-                 models: ModelsSpec | None = None) -> None:
+                 models: ModelsSpec | None = None, motions: tuple = ()) -> None:
     """At most :data:`jobs.validate.EXPERIMENTS` experiments, counted as
     :func:`jobs.expand.load_cases` will make them: the grid, or each design point with
     every listed value of the loads it does not sample."""
     sampled = {name for name, _, _ in sampling.ranges} if sampling else set()
     factors = [(f"a design of {sampling.n} points", sampling.n)] if sampling else []
     factors += [(f"{len(values)} {name}{'s' * (len(values) != 1)}", len(values))
-                for name, values in (("pressure", pressures), ("deflection", deflections))
+                for name, values in (("pressure", pressures), ("deflection", deflections),
+                                     *motions)
                 if name not in sampled and values]
     if models is not None:
         factors.insert(0, (f"{models.rows} models ({models.method} design)", models.rows))
@@ -206,7 +254,7 @@ def parse_study(text: str, source: str = "<study>") -> Study:
             v.identifier(group, "study.group")
         name = v.string(head.get("name", Path(source).stem), "study.name")
         model = v.model(data["model"])
-        pressures, deflections, sampling = _loads(data["loads"], model)
+        pressures, deflections, sampling, motions = _loads(data["loads"], model)
         solver = v.solver(data.get("solver", {}))
         models = None
         if "models" in data:
@@ -214,10 +262,10 @@ def parse_study(text: str, source: str = "<study>") -> Study:
                 raise v.fail("study.group", "a study with [models] writes one group per model "
                              "(<kind>-<model hash>): drop study.group")
             models = parse_models(data["models"], model)
-            _check_count(pressures, deflections, sampling, models)
+            _check_count(pressures, deflections, sampling, models, motions)
         study = Study(name, store, group, model, pressures, deflections, sampling,
                       solver.settings, solver.max_path_length, solver.retry_smaller_increments,
-                      source, options, models)
+                      source, options, models, motions)
         _check_loads(study)
         if models is not None:
             _check_models(study)
@@ -241,9 +289,13 @@ def _check_loads(study: Study) -> None:
     top = max([*study.deflections, sampled[1] if sampled else 0])
     lows = [*study.deflections, *([sampled[0]] if sampled and sampled[0] > 0 else [])]
     low = min(lows, default=top)
+    # the steepest tilt raises the road's edge most (LoadPath.check_against)
+    tilts = [*dict(study.motions).get("tilt", ()), *ranges.get("tilt", ())]
+    steepest = max((abs(t) for t in tilts), default=0.0)
+    motion = RoadMotion(tilt=steepest) if steepest else None
     for p in [*study.pressures, *ranges.get("pressure", ())]:
         try:
-            LoadPath(tuple(sorted({low, top})), p).check_against(study.model)
+            LoadPath(tuple(sorted({low, top})), p, motion).check_against(study.model)
         except SpecError as e:
             raise StudyError(f"loads: {e}") from e
 

@@ -125,7 +125,7 @@ class Sweep(Strategy):
         paths = plan(study, solver, _held(study))
         exps = experiments(paths)
         ids = [e.id for e in exps]
-        storage.reserve(study.store, study.group_name, ids, parameters(exps))
+        storage.reserve(study.store, study.group_name, ids, parameters(exps, study.combined))
         status = storage.statuses(study.store, study.group_name, ids)
         report = self.report
         report.total += len(exps)
