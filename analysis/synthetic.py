@@ -261,3 +261,127 @@ def _skeleton(geo, d, p, status, forces, group, seed) -> xr.Dataset:
         },
     )
     return ds
+
+
+# ----------------------------------------------------------------- combined loads (issue 13)
+
+#: load parameters of a combined-load group beside deflection and pressure
+#: (docs/combined-loads.md, ``farm.specs.RoadMotion``)
+COMBINED_PARAMETERS = ("friction", "shift_x", "shift_y", "tilt")
+_COMBINED_UNITS = {"friction": "1", "shift_x": "mm", "shift_y": "mm", "tilt": "deg"}
+
+
+def combined_cases(n: int, seed: int = 0, *, vary=("deflection", "shift_x", "shift_y", "tilt")):
+    """Random load cases (uniform, seeded): dict of (n,) arrays for every load parameter.
+
+    Parameters not in ``vary`` stay at their nominal value (deflection 25 mm, pressure
+    0.2 MPa, friction 0.8, no shift, no tilt); those in it are drawn from deflection
+    15..35 mm, pressure 0.18..0.22 MPa, friction 0.5..1, shifts ±5 mm, tilt ±4°.
+    """
+    rng = np.random.default_rng(seed)
+    ranges = {
+        "deflection": (15.0, 35.0, 25.0),
+        "pressure": (0.18, 0.22, 0.2),
+        "friction": (0.5, 1.0, 0.8),
+        "shift_x": (-5.0, 5.0, 0.0),
+        "shift_y": (-5.0, 5.0, 0.0),
+        "tilt": (-4.0, 4.0, 0.0),
+    }
+    return {
+        k: (rng.uniform(lo, hi, n) if k in vary else np.full(n, nominal))
+        for k, (lo, hi, nominal) in ranges.items()
+    }
+
+
+def combined_forces(geo: Geometry, c: dict, coupling: float = 0.1) -> np.ndarray:
+    """Road force on tread nodes under a combined load, (K, M, 3) in N.
+
+    A caricature, not tyre physics: the vertical map of :func:`tread_forces` (nonlinear
+    in d) plus a tilt term loading the lowered side; longitudinal and lateral maps on
+    the patch of d = 25 mm, proportional to friction x shift (the lateral one with a
+    camber thrust) and coupled to d by ``coupling`` per 10 mm (a bilinear term no linear
+    model can follow). Totals are therefore linear-ish in the latent parameters.
+    """
+    base = tread_forces(geo, c["deflection"], c["pressure"])[..., 2]
+    # the tangential maps ride on the patch of d = 25 mm, scaled by a weak d-coupling
+    ref = tread_forces(geo, np.array([25.0]), np.array([0.2]))[..., 2]
+    ref = ref * (1.0 + coupling * (c["deflection"][:, None] - 25.0) / 10.0)
+    s = geo.tread_s[None, :]
+    xn = geo.tread_xyz[None, :, 0] / 100.0
+    mu, t = c["friction"][:, None], c["tilt"][:, None]
+    fz = base + ref * 0.05 * t * s
+    fx = ref * 0.1 * mu * (c["shift_x"][:, None] / 5.0) * (1.0 + 0.3 * xn)
+    fy = ref * (0.1 * mu * c["shift_y"][:, None] / 5.0 + 0.03 * t / 4.0) * (1.0 + 0.3 * s)
+    return np.stack([fx, fy, fz], axis=-1)
+
+
+def combined_fields(geo: Geometry, c: dict) -> dict[str, np.ndarray]:
+    """Inner fields (K, N, 3) under a combined load: a sum of fixed spatial patterns.
+
+    Each pattern's amplitude is linear in one load parameter (d, f x shift_x,
+    f x shift_y, tilt), so with ``friction`` fixed the displacement field has exactly 4
+    latent variables (deflection, shift_x, shift_y, tilt) and so does every strain field.
+    """
+    th0 = 1.2 * np.sqrt(2.0 * R_TREAD * 25.0) / R_INNER  # the bump of d = 25 mm, fixed
+    u = geo.inner_theta / th0
+    bump, s = np.exp(-(u**2)), geo.inner_s
+    g = np.cos(0.5 * np.pi * s) ** 2
+    soft = ((0.2 / c["pressure"]) ** 0.3)[:, None]
+    d = c["deflection"][:, None] * soft
+    e = c["deflection"][:, None] / 30.0 * soft
+    mu = c["friction"][:, None]
+    sx, sy = mu * c["shift_x"][:, None] / 5.0, mu * c["shift_y"][:, None] / 5.0
+    t = c["tilt"][:, None] / 4.0
+    ux = 0.15 * d * u * bump * g + 2.5 * sx * bump * g
+    uy = 0.25 * d * s * bump * (1.0 - g) + 2.5 * sy * bump
+    uz = d * bump * (0.3 + 0.7 * g) + 3.0 * t * s * bump
+    exx = 2e-3 * e * (1.0 - 2.0 * u**2) * bump * g + 3e-4 * sx * u * bump * g + 2e-4 * t * s * bump
+    eyy = 1.2e-3 * e * bump * (2.0 * g - 1.0) + 3e-4 * sy * s * bump + 3e-4 * t * s * bump * g
+    exy = 6e-4 * e * u * s * bump + 4e-4 * sx * bump * g + 3e-4 * sy * u * bump
+    strain = np.stack([exx, eyy, exy], -1)
+    return {
+        "displacement": np.stack([ux, uy, uz], -1),
+        "strain": strain,
+        "surface_strain": 0.9 * strain,
+    }
+
+
+def make_combined_store(
+    path,
+    *,
+    n_experiments: int = 60,
+    rows: int = 12,
+    cols: int = 24,
+    tread_rows: int = 8,
+    tread_cols: int = 20,
+    vary=("deflection", "shift_x", "shift_y", "tilt"),
+    noise: float = 0.0,
+    coupling: float = 0.1,
+    group: str = "combined",
+    seed: int = 0,
+) -> str:
+    """Write a synthetic combined-load group (issue 13) into ``path``; returns its name.
+
+    Same schema as :func:`make_store` plus the load parameters ``friction`` (1),
+    ``shift_x``, ``shift_y`` (mm) and ``tilt`` (deg) along ``experiment`` and all three
+    force components filled. Load cases are drawn by :func:`combined_cases` (``vary``
+    names the parameters that vary; 4 by default, so the latent count is known); fields by
+    :func:`combined_fields`, forces by :func:`combined_forces` (``coupling``: its
+    bilinear d-coupling, 0 = forces linear in the fields). ``noise`` adds Gaussian
+    noise to the inputs relative to 30 mm / 2e-3, as in :func:`make_store`.
+    """
+    geo = geometry(rows, cols, tread_rows, tread_cols)
+    c = combined_cases(n_experiments, seed, vary=vary)
+    status = np.ones(n_experiments, dtype=np.int8)
+    forces = combined_forces(geo, c, coupling)
+    ds = _skeleton(geo, c["deflection"], c["pressure"], status, forces, group, seed)
+    for name in COMBINED_PARAMETERS:
+        ds[name] = ("experiment", c[name], {"units": _COMBINED_UNITS[name], "role": "parameter"})
+    rng = np.random.default_rng([seed, 13])
+    for name, field in combined_fields(geo, c).items():
+        scale = SCALE["displacement" if name == "displacement" else "strain"]
+        field = field + noise * scale * rng.standard_normal(field.shape)
+        ds[name] = (("experiment", "inner_node", _comp_dim(name)), field, {"units": _units(name)})
+    enc = {v: {"chunks": (1, *ds[v].shape[1:])} for v in ds.data_vars if "experiment" in ds[v].dims}
+    ds.to_zarr(path, group=group, mode="w", encoding=enc, consolidated=False)
+    return group

@@ -1,4 +1,4 @@
-"""``farm analyse pca|pcr|plsr|noise STORE``: one command per chapter-5 analysis.
+"""``farm analyse pca|pcr|plsr|noise|combined STORE``: one command per chapter-5 analysis.
 
 The ``farm`` CLI (:mod:`cli`) mounts :data:`app` as ``farm analyse`` and turns
 :class:`~analysis.errors.AnalysisError` and :class:`storage.StoreError` into one line on
@@ -328,6 +328,71 @@ def _levels(text: str | None):
 def _draws(draws: int) -> int:
     if not 2 <= draws <= MAX_DRAWS:
         raise ParameterError(f"--draws must be in [2, {MAX_DRAWS}], got {draws}")
+    return draws
+
+
+# ------------------------------------------------------------------ combined loads (issue 13)
+
+
+@app.command()
+@with_tls
+def combined(
+    store: Store,
+    group: Group = None,
+    out: Out = None,
+    pressure: Pressure = None,
+    inputs: Annotated[
+        str | None,
+        typer.Option(help="Comma list of input sets: displacement, strain, surface_strain, "
+                     "both (displacement + strain) [default: those the group has]."),
+    ] = None,
+    test_fraction: Annotated[
+        float, typer.Option(help="Share of the experiments held out for testing (seeded).")
+    ] = 0.25,
+    folds: Annotated[
+        int, typer.Option(help="Folds of the CV on the training part that chooses each "
+                          "component count.")
+    ] = 5,
+    seed: Annotated[int, typer.Option(help="Seed of the test split, CV folds and noise.")] = 0,
+    max_components: Annotated[
+        int, typer.Option(help="Largest component count the CV tries.")
+    ] = 15,
+    draws: Annotated[
+        int, typer.Option(help="Noise draws per held-out experiment (test set, CV folds).")
+    ] = 10,
+    scheduler: Scheduler = None,
+    storage_option: StorageOption = None,
+) -> None:
+    """Combined loads: PCA latent counts, PLSR/PCR of the 3-D force map and totals,
+    held-out errors under T2Cam noise, beside the published anchors (issue 13)."""
+    with usage():
+        if not 0.0 < test_fraction < 1.0:  # NaN fails too
+            raise ParameterError(f"--test-fraction must be in (0, 1), got {test_fraction}")
+        if folds < 2:
+            raise ParameterError(f"--folds must be at least 2, got {folds}")
+        if max_components < 1:
+            raise ParameterError(f"--max-components must be at least 1, got {max_components}")
+        _draws_at_least_one(draws)
+    folder = _out(out, "combined")
+    with dask_scheduler(scheduler):
+        ds = _load(store, storage_option, group, pressure, None)
+        _done(
+            _study("combined").run(
+                ds,
+                folder,
+                inputs=inputs,
+                test_fraction=test_fraction,
+                folds=folds,
+                seed=seed,
+                max_components=max_components,
+                draws=draws,
+            )
+        )
+
+
+def _draws_at_least_one(draws: int) -> int:
+    if not 1 <= draws <= MAX_DRAWS:
+        raise ParameterError(f"--draws must be in [1, {MAX_DRAWS}], got {draws}")
     return draws
 
 

@@ -1,0 +1,383 @@
+"""`farm analyse combined`: which forces can the camera recover under combined loads (issue 13).
+
+From one group of a combined-load study (load parameters ``friction``, ``shift_x``,
+``shift_y``, ``tilt`` beside ``deflection`` and ``pressure``; docs/combined-loads.md):
+
+- PCA per input direction and input set: components to 99 % and 99.9 % of the variance
+  and the eigenvalue-gap count (:func:`analysis.combined.latent_count`), beside the
+  number of load parameters that vary in the group (the truth the fields encode);
+- PLSR (SIMPLS) and PCR from displacements, strains, CST surface strains and
+  displacements + strains (each set one block, standardised per block), predicting the
+  nodal 3-D force map and the totals Fx, Fy, Fz, Mx, My, Mz; a seeded held-out test
+  split, the component count chosen by k-fold CV on the training part only;
+- measurement noise at the T2Cam levels (1 mm on displacements; 0.04 % = 4e-4, the
+  thesis' level, and 0.5 % = 5e-3, T2Cam's strain band) added to the held-out inputs
+  (CV folds and test set), the models trained on the noise-free FE data, as
+  :mod:`analysis.studies.noise` does; the count is chosen again at each noise level;
+- held-out RMSE per total as % of its range over the test set, per nodal component as %
+  of the range of that component's nodal forces over the test set, beside the published
+  anchors and the issue's goal.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import xarray as xr
+
+from analysis import data
+from analysis.combined import BlockRegression, add_noise, cross_validate, latent_count
+from analysis.errors import (
+    MissingVariableError,
+    NoVarianceError,
+    ParameterError,
+    TooFewExperimentsError,
+)
+from analysis.report import markdown, plots
+from analysis.studies.common import Report
+
+#: load parameters of a combined-load group (docs/combined-loads.md, RoadMotion.to_dict)
+MOTION_PARAMETERS = ("friction", "shift_x", "shift_y", "tilt")
+LOAD_PARAMETERS = ("deflection", "pressure", *MOTION_PARAMETERS)
+#: input sets; "both" = displacement and strain side by side, one block each
+INPUT_SETS = {
+    "displacement": ("displacement",),
+    "strain": ("strain",),
+    "surface_strain": ("surface_strain",),
+    "both": ("displacement", "strain"),
+}
+#: noise scenarios: (displacement sigma in mm, strain sigma); T2Cam levels
+SCENARIOS = {
+    "noise-free": (0.0, 0.0),
+    "1 mm, 0.04 %": (1.0, 4e-4),
+    "1 mm, 0.5 %": (1.0, 5e-3),
+}
+TOTALS = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
+#: published FE-plus-learning recovery from inner-liner strains on combined loads,
+#: % of range (issue 13), and the issue's goal for noise-free displacements + strains
+ANCHORS = {"Fz": (1.8, 1.5), "Fy": (3.0, 3.0), "Fx": (4.7, 4.0)}
+METHODS = ("plsr", "pcr")
+
+
+def varying_parameters(ds: xr.Dataset) -> list[str]:
+    """Load parameters with more than one value in the selection (stored ones only)."""
+    out = []
+    for name in LOAD_PARAMETERS:
+        if name in ds.variables:
+            v = np.asarray(ds[name].values, dtype=float)
+            if np.unique(v[np.isfinite(v)]).size > 1:
+                out.append(name)
+    return out
+
+
+def check_combined(ds: xr.Dataset) -> list[str]:
+    """The varying load parameters; :class:`NoVarianceError` unless a motion one varies."""
+    varying = varying_parameters(ds)
+    if not any(p in varying for p in MOTION_PARAMETERS):
+        shown = ", ".join(varying) or "none"
+        raise NoVarianceError(
+            f"group {ds.attrs.get('group', '?')!r} is not a combined-load selection: none of "
+            f"{', '.join(MOTION_PARAMETERS)} varies (varying: {shown}); run a combined study "
+            "(e.g. examples/combined_quick.toml) or use `farm analyse plsr`"
+        )
+    return varying
+
+
+def split(n: int, test_fraction: float, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """Seeded random (train, test) positions; the test set holds round(n x fraction) >= 1."""
+    if not 0.0 < test_fraction < 1.0:
+        raise ParameterError(f"test fraction must be in (0, 1), got {test_fraction!r}")
+    perm = np.random.default_rng(seed).permutation(n)
+    n_test = min(max(1, round(n * test_fraction)), n - 1)
+    return np.sort(perm[n_test:]), np.sort(perm[:n_test])
+
+
+def _field(ds: xr.Dataset, var: str) -> np.ndarray:
+    if var not in ds:
+        raise MissingVariableError(f"group {ds.attrs.get('group', '?')!r} has no {var!r}")
+    arr = ds[var].transpose("experiment", "inner_node", ...)
+    a = np.asarray(arr.values, dtype=float)  # (K, N, 3), component-major below
+    return np.concatenate([a[:, :, j] for j in range(a.shape[2])], axis=1)
+
+
+def _sigma(var: str, scenario: str) -> float:
+    sd, se = SCENARIOS[scenario]
+    return sd if var == "displacement" else se
+
+
+def run(
+    ds: xr.Dataset,
+    out: Path,
+    *,
+    inputs: str | None = None,
+    test_fraction: float = 0.25,
+    folds: int = 5,
+    seed: int = 0,
+    max_components: int = 15,
+    draws: int = 10,
+    methods=METHODS,
+) -> Report:
+    """Run the combined-load analysis on one selection; write tables, figures, summary.
+
+    Parameters
+    ----------
+    inputs : str, optional
+        Comma list of input sets (displacement, strain, surface_strain, both); default
+        those the group has.
+    test_fraction : float
+        Share of the experiments held out for testing (seeded by ``seed``).
+    folds : int
+        Folds of the CV on the training part that chooses each component count.
+    max_components : int
+        Largest count the CV tries (also capped by the training folds' size).
+    draws : int
+        Noise draws per held-out experiment (test set and each CV fold).
+    """
+    varying = check_combined(ds)
+    K = ds.sizes["experiment"]
+    train, test = split(K, test_fraction, seed)
+    need = max(folds, 3)
+    if train.size < need or train.size - int(np.ceil(train.size / folds)) - 1 < 1:
+        raise TooFewExperimentsError(
+            f"the combined-load analysis needs at least {need + 1} training experiments for "
+            f"{folds}-fold CV, but {data.selection_text(ds)} has {K} done experiments "
+            f"({train.size} after holding out {test.size} for testing): run more load cases "
+            "or lower --folds / --test-fraction"
+        )
+    if draws < 1:
+        raise ParameterError(f"draws must be >= 1, got {draws}")
+    report = Report(Path(out))
+    sets = _input_sets(ds, inputs)
+    forces = np.asarray(ds["reaction_force"].transpose("experiment", "tread_node",
+                                                       "component").values, dtype=float)
+    M = forces.shape[1]
+    Y_map = np.concatenate([forces[:, :, j] for j in range(3)], axis=1)
+    Y_tot = _totals(ds)
+    tread = data.tread_index(ds)
+
+    report.csv("pca", _pca_table(ds, sets, varying))
+    rows_models, cvs, totals, nodal, maps, preds = [], [], [], [], {}, {}
+    for name in sets:
+        vars_ = INPUT_SETS[name]
+        blocks = [_field(ds, v) for v in vars_]
+        X = np.concatenate(blocks, axis=1)
+        x_blocks = [b.shape[1] for b in blocks]
+        sigmas = {}
+        for scenario in SCENARIOS:
+            sigma = np.concatenate([np.full(b.shape[1], _sigma(v, scenario))
+                                    for v, b in zip(vars_, blocks, strict=True)])
+            if scenario == "noise-free" or np.any(sigma > 0):
+                sigmas[scenario] = sigma
+        for target, Y, y_blocks in (("totals", Y_tot, [1] * 6), ("nodal", Y_map, [M, M, M])):
+            chosen = cross_validate(
+                X[train], Y[train], methods=methods, folds=folds,
+                max_components=max_components, sigmas=sigmas, draws=draws,
+                seed=seed, x_blocks=x_blocks, y_blocks=y_blocks,
+            )
+            for k, (scenario, sigma) in enumerate(sigmas.items()):
+                Xt, Yt = X[test], Y[test]
+                if np.any(sigma > 0):
+                    rng = np.random.default_rng([seed, 2, k])
+                    Xt = np.concatenate([add_noise(X[test], sigma, rng) for _ in range(draws)])
+                    Yt = np.concatenate([Y[test]] * draws)
+                for method in methods:
+                    best, table = chosen[method, scenario]
+                    key = dict(inputs=name, scenario=scenario, method=method, target=target)
+                    cvs.append(table.assign(**key, chosen=table["n_components"] == best))
+                    model = BlockRegression(method, best, x_blocks, y_blocks).fit(X[train],
+                                                                                  Y[train])
+                    rows_models.append({**key, "n_components": model.n_components_,
+                                        "chosen_by": f"{folds}-fold CV on {train.size} "
+                                        "training experiments, noisy held-out inputs"})
+                    P = model.predict(Xt)
+                    if target == "totals":
+                        totals.append(_total_errors(P, Yt, Y[test], key))
+                        if scenario == "noise-free" and method == "plsr":
+                            preds[name] = (Y[test], P)
+                    else:
+                        frame, node_rmse = _nodal_errors(P, Yt, Y[test], M, key)
+                        nodal.append(frame)
+                        if scenario == "noise-free" and method == "plsr":
+                            maps[name] = node_rmse
+    report.csv("models", pd.DataFrame(rows_models))
+    report.csv("cross_validation", pd.concat(cvs, ignore_index=True))
+    report.csv("totals", pd.concat(totals, ignore_index=True))
+    report.csv("nodal", pd.concat(nodal, ignore_index=True))
+    report.csv("anchors", anchors(report.tables["totals"]))
+    figures = []
+    for name in sets:
+        if name in preds:
+            figures.append((f"Predicted vs true totals, PLSR from {name}, noise-free test set",
+                            _pred_figure(report, name, *preds[name])))
+        if name in maps:
+            figures.append((f"Nodal RMSE on the unrolled tread, PLSR from {name}, noise-free",
+                            plots.node_maps(tread, {f"RMSE F{c} [N]": maps[name][j]
+                                                    for j, c in enumerate("xyz")},
+                                            report.out / f"error_map_{name}.png",
+                                            f"Held-out nodal RMSE, PLSR from {name}")))
+    report.files += [p for _, p in figures]
+    _summary(report, ds, varying, train, test, folds, draws, figures)
+    return report
+
+
+def _input_sets(ds: xr.Dataset, spec: str | None) -> list[str]:
+    if spec is None:
+        return [n for n, vs in INPUT_SETS.items() if all(v in ds for v in vs)]
+    items = [s.strip() for s in spec.split(",") if s.strip()]
+    for item in items:
+        if item not in INPUT_SETS:
+            raise ParameterError(f"unknown input set {item!r}; known: {', '.join(INPUT_SETS)}")
+        missing = [v for v in INPUT_SETS[item] if v not in ds]
+        if missing:
+            raise MissingVariableError(
+                f"input set {item!r} needs {missing[0]!r}, which group "
+                f"{ds.attrs.get('group', '?')!r} does not hold"
+            )
+    if not items:
+        raise ParameterError("no input set given")
+    return items
+
+
+def _totals(ds: xr.Dataset) -> np.ndarray:
+    """(K, 6): Fx, Fy, Fz (N) from total_force, Mx, My, Mz (N mm) from moment."""
+    for var in ("total_force", "moment"):
+        if var not in ds:
+            raise MissingVariableError(f"group {ds.attrs.get('group', '?')!r} has no {var!r}")
+    f = np.asarray(ds["total_force"].sel(component=["x", "y", "z"]).values, dtype=float)
+    m = np.asarray(ds["moment"].sel(component=["x", "y", "z"]).values, dtype=float)
+    return np.concatenate([f, m], axis=1)
+
+
+def _pct(rmse: float, span: float) -> float:
+    return 100.0 * rmse / span if span > 0 else float("nan")
+
+
+def _total_errors(P, Yt, Y_test, key) -> pd.DataFrame:
+    rows = []
+    for j, name in enumerate(TOTALS):
+        rmse = float(np.sqrt(np.mean((P[:, j] - Yt[:, j]) ** 2)))
+        span = float(np.ptp(Y_test[:, j]))
+        rows.append({**key, "total": name, "unit": "N" if name[0] == "F" else "N mm",
+                     "rmse": rmse, "range": span, "rmse_pct_range": _pct(rmse, span)})
+    return pd.DataFrame(rows)
+
+
+def _nodal_errors(P, Yt, Y_test, M, key):
+    rows, maps = [], []
+    for j, c in enumerate("xyz"):
+        cols = slice(j * M, (j + 1) * M)
+        err = P[:, cols] - Yt[:, cols]
+        rmse = float(np.sqrt(np.mean(err**2)))
+        span = float(np.ptp(Y_test[:, cols]))
+        rows.append({**key, "component": c, "rmse": rmse, "range": span,
+                     "rmse_pct_range": _pct(rmse, span)})
+        maps.append(np.sqrt(np.mean(err**2, axis=0)))
+    return pd.DataFrame(rows), np.array(maps)
+
+
+def anchors(totals: pd.DataFrame) -> pd.DataFrame:
+    """Fz, Fy, Fx: published anchor, issue goal, measured held-out % of range (noise-free
+    displacements + strains, PLSR and PCR; strains alone beside the strain-based anchor)."""
+    rows = []
+    for comp, (published, goal) in ANCHORS.items():
+        row = {"total": comp, "published_pct (strains)": published,
+               "goal_pct (displacement+strain, noise-free)": goal}
+        for inputs in ("both", "strain"):
+            for method in METHODS:
+                sel = totals[(totals["inputs"] == inputs) & (totals["method"] == method)
+                             & (totals["scenario"] == "noise-free") & (totals["total"] == comp)]
+                if len(sel):
+                    row[f"{method} {inputs}"] = float(sel["rmse_pct_range"].iloc[0])
+        both = [row[k] for k in ("plsr both", "pcr both") if k in row]
+        row["goal_met"] = (bool(min(both) <= goal) if both else None)
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def _pca_table(ds: xr.Dataset, sets: list[str], varying: list[str]) -> pd.DataFrame:
+    rows = []
+    fields = {}
+    for name in sets:
+        for var in INPUT_SETS[name]:
+            fields.setdefault(var, _field(ds, var))
+    items = []
+    for var, X in fields.items():
+        n = X.shape[1] // 3
+        comps = ("x", "y", "z") if var == "displacement" else ("xx", "yy", "xy")
+        for j, c in enumerate(comps):
+            items.append((f"{var} {c}", X[:, j * n:(j + 1) * n]))
+        items.append((var, X))
+    if "both" in sets:
+        from analysis.combined import BlockScaler
+
+        both = np.concatenate([fields["displacement"], fields["strain"]], axis=1)
+        n = fields["displacement"].shape[1]
+        items.append(("both (block-scaled)",
+                      BlockScaler([n, both.shape[1] - n]).fit_transform(both)))
+    for label, X in items:
+        lc = latent_count(X)
+        lam = lc.eigenvalues / lc.eigenvalues[0] if lc.eigenvalues.size and lc.eigenvalues[0] \
+            else lc.eigenvalues
+        rows.append({
+            "input": label, "n_99": lc.n_99, "n_99_9": lc.n_999, "n_gap": lc.n_gap,
+            "gap_ratio": lc.gap_ratio, "load_parameters_varying": len(varying),
+            "eigenvalues_rel": " ".join(f"{v:.2e}" for v in lam[:8]),
+        })
+    return pd.DataFrame(rows)
+
+
+def _pred_figure(report: Report, name: str, Y_true: np.ndarray, P: np.ndarray) -> Path:
+    fig, axes = plots._figure(2, 3, 12, 7.5)
+    for j, total in enumerate(TOTALS):
+        ax = axes[j // 3, j % 3]
+        t, p = Y_true[:, j], P[:, j]
+        lo, hi = float(min(t.min(), p.min())), float(max(t.max(), p.max()))
+        ax.plot([lo, hi], [lo, hi], "k--", lw=1)
+        ax.plot(t, p, "o", ms=4)
+        unit = "N" if total[0] == "F" else "N mm"
+        ax.set(xlabel=f"true {total} [{unit}]", ylabel=f"predicted {total} [{unit}]",
+               title=total)
+    fig.suptitle(f"Held-out test set, PLSR from {name} (noise-free)")
+    return plots._save(fig, report.out / f"pred_vs_true_{name}.png")
+
+
+def _summary(report, ds, varying, train, test, folds, draws, figures) -> None:
+    d = np.asarray(ds["deflection"].values, dtype=float)
+    ranges = []
+    for p in varying:
+        v = np.asarray(ds[p].values, dtype=float)
+        ranges.append(f"{p} {v.min():.4g}..{v.max():.4g}")
+    sel = (
+        f"{data.selection_text(ds)}: {ds.sizes['experiment']} done experiments "
+        f"({train.size} training, {test.size} held out), deflection {d.min():g}-{d.max():g} mm. "
+        f"Varying load parameters ({len(varying)}): {', '.join(ranges)}."
+    )
+    tot = report.tables["totals"]
+    wide = tot.pivot_table(index=["inputs", "method", "scenario"], columns="total",
+                           values="rmse_pct_range", sort=False).reset_index()
+    wide = wide[["inputs", "method", "scenario", *TOTALS]]
+    nod = report.tables["nodal"].pivot_table(index=["inputs", "method", "scenario"],
+                                             columns="component", values="rmse_pct_range",
+                                             sort=False).reset_index()
+    links = "\n\n".join(markdown.figure(p, report.out, c) for c, p in figures)
+    sections = [
+        ("Selection", sel),
+        ("PCA: latent variables per input (rules: 99 % / 99.9 % variance; largest "
+         "eigenvalue ratio lambda_k / lambda_k+1)", report.tables["pca"]),
+        ("Held-out RMSE of the totals, % of the test set's range", wide),
+        ("Held-out RMSE of the nodal force map per component, % of its nodal range", nod),
+        ("Beside the published anchors and the issue's goal (noise-free)",
+         report.tables["anchors"]),
+        ("Models (component counts chosen by CV)", report.tables["models"]),
+        ("About", f"Models trained on the noise-free training part; noise N(0, sigma^2) on "
+         f"every input of the held-out experiments ({draws} draws each, also in each of the "
+         f"{folds} CV folds that choose the count). Displacement + strain: each set one "
+         "block, centred and divided by its total standard deviation. Moments Mx, My, Mz as "
+         "stored (about the contact centre, N mm)."),
+        ("Figures", links),
+    ]
+    report.files.append(markdown.write(report.out / "summary.md",
+                                       "Combined loads: which forces can the camera recover?",
+                                       sections))

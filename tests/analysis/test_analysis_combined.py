@@ -1,0 +1,151 @@
+"""Combined-load analysis (issue 13) on synthetic stores with 4 known latent load parameters."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from analysis import data
+from analysis.combined import BlockRegression, BlockScaler, cross_validate, latent_count
+from analysis.errors import NoVarianceError, ParameterError, TooFewExperimentsError
+from analysis.studies import combined
+from analysis.synthetic import make_combined_store, make_store
+
+TINY = {"rows": 6, "cols": 12, "tread_rows": 5, "tread_cols": 10}
+
+
+@pytest.fixture(scope="module")
+def store(tmp_path_factory):
+    """40 experiments, 4 varying load parameters (deflection, shift_x, shift_y, tilt)."""
+    path = tmp_path_factory.mktemp("stores") / "combined.zarr"
+    make_combined_store(path, n_experiments=40, seed=1, **TINY)
+    return path
+
+
+@pytest.fixture(scope="module")
+def ds(store):
+    return data.load(store)
+
+
+@pytest.fixture(scope="module")
+def report(ds, tmp_path_factory):
+    out = tmp_path_factory.mktemp("combined")
+    return combined.run(ds, out, inputs="both,strain", folds=4, draws=3, max_components=8)
+
+
+def test_pca_finds_the_number_of_varying_load_parameters(report):
+    pca = report.tables["pca"].set_index("input")
+    for name in ("displacement", "strain", "both (block-scaled)"):
+        assert pca.loc[name, "load_parameters_varying"] == 4
+        assert pca.loc[name, "n_gap"] == 4, name
+        assert pca.loc[name, "n_99_9"] == 4, name
+
+
+def test_latent_count_follows_the_varied_parameters(tmp_path):
+    make_combined_store(tmp_path / "two.zarr", n_experiments=20, vary=("deflection", "tilt"),
+                        **TINY)
+    two = data.load(tmp_path / "two.zarr")
+    assert combined.varying_parameters(two) == ["deflection", "tilt"]
+    X = np.asarray(data.inputs(two, "displacement").compute())
+    assert latent_count(X).n_gap == 2
+    # an exactly rank-1 matrix plus a weak second direction: the gap sits at 1
+    rng = np.random.default_rng(0)
+    a, b = rng.standard_normal((2, 30, 1)), rng.standard_normal((2, 1, 50))
+    lc = latent_count(a[0] @ b[0] + 1e-3 * a[1] @ b[1])
+    assert (lc.n_gap, lc.n_99) == (1, 1)
+    assert lc.n_999 == 1 and lc.gap_ratio > 1e4
+
+
+def test_noise_free_held_out_errors_are_small_and_meet_the_goal(report):
+    tot = report.tables["totals"]
+    sel = tot[(tot["inputs"] == "both") & (tot["method"] == "plsr")
+              & (tot["scenario"] == "noise-free")].set_index("total")["rmse_pct_range"]
+    assert sel["Fz"] < 1.5 and sel["Fy"] < 3.0 and sel["Fx"] < 4.0
+    anchors = report.tables["anchors"].set_index("total")
+    assert list(anchors.index) == ["Fz", "Fy", "Fx"]
+    assert anchors.loc["Fz", "published_pct (strains)"] == 1.8
+    assert bool(anchors["goal_met"].all())
+    nodal = report.tables["nodal"]
+    free = nodal[(nodal["inputs"] == "both") & (nodal["scenario"] == "noise-free")]
+    assert (free["rmse_pct_range"] < 8.0).all()
+
+
+def test_error_grows_with_noise(report):
+    tot = report.tables["totals"]
+    fz = tot[(tot["inputs"] == "strain") & (tot["method"] == "plsr") & (tot["total"] == "Fz")]
+    pct = fz.set_index("scenario")["rmse_pct_range"]
+    assert pct["noise-free"] < pct["1 mm, 0.04 %"] < pct["1 mm, 0.5 %"]
+
+
+def test_cv_picks_the_latent_count_and_fewer_under_heavy_noise(report):
+    m = report.tables["models"]
+    pick = m.set_index(["inputs", "method", "target", "scenario"])["n_components"]
+    assert pick["both", "plsr", "totals", "noise-free"] in (4, 5)
+    assert pick["strain", "plsr", "totals", "1 mm, 0.5 %"] < pick["strain", "plsr", "totals",
+                                                                  "noise-free"]
+    cv = report.tables["cross_validation"]
+    chosen = cv[cv["chosen"]]
+    assert len(chosen) == len(m)  # one chosen count per model
+    for _, row in chosen.iterrows():
+        same = cv[(cv["inputs"] == row["inputs"]) & (cv["method"] == row["method"])
+                  & (cv["target"] == row["target"]) & (cv["scenario"] == row["scenario"])]
+        assert row["mse_mean"] == same["mse_mean"].min()
+
+
+def test_files_written(report):
+    names = {p.name for p in report.files}
+    for name in ("pca.csv", "totals.csv", "nodal.csv", "anchors.csv", "summary.md",
+                 "pred_vs_true_both.png", "error_map_both.png", "cross_validation.csv"):
+        assert name in names
+        assert (report.out / name).stat().st_size > 0
+    text = (report.out / "summary.md").read_text()
+    assert "published" in text and "error_map_both.png" in text
+
+
+def test_block_scaler_gives_each_block_unit_total_variance():
+    rng = np.random.default_rng(0)
+    X = np.hstack([30.0 * rng.standard_normal((20, 5)), 1e-3 * rng.standard_normal((20, 7))])
+    s = BlockScaler([5, 7]).fit(X)
+    Z = s.transform(X)
+    assert Z[:, :5].var(axis=0, ddof=1).sum() == pytest.approx(1.0)
+    assert Z[:, 5:].var(axis=0, ddof=1).sum() == pytest.approx(1.0)
+    np.testing.assert_allclose(s.inverse_transform(Z), X)
+    with pytest.raises(ParameterError, match="add up"):
+        BlockScaler([5, 6]).fit(X)
+
+
+def test_linear_forces_are_recovered_exactly(tmp_path):
+    """coupling = 0: the totals are linear in the fields up to Fz's d^1.15 curvature."""
+    make_combined_store(tmp_path / "lin.zarr", n_experiments=30, coupling=0.0, seed=4, **TINY)
+    lin = data.load(tmp_path / "lin.zarr")
+    X = np.asarray(data.inputs(lin, "displacement").compute())
+    Y = np.asarray(lin["total_force"].values)
+    train, test = combined.split(30, 0.25, 0)
+    model = BlockRegression("plsr", 4, None, [1, 1, 1]).fit(X[train], Y[train])
+    err = np.abs(model.predict(X[test]) - Y[test])
+    assert err[:, :2].max() < 1e-6 * np.abs(Y[:, :2]).max()  # Fx, Fy: exactly linear
+    assert err[:, 2].max() < 0.01 * np.ptp(Y[:, 2])  # Fz: curvature only
+    best = cross_validate(X[train], Y[train], folds=4, y_blocks=[1, 1, 1])
+    assert best["plsr", "noise-free"][0] >= 4
+
+
+def test_split_is_seeded_and_disjoint():
+    tr, te = combined.split(20, 0.25, 3)
+    assert len(te) == 5 and len(tr) == 15 and not set(tr) & set(te)
+    assert np.array_equal(te, combined.split(20, 0.25, 3)[1])
+    assert not np.array_equal(te, combined.split(20, 0.25, 4)[1])
+    with pytest.raises(ParameterError):
+        combined.split(20, 1.0, 0)
+
+
+def test_vertical_only_group_is_refused_in_one_line(tmp_path):
+    make_store(tmp_path / "v.zarr", n_experiments=7, **TINY)
+    with pytest.raises(NoVarianceError, match="not a combined-load selection") as info:
+        combined.run(data.load(tmp_path / "v.zarr"), tmp_path / "out")
+    assert "\n" not in str(info.value) and "varying: deflection" in str(info.value)
+
+
+def test_too_few_experiments(tmp_path):
+    make_combined_store(tmp_path / "few.zarr", n_experiments=5, **TINY)
+    with pytest.raises(TooFewExperimentsError, match="5 done experiments"):
+        combined.run(data.load(tmp_path / "few.zarr"), tmp_path / "out")
