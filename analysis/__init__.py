@@ -34,6 +34,9 @@ _EXPORTS = {
     "MorrisScreening": "analysis.sensitivity",
     "read_outputs": "analysis.sensitivity_data",
     "OutputRequest": "analysis.sensitivity_data",
+    "BlockScaler": "analysis.combined",
+    "BlockRegression": "analysis.combined",
+    "latent_count": "analysis.combined",
     "AnalysisError": "analysis.errors",
 }
 
