@@ -1,4 +1,4 @@
-"""`farm analyse combined` on synthetic stores: its files, its option checks, its one-line errors."""
+"""`farm analyse combined` on synthetic stores: files, option checks, one-line errors."""
 
 from __future__ import annotations
 
