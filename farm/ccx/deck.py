@@ -67,9 +67,11 @@ def support_lines(spec: ModelSpec) -> list[str]:
 
 
 def cavity_pressure_lines(mesh: TyreMesh, pressure: float, amplitude: str | None) -> list[str]:
-    """Inflation pressure (MPa) on every element's cavity face."""
+    """Inflation pressure (MPa) on every cavity face (face 0: an element of a layered
+    wall that does not touch the cavity, :mod:`farm.mesh.layers`)."""
     head = "*DLOAD" + (f", AMPLITUDE={amplitude}" if amplitude else "")
-    return [head] + [f"{e + 1}, P{f}, {_num(pressure)}" for e, f in enumerate(mesh.inner_face)]
+    return [head] + [f"{e + 1}, P{f}, {_num(pressure)}"
+                     for e, f in enumerate(mesh.inner_face) if f > 0]
 
 
 @dataclass(frozen=True)
@@ -132,8 +134,8 @@ def contact_lines(mesh: TyreMesh, law: ContactLaw,
     so a frictionless contact has no such card: None or mu = 0 give the same deck).
     """
     tread = REGIONS.index("tread")
-    faces = [f"{e + 1}, S{mesh.outer_face[e]}"
-             for e in np.flatnonzero(mesh.element_region == tread)]
+    faces = [f"{e + 1}, S{mesh.outer_face[e]}"  # outer_face 0: not the outside layer
+             for e in np.flatnonzero((mesh.element_region == tread) & (mesh.outer_face > 0))]
     lines = ["*SURFACE, NAME=TREAD_SURF, TYPE=ELEMENT", *faces,
              "*SURFACE INTERACTION, NAME=ROAD_CONTACT",
              "*SURFACE BEHAVIOR, PRESSURE-OVERCLOSURE=EXPONENTIAL",

@@ -22,6 +22,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 
 from farm.mesh.build import build_mesh as _build_mesh
+from farm.mesh.layers import split_wall
 from farm.mesh.tyremesh import TyreMesh
 from farm.specs import ModelSpec
 
@@ -53,6 +54,9 @@ def signal_dispositions_kept() -> Iterator[None]:
 
 
 def build_mesh(spec: ModelSpec) -> TyreMesh:
-    """:func:`farm.mesh.build.build_mesh`, the signal dispositions kept."""
+    """:func:`farm.mesh.build.build_mesh`, the signal dispositions kept, its wall split
+    into ``spec.mesh.through`` elements (:mod:`farm.mesh.layers`; also not fingerprinted
+    for a one-element wall, hence here rather than in the mesher)."""
     with signal_dispositions_kept():
-        return _build_mesh(spec)
+        mesh = _build_mesh(spec)
+    return split_wall(mesh, spec.mesh.through)

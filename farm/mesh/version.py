@@ -20,6 +20,11 @@ _FARM = Path(__file__).resolve().parents[1]
 SOURCES = ("geometry.py", "mesh/build.py", "mesh/session.py", "mesh/tyremesh.py")
 
 
+LAYERS = "mesh/layers.py"
+"""The wall splitter (:mod:`farm.mesh.layers`): part of a mesh's key only when the wall
+is layered (``mesh.through > 1``), so that no one-element mesh changes key with it."""
+
+
 @cache
 def mesher_fingerprint() -> str:
     """SHA-256 of the mesher's source files and gmsh's version."""
@@ -31,6 +36,16 @@ def mesher_fingerprint() -> str:
     return digest.hexdigest()
 
 
+@cache
+def layers_fingerprint() -> str:
+    """SHA-256 of the wall splitter's source."""
+    return hashlib.sha256((_FARM / LAYERS).read_bytes()).hexdigest()
+
+
 def mesh_key(spec: ModelSpec) -> str:
-    """Content hash of a mesh: the spec's geometry, density and sector, and the mesher."""
-    return content_hash({"spec": spec.mesh_key(), "mesher": mesher_fingerprint()})
+    """Content hash of a mesh: the spec's geometry, density and sector, and the mesher
+    (with the wall splitter for a wall of several elements)."""
+    body = {"spec": spec.mesh_key(), "mesher": mesher_fingerprint()}
+    if spec.mesh.through > 1:
+        body["layers"] = layers_fingerprint()
+    return content_hash(body)

@@ -200,7 +200,9 @@ def _combined_deck(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: So
 
 def slave_faces(mesh: TyreMesh) -> np.ndarray:
     """Node ids of the contact slave faces (outer faces of tread elements), (F, 4)."""
-    tread = np.flatnonzero(mesh.element_region == REGIONS.index("tread"))
+    # outer_face 0: an element of a layered wall inside the tread (farm/mesh/layers.py)
+    tread = np.flatnonzero((mesh.element_region == REGIONS.index("tread"))
+                           & (mesh.outer_face > 0))
     return np.array([mesh.elements[e][HEX_FACES[mesh.outer_face[e] - 1]] for e in tread])
 
 
