@@ -232,6 +232,15 @@ def time_points_lines(time_points: Sequence[float]) -> list[str]:
     return ["*TIME POINTS, NAME=OUT", *(_num(t) for t in time_points)]
 
 
+def written_sets(mesh: TyreMesh) -> tuple[str, ...]:
+    """The tyre's node sets whose U and RF a step writes: both surfaces hold every node
+    of a one-element wall; a layered wall's interior nodes (:mod:`farm.mesh.layers`)
+    carry support reactions and the full-field displacement too, so all of ``TYRE``."""
+    if np.all(mesh.inner_face > 0):  # one element through the wall: decks as before
+        return ("INNER", "OUTER")
+    return ("TYRE",)
+
+
 def measured_set_lines(node_sets: Sequence[str]) -> list[str]:
     """Node set ``MEASURED``: the union of the sets whose results are written."""
     return ["*NSET, NSET=MEASURED", *(f"{s}," for s in node_sets)]

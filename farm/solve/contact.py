@@ -126,7 +126,7 @@ def path_deck(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: SolverS
     deck = D.assemble(
         D.mesh_lines(mesh), D.material_lines(spec.materials), D.cord_lines(spec, mesh), road.lines,
         D.contact_lines(mesh, spec.contact), amplitudes, D.time_points_lines(out_times),
-        D.measured_set_lines(("INNER", "OUTER", "ROAD")),
+        D.measured_set_lines((*D.written_sets(mesh), "ROAD")),
         D.static_step_lines(t0 + 1.0, settings), D.support_lines(spec),
         ["*BOUNDARY, AMPLITUDE=ROAD_RAMP", "ROAD, 1, 2, 0", f"ROAD, 3, 3, {travel!r}"],
         pressure, D.output_lines(time_points=True, contact=True), ["*END STEP"],
@@ -190,7 +190,7 @@ def _combined_deck(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: So
     deck = D.assemble(
         D.mesh_lines(mesh), D.material_lines(spec.materials), D.cord_lines(spec, mesh), road.lines,
         D.contact_lines(mesh, spec.contact, (motion.friction, lam)), amplitudes,
-        D.time_points_lines(out_times), D.measured_set_lines(("INNER", "OUTER", "ROAD")),
+        D.time_points_lines(out_times), D.measured_set_lines((*D.written_sets(mesh), "ROAD")),
         D.static_step_lines(t0 + (2.0 if motion.moves else 1.0), settings),
         D.support_lines(spec), boundary, pressure,
         D.output_lines(time_points=True, contact=True), ["*END STEP"],

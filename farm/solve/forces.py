@@ -29,7 +29,7 @@ from farm.ccx.frd import read_frd
 from farm.ccx.runner import run_ccx, scratch_dir
 from farm.errors import SpecError
 from farm.mesh.tyremesh import TyreMesh
-from farm.solve.iterative import SUPPORT_SETS, measured_sets, prescribed_deck
+from farm.solve.iterative import SUPPORT_SETS, prescribed_deck
 from farm.solve.states import PathSolution, SolvedState, inner_strain, node_field
 from farm.specs import ModelSpec, SolverSettings
 
@@ -53,7 +53,7 @@ def force_deck(spec: ModelSpec, mesh: TyreMesh, nodes: np.ndarray, fz: np.ndarra
     loads = ["*CLOAD"] + [f"{int(n)}, 3, {float(f)!r}" for n, f in zip(nodes, fz, strict=True)]
     return D.assemble(
         D.mesh_lines(mesh), D.material_lines(spec.materials), D.cord_lines(spec, mesh),
-        D.measured_set_lines(measured_sets(mesh)),
+        D.measured_set_lines(D.written_sets(mesh)),
         D.static_step_lines(1.0, settings), D.support_lines(spec), loads,
         D.output_lines(time_points=False, contact=False), ["*END STEP"],
     )

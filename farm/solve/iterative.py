@@ -34,22 +34,13 @@ MAX_ITERATIONS = 30
 SUPPORT_SETS = ("BEAD_SEAT", "CUT_START", "CUT_END")
 
 
-def measured_sets(mesh: TyreMesh) -> tuple[str, ...]:
-    """Node sets whose results a prescribed-load deck writes: the surfaces, and the
-    supports when a layered wall (:mod:`farm.mesh.layers`) gives them interior nodes,
-    whose reactions the road's reaction needs too."""
-    if np.all(mesh.inner_face > 0):  # one element through the wall: decks as before
-        return ("INNER", "OUTER")
-    return ("INNER", "OUTER", *(k for k in SUPPORT_SETS if k in mesh.node_sets))
-
-
 def prescribed_deck(spec: ModelSpec, mesh: TyreMesh, uz: dict[int, float],
                     settings: SolverSettings) -> str:
     """Deck with the vertical displacement ``uz[node]`` prescribed on contact nodes."""
     bcs = D.support_lines(spec) + [f"{node}, 3, 3, {value!r}" for node, value in sorted(uz.items())]
     return D.assemble(
         D.mesh_lines(mesh), D.material_lines(spec.materials), D.cord_lines(spec, mesh),
-        D.measured_set_lines(measured_sets(mesh)),
+        D.measured_set_lines(D.written_sets(mesh)),
         D.static_step_lines(1.0, settings), bcs,
         D.output_lines(time_points=False, contact=False), ["*END STEP"],
     )
@@ -79,7 +70,7 @@ class _Runner:
         force = np.where(np.isin(tread, list(uz))[:, None], np.nan_to_num(rf[tread - 1]), 0.0)
         # The road's reaction, independently of the contact nodes: what the supports
         # (beads, cut faces) do not carry. Their reactions are in the output
-        # (measured_sets: every node of a one-element wall is on a surface).
+        # (D.written_sets: every node of a one-element wall is on a surface).
         supports = np.concatenate([self.mesh.node_sets[k] for k in SUPPORT_SETS
                                    if k in self.mesh.node_sets])
         road = -rf[np.unique(supports) - 1].sum(axis=0)
