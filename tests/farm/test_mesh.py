@@ -133,6 +133,9 @@ def test_cache_round_trip(tmp_path):
 
 _AFTER_A_SESSION = """
 import dataclasses, os, signal, socket
+# Python's own Ctrl-C handler, also when this was started with SIGINT ignored (a
+# background job: Python then leaves SIGINT ignored)
+signal.signal(signal.SIGINT, signal.default_int_handler)
 from farm.mesh import build_mesh
 from farm.presets import default_model
 from farm.specs import MeshDensity
