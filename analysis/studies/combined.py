@@ -28,7 +28,13 @@ import pandas as pd
 import xarray as xr
 
 from analysis import data
-from analysis.combined import BlockRegression, add_noise, cross_validate, latent_count
+from analysis.combined import (
+    BlockRegression,
+    BlockScaler,
+    add_noise,
+    cross_validate,
+    latent_count,
+)
 from analysis.errors import (
     MissingVariableError,
     NoVarianceError,
@@ -310,8 +316,6 @@ def _pca_table(ds: xr.Dataset, sets: list[str], varying: list[str]) -> pd.DataFr
             items.append((f"{var} {c}", X[:, j * n:(j + 1) * n]))
         items.append((var, X))
     if "both" in sets:
-        from analysis.combined import BlockScaler
-
         both = np.concatenate([fields["displacement"], fields["strain"]], axis=1)
         n = fields["displacement"].shape[1]
         items.append(("both (block-scaled)",
