@@ -8,8 +8,12 @@ them), ``"<label>:<data>"``, two blake2b-128 digests in hex:
   the store, by name (NaN ones skipped: a parameter added to a group later is NaN in
   the slots reserved before it, and :func:`storage.reserve` never sets it there);
 - data: the label, the status (done or failed) and every variable of
-  :data:`~storage.schema.CHECKED_NAMES`, each as its name, dtype, shape and C-order
-  little-endian bytes (text as UTF-8, every NaN as the one canonical NaN).
+  :data:`~storage.schema.CHECKED_NAMES`, then those of
+  :data:`~storage.schema.COMBINED_NAMES` the group has and the slot records
+  (combined-load groups only, so the checksums of every other group are those of
+  before), each as its name, dtype,
+  shape and C-order little-endian bytes (text as UTF-8, every NaN as the one canonical
+  NaN).
 
 Two parts, so that a reader can check the labels of every done experiment cheaply (ids
 and parameters are small, and a selection by load case relies on them) and the data
@@ -27,7 +31,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from storage.schema import CHECKED_NAMES, FIXED_VARIABLES, STATUS_NAMES
+from storage.schema import (
+    CHECKED_NAMES,
+    COMBINED_NAMES,
+    FIXED_VARIABLES,
+    NOT_RECORDED,
+    STATUS_NAMES,
+)
 
 ALGORITHM = "blake2b-128"
 _DIGEST_BYTES = 16
@@ -73,7 +83,21 @@ def data_digest(label: str, status: int, values: Mapping[str, np.ndarray]) -> st
     h.update(f"label|{label}|status|{int(status)}|".encode())
     for name in CHECKED_NAMES:
         _feed(h, name, values[name])
+    for name in COMBINED_NAMES:  # only in combined-load groups, and only where recorded
+        if name in values and not _unrecorded(name, values[name]):
+            _feed(h, name, values[name])
     return h.hexdigest()
+
+
+def _unrecorded(name: str, value: object) -> bool:
+    """Whether a combined variable's slot holds only its fill (NaN, -1 for the status):
+    a vertical experiment of a combined group, or one written by a worker whose open
+    arrays predate the group's combined ones. Skipped in the digest, so both read back
+    alike; a recorded slot later lost reads as fill and no longer matches."""
+    a = np.asarray(value)
+    if FIXED_VARIABLES[name].dtype == "int8":
+        return bool(np.all(a == NOT_RECORDED))
+    return bool(np.all(np.isnan(a.astype(np.float64))))
 
 
 def checksum(experiment_id: str, params: Mapping[str, float], status: int,
@@ -101,8 +125,9 @@ class Slots:
 
     ``ids``, ``status``, ``checksums`` and every array of ``params`` have one entry per
     position; ``read(name, lo, hi)`` returns positions ``lo:hi`` of a variable of
-    :data:`CHECKED_NAMES` (and may raise whatever a damaged chunk makes the store
-    raise); ``sizes`` is the bytes per experiment of each of those variables.
+    ``names`` (and may raise whatever a damaged chunk makes the store raise);
+    ``sizes`` is the bytes per experiment of each of those variables; ``names`` are the
+    checked variables of the group (:func:`storage.schema.checked_names`).
     """
 
     ids: Sequence[str]
@@ -111,6 +136,7 @@ class Slots:
     checksums: Sequence[str]
     read: Callable[[str, int, int], np.ndarray]
     sizes: Mapping[str, int]
+    names: Sequence[str] = CHECKED_NAMES
 
 
 def check(slots: Slots, positions: Sequence[int], *, data: bool = True) -> dict[int, str]:
@@ -173,7 +199,7 @@ def _read_block(slots: Slots, block: list[int]):
     chunks are damaged. Returns (position -> values, position -> reason)."""
     lo, hi = block[0], block[-1] + 1
     try:
-        values = {n: np.asarray(slots.read(n, lo, hi)) for n in CHECKED_NAMES}
+        values = {n: np.asarray(slots.read(n, lo, hi)) for n in slots.names}
         return {k: {n: v[k - lo] for n, v in values.items()} for k in block}, {}
     except Exception:  # a damaged chunk raises whatever its codec raises
         pass
@@ -181,7 +207,7 @@ def _read_block(slots: Slots, block: list[int]):
     unreadable: dict[int, str] = {}
     for k in block:
         one: dict[str, np.ndarray] = {}
-        for n in CHECKED_NAMES:
+        for n in slots.names:
             try:
                 one[n] = np.asarray(slots.read(n, k, k + 1))[0]
             except Exception as e:  # any codec or I/O error of one chunk

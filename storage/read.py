@@ -21,7 +21,15 @@ from storage.checksum import Slots, check
 from storage.errors import DamagedStoreError, NotReservedError, SchemaError, reading, verify_hint
 from storage.paths import StoreLike, describe, open_group, open_store
 from storage.reserve import read_ids
-from storage.schema import CHECKED_NAMES, CLIENT_CHUNK, DONE, FAILED, PENDING, STATUS_NAMES
+from storage.schema import (
+    CHECKED_NAMES,
+    CLIENT_CHUNK,
+    DONE,
+    FAILED,
+    PENDING,
+    STATUS_NAMES,
+    checked_names,
+)
 
 #: Up to this size, the checked variables of the experiments that :func:`verify_done`
 #: checks are read into memory once: what was hashed is then what the caller analyses,
@@ -135,9 +143,10 @@ def verify_done(ds: xr.Dataset, *, data: bool = True) -> xr.Dataset:
             )
         if data:
             ds = _in_memory(ds)
+        names = checked_names(ds.data_vars)  # with the combined ones of a combined group
         slots = Slots(ids, status, params, sums,
                       lambda n, lo, hi: ds[n].isel(experiment=slice(lo, hi)).values,
-                      {n: _bytes_per_experiment(ds, n) for n in CHECKED_NAMES if n in ds})
+                      {n: _bytes_per_experiment(ds, n) for n in names if n in ds}, names)
         bad.update(check(slots, [k for k in positions if ids[k]], data=data))
     if bad:
         raise DamagedStoreError(_damage_message(ds, ids, bad))
@@ -146,7 +155,7 @@ def verify_done(ds: xr.Dataset, *, data: bool = True) -> xr.Dataset:
 
 def _in_memory(ds: xr.Dataset) -> xr.Dataset:
     """``ds`` with its checked variables read into memory, if they fit the budget."""
-    names = list(CHECKED_NAMES)
+    names = list(checked_names(ds.data_vars))
     size = sum(_bytes_per_experiment(ds, n) for n in names) * ds.sizes["experiment"]
     if size > IN_MEMORY_BYTES:
         return ds

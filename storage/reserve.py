@@ -25,6 +25,8 @@ from storage.lock import client_lock
 from storage.paths import StoreLike, describe, open_group, open_store
 from storage.paths import publish as _publish
 from storage.schema import (
+    COMBINED_PARAMETERS,
+    COMBINED_VARIABLES,
     EXPERIMENT_ID,
     FIXED_VARIABLES,
     KNOWN_PARAMETER_UNITS,
@@ -128,6 +130,9 @@ def reserve(
     params : mapping of str to (K,) array-like or scalar
         Load-case parameters, at least ``deflection`` (mm) and ``pressure`` (MPa); any
         other name becomes a new float64 parameter variable (NaN for earlier slots).
+        Any of the combined-load parameters (friction, shift_x mm, shift_y mm, tilt deg)
+        makes the group a combined-load one: its worker variables ``contact_status``,
+        ``tread_slip``, ``road_reaction`` and ``road_moment`` are created.
     units : mapping of str to str, optional
         Units of new parameters that the schema does not know.
 
@@ -201,6 +206,10 @@ def _check_known(
     slots = np.array([index[ids[j]] for j in rows])
     for name, a in values.items():
         stored = g[name][...][slots] if name in g else np.full(len(rows), np.nan)
+        if name in COMBINED_PARAMETERS:
+            # a vertical experiment reserved before its group became a combined one has
+            # no friction, shift or tilt stored (NaN): it is the case where all are 0
+            stored = np.where(np.isnan(stored), 0.0, stored)
         bad = np.flatnonzero(stored != a[rows])
         if bad.size:
             j = rows[bad[0]]
@@ -216,6 +225,11 @@ def _grow(g: zarr.Group, values: dict[str, np.ndarray], units: dict[str, str], k
         if name not in g:
             var = parameter(name, units.get(name) or KNOWN_PARAMETER_UNITS[name])
             create_array(g, var, (k,))
+    if set(values) & set(COMBINED_PARAMETERS):  # the group becomes a combined-load one
+        sizes = {"experiment": k, "tread_node": g["tread_node"].shape[0], "component": 3}
+        for var in COMBINED_VARIABLES:
+            if var.name not in g:
+                create_array(g, var, tuple(sizes[d] for d in var.dims))
     for _, arr in g.arrays():
         if arr.metadata.dimension_names and arr.metadata.dimension_names[0] == "experiment" \
                 and arr.shape[0] != k:

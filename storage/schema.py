@@ -11,7 +11,14 @@ Who writes what (the write rules of DESIGN.md):
   ``experiment`` (cheap to read: an id lookup is one read per 1024 experiments).
 - ``"worker"`` variables are written by workers, one experiment per chunk along
   ``experiment`` so that concurrent workers never touch the same object; among them
-  ``checksum`` (:mod:`storage.checksum`), over the variables of :data:`CHECKED_NAMES`.
+  ``checksum`` (:mod:`storage.checksum`), over the variables of :data:`CHECKED_NAMES`
+  and the :data:`COMBINED_VARIABLES` a group has.
+
+Combined loads (issue 13, docs/combined-loads.md): a group whose client reserves one of
+:data:`COMBINED_PARAMETERS` also gets the worker variables :data:`COMBINED_VARIABLES`
+(created by :func:`storage.reserve`, under the client lock). Every other group, and
+every group written before them, has neither: its bytes, checksums and verification are
+those of before.
 """
 
 from __future__ import annotations
@@ -75,9 +82,11 @@ class Variable:
         Worker chunks are raw: dense float64 fields barely compress, one-value chunks
         grow when framed, and decoding halves read throughput (measured: 82 against
         137 MB/s for 10,000 displacement chunks). ``reaction_force`` is mostly zeros
-        (tread nodes off the contact patch) and stays compressed.
+        (tread nodes off the contact patch) and stays compressed, as do the combined
+        ``contact_status`` and ``tread_slip`` (open nodes: 0).
         """
-        return self.writer != "worker" or self.name == "reaction_force"
+        return self.writer != "worker" or self.name in ("reaction_force", "contact_status",
+                                                        "tread_slip")
 
     @property
     def attrs(self) -> dict[str, Any]:
@@ -123,6 +132,19 @@ KNOWN_PARAMETER_UNITS = {
     "lateral_force": "N",
     "longitudinal_force": "N",
     "friction": "1",
+    "shift_x": "mm",
+    "shift_y": "mm",
+    "tilt": "deg",
+}
+#: The combined-load parameters (farm.specs.RoadMotion's fields, store units above):
+#: reserving any of them makes a group a combined one (:data:`COMBINED_VARIABLES`).
+#: A vertical experiment among combined ones has them all 0.
+COMBINED_PARAMETERS = ("friction", "shift_x", "shift_y", "tilt")
+COMBINED_LONG_NAMES = {
+    "friction": "Coulomb friction coefficient mu between tread and road",
+    "shift_x": "road slide along x (longitudinal) after the deflection",
+    "shift_y": "road slide along its lateral axis after the deflection",
+    "tilt": "road rotation about x (camber), +y side up",
 }
 
 RESULT_VARIABLES = (
@@ -138,6 +160,21 @@ RESULT_VARIABLES = (
        "force of the road summed over the tread", "worker"),
     _v("moment", "experiment component", "float64", "N mm",
        "moment of the tread forces about the contact centre", "worker"),
+)
+
+#: Worker variables of combined-load groups only (farm Measurement.combined_arrays,
+#: whose COMBINED_UNITS these units are). A vertical experiment of such a group stores
+#: them as not recorded (-1 status, NaN floats).
+COMBINED_VARIABLES = (
+    _v("contact_status", "experiment tread_node", "int8", "1",
+       "contact state of each tread node: 0 open, 1 stick, 2 slip", "worker"),
+    _v("tread_slip", "experiment tread_node component", "float64", "mm",
+       "tangential displacement of each tread node relative to the road", "worker"),
+    _v("road_reaction", "experiment component", "float64", "N",
+       "sum of the road's reactions (a check of total_force)", "worker"),
+    _v("road_moment", "experiment component", "float64", "N mm",
+       "moment of the road's reactions about the contact centre (a check of moment)",
+       "worker"),
 )
 
 INFO_VARIABLES = (
@@ -159,16 +196,27 @@ STATUS = _v("status", "experiment", "int8", "-", "0 pending, 1 done, 2 failed", 
 #: from groups written before checksums existed (they stay readable and writable).
 WORKER_VARIABLES = (*RESULT_VARIABLES, *INFO_VARIABLES, ERROR, CHECKSUM, STATUS)
 
-FIXED_VARIABLES = {v.name: v for v in (*MESH_VARIABLES, EXPERIMENT, *WORKER_VARIABLES)}
+FIXED_VARIABLES = {v.name: v for v in (*MESH_VARIABLES, EXPERIMENT, *WORKER_VARIABLES,
+                                         *COMBINED_VARIABLES)}
 RESULT_NAMES = tuple(v.name for v in RESULT_VARIABLES)
 INFO_NAMES = tuple(v.name for v in INFO_VARIABLES)
+COMBINED_NAMES = tuple(v.name for v in COMBINED_VARIABLES)
 #: The worker variables a checksum covers (with the status), in this order.
 CHECKED_NAMES = (*RESULT_NAMES, *INFO_NAMES, ERROR.name)
 
 
+def checked_names(present) -> tuple[str, ...]:
+    """The variables a checksum covers in a group holding the arrays ``present``:
+    :data:`CHECKED_NAMES`, then the combined ones the group has (none in other groups,
+    so their checksums are those of before)."""
+    present = set(present)
+    return (*CHECKED_NAMES, *(n for n in COMBINED_NAMES if n in present))
+
+
 def parameter(name: str, units: str) -> Variable:
     """The variable of a load-case parameter: float64 along ``experiment``."""
-    long_name = REQUIRED_PARAMETERS.get(name, ("", f"load-case parameter {name}"))[1]
+    long_name = REQUIRED_PARAMETERS.get(name, ("", COMBINED_LONG_NAMES.get(
+        name, f"load-case parameter {name}")))[1]
     return Variable(name, ("experiment",), "float64", units, long_name, "client")
 
 

@@ -54,6 +54,7 @@ from storage.paths import StoreLike, describe, open_store, publish
 from storage.schema import (
     CHECKED_NAMES,
     CLIENT_CHUNK,
+    COMBINED_NAMES,
     DONE,
     EXPERIMENT_ID,
     FAILED,
@@ -61,10 +62,13 @@ from storage.schema import (
     PENDING,
     REQUIRED_PARAMETERS,
     STATUS_NAMES,
+    checked_names,
 )
 
-#: Arrays every experiment group has (``checksum`` is optional: older groups lack it).
-REQUIRED_ARRAYS = tuple(sorted((set(FIXED_VARIABLES) | set(REQUIRED_PARAMETERS)) - {"checksum"}))
+#: Arrays every experiment group has (``checksum`` is optional: older groups lack it;
+#: the combined-load variables exist in combined-load groups only).
+REQUIRED_ARRAYS = tuple(sorted((set(FIXED_VARIABLES) | set(REQUIRED_PARAMETERS))
+                               - {"checksum", *COMBINED_NAMES}))
 _SHOWN = 20  # damage lines shown per group (the JSON report has all)
 _ORPHAN = ("is {state} but has no experiment id (the ids chunk of its slot is missing or "
            "damaged)")
@@ -477,10 +481,11 @@ class _GroupCheck:
         return 0
 
     def _slots(self, ids, status, params, sums) -> Slots:
+        names = checked_names(self.arrays)
         sizes = {n: int(np.prod(self.arrays[n].shape[1:], dtype=np.int64))
-                 * self.arrays[n].dtype.itemsize for n in CHECKED_NAMES}
+                 * self.arrays[n].dtype.itemsize for n in names}
         return Slots([e or "" for e in ids], status, params, sums,
-                     lambda n, lo, hi: self.arrays[n][lo:hi], sizes)
+                     lambda n, lo, hi: self.arrays[n][lo:hi], sizes, names)
 
     def _missing_chunks(self, i: int, state: int) -> str:
         if state != DONE:

@@ -11,6 +11,8 @@ PUT) no chunk is ever torn. Readers must take only ``status == 1`` as done.
 With the data goes the slot's checksum (:mod:`storage.checksum`: id, load case,
 status and data), so that a reader can tell a slot damaged later from one written
 whole. Groups made before checksums have no ``checksum`` array; writes there skip it.
+Only combined-load groups have the combined variables (:data:`COMBINED_NAMES`); a
+result may carry them only there, and a vertical one there stores them as not recorded.
 """
 
 from __future__ import annotations
@@ -28,9 +30,11 @@ from storage.errors import AlreadyDoneError, MeshMismatchError, SchemaError, Sto
 from storage.handles import Handle, locate
 from storage.paths import StoreLike, open_store
 from storage.schema import (
+    COMBINED_NAMES,
     DONE,
     EXPERIMENT_ID,
     FAILED,
+    FIXED_VARIABLES,
     INFO_NAMES,
     NOT_RECORDED,
     PENDING,
@@ -57,7 +61,7 @@ def check_result(result: Mapping[str, Any], h: Handle) -> dict[str, np.ndarray]:
     and ``tread_node`` ids, which must then be the group's. Returns float64 arrays with
     a leading axis of length 1, ready to write into one slot.
     """
-    unknown = sorted(set(result) - set(RESULT_NAMES) - set(_NODE_KEYS))
+    unknown = sorted(set(result) - set(RESULT_NAMES) - set(_NODE_KEYS) - set(COMBINED_NAMES))
     if unknown:
         raise SchemaError(
             f"unknown result variable {unknown[0]!r}; a result holds {', '.join(RESULT_NAMES)}"
@@ -90,7 +94,54 @@ def check_result(result: Mapping[str, Any], h: Handle) -> dict[str, np.ndarray]:
                 "(write_failure) instead"
             )
         out[name] = a.astype(np.float64)[np.newaxis]
+    out.update(_combined(result, h))
     return out
+
+
+def _combined(result: Mapping[str, Any], h: Handle) -> dict[str, np.ndarray]:
+    """The combined-load variables of one result: all four or none given; stored only
+    in a combined-load group (there, none given: not recorded)."""
+    given = [n for n in COMBINED_NAMES if n in result]
+    has = [n for n in COMBINED_NAMES if n in h.arrays]
+    if given and not has:
+        raise SchemaError(
+            f"result variable {given[0]!r} is a combined-load one and this group has none: "
+            "reserve its experiments with the combined parameters (friction, shift_x, "
+            "shift_y, tilt) first"
+        )
+    if given and len(given) != len(COMBINED_NAMES):
+        missing = next(n for n in COMBINED_NAMES if n not in result)
+        raise SchemaError(f"combined result variable {missing!r} is missing: give all of "
+                          f"{', '.join(COMBINED_NAMES)} or none")
+    out = {}
+    n_tread = h.tread_node.size
+    for name in has:
+        want = result_shape(name, 0, n_tread)
+        if not given:
+            out[name] = _fill(name, want)
+            continue
+        a = np.asarray(result[name])
+        if a.dtype.kind not in "iuf" or a.shape != want:
+            raise SchemaError(
+                f"result {name!r} must be a real array of shape {want} for this group, got "
+                f"{a.dtype} array of shape {a.shape}")
+        if name == "contact_status":
+            if not np.isin(a, (0, 1, 2)).all():
+                raise SchemaError(f"result 'contact_status' must hold 0 (open), 1 (stick) or "
+                                  f"2 (slip), got {sorted(set(np.unique(a).tolist()))[:5]}")
+            out[name] = a.astype(np.int8)[np.newaxis]
+            continue
+        bad = int(np.count_nonzero(~np.isfinite(a)))
+        if bad:
+            raise SchemaError(f"result {name!r} holds {bad} NaN/inf values: store the run as "
+                              "a failure (write_failure) instead")
+        out[name] = a.astype(np.float64)[np.newaxis]
+    return out
+
+
+def _fill(name: str, shape: tuple[int, ...]) -> np.ndarray:
+    var = FIXED_VARIABLES[name]
+    return np.full((1, *shape), var.fill, dtype=np.dtype(var.dtype))
 
 
 def check_info(info: Mapping[str, Any], *, complete: bool) -> dict[str, np.ndarray]:
@@ -171,6 +222,9 @@ def write_experiment(
         ``displacement`` (N, 3) mm, ``strain`` (N, 3), ``surface_strain`` (N, 3),
         ``reaction_force`` (M, 3) N, ``total_force`` (3,) N, ``moment`` (3,) N mm; all
         finite. Optionally ``inner_node`` (N,) and ``tread_node`` (M,) ids to check.
+        In a combined-load group also, optionally, ``contact_status`` (M,) (0 open,
+        1 stick, 2 slip), ``tread_slip`` (M, 3) mm, ``road_reaction`` (3,) N and
+        ``road_moment`` (3,) N mm (all four or none).
     info : mapping
         ``solve_seconds`` (s), ``increments``, ``ccx_runs``, ``contact_nodes``.
     mesh_key : str, optional
@@ -219,6 +273,9 @@ def write_failure(
     n_inner, n_tread = h.inner_node.size, h.tread_node.size
     for name in RESULT_NAMES:
         values[name] = np.full((1, *result_shape(name, n_inner, n_tread)), np.nan)
+    for name in COMBINED_NAMES:
+        if name in h.arrays:  # combined-load groups only
+            values[name] = _fill(name, result_shape(name, n_inner, n_tread))
     values["error"] = np.array([truncate_error(reason)], dtype=object)
     values = _signed(h, i, experiment_id, values, FAILED)
     _write(h, i, values, FAILED, f"the failure of {experiment_id!r} into group {group!r}")
