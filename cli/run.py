@@ -20,7 +20,14 @@ from farm.ccx.runner import find_ccx
 from farm.errors import SpecError
 from farm.experiment import PathResult, run_load_path
 from farm.mesh import mesh_for
-from farm.specs import MAX_PRESSURE_MPA, THREADS, TIMEOUT_S, LoadPath, SolverSettings
+from farm.specs import (
+    MAX_PRESSURE_MPA,
+    THREADS,
+    TIMEOUT_S,
+    LoadPath,
+    RoadMotion,
+    SolverSettings,
+)
 from jobs import validate
 from jobs.errors import StudyError
 
@@ -44,12 +51,22 @@ def run(
     keep: bool = typer.Option(False, "--keep", help="Keep the solver's scratch directories."),
     vtu: Path = typer.Option(None, "--vtu", help="Write the deformed tyre per deflection "
                              "as ParaView VTU files into this folder [default: none]."),
+    friction: float = typer.Option(0.0, "--friction", help="Combined loads (contact road): "
+                                   "Coulomb friction coefficient mu, 0-2 [default: 0, none]."),
+    shift_x: float = typer.Option(0.0, "--shift-x", help="Combined loads: slide the road "
+                                  "along x after the last deflection, mm, -50 to 50."),
+    shift_y: float = typer.Option(0.0, "--shift-y", help="Combined loads: slide the road "
+                                  "along its lateral axis after the last deflection, mm."),
+    tilt: float = typer.Option(0.0, "--tilt", help="Combined loads: road tilt about x "
+                               "(camber, +y side up), degrees, -10 to 10."),
 ) -> None:
     """Solve one load path (one model, one pressure, several deflections) and print a table."""
     with usage():
         spec = build_model(model, materials, road, overrides)
         kpa = (200.0 if spec.inflated else 0.0) if pressure is None else pressure
-        path, settings = _checked(spec, kpa, deflection, threads, timeout, keep, out, vtu)
+        motion = RoadMotion(friction=friction, shift_x=shift_x, shift_y=shift_y, tilt=tilt)
+        path, settings = _checked(spec, kpa, deflection, threads, timeout, keep, out, vtu,
+                                  motion)
     find_ccx()  # fail before meshing if the solver is missing
     if keep:
         scratch = Path(f"farm-run-{time.strftime('%Y%m%d-%H%M%S')}").resolve()
@@ -69,7 +86,8 @@ def run(
 
 
 def _checked(spec, kpa: float, deflection: str, threads: int, timeout: float, keep: bool,
-             out: Path | None, vtu: Path | None) -> tuple[LoadPath, SolverSettings]:
+             out: Path | None, vtu: Path | None, motion: RoadMotion | None = None
+             ) -> tuple[LoadPath, SolverSettings]:
     """The load path and solver settings, every bound checked (raises SpecError)."""
     try:
         validate.number(kpa, "--pressure", low=0, high=1000 * MAX_PRESSURE_MPA)
@@ -84,7 +102,8 @@ def _checked(spec, kpa: float, deflection: str, threads: int, timeout: float, ke
             validate.output_folder(vtu, "--vtu")
     except StudyError as e:
         raise SpecError(str(e)) from e
-    path = LoadPath(deflections, kpa / 1000.0)
+    # RoadMotion checked its bounds; check_against refuses it on the iterative road
+    path = LoadPath(deflections, kpa / 1000.0, motion)
     path.check_against(spec)
     return path, SolverSettings(threads=threads, timeout=timeout, keep_scratch=keep)
 
@@ -93,10 +112,22 @@ def _print_table(result: PathResult, kpa: float) -> None:
     spec = result.model
     moduli = "/".join(f"{m.youngs_modulus:g}" for m in spec.materials.by_region().values())
     table = Table(title=f"{spec.kind} model, {kpa:g} kPa, {spec.road} road, E = {moduli} MPa")
-    for col in ("deflection mm", "Fz N", "Mx N m", "My N m", "contact nodes", "solve s"):
+    motion = result.path.motion
+    if motion is not None:
+        table.title += (f"; mu {motion.friction:g}, tilt {motion.tilt:g} deg, shift "
+                        f"({motion.shift_x:g}, {motion.shift_y:g}) mm after the last deflection")
+    combined = motion is not None
+    cols = ("deflection mm", *(("shift x mm", "shift y mm", "Fx N", "Fy N") if combined
+                               else ()),
+            "Fz N", "Mx N m", "My N m", "contact nodes", "solve s")
+    for col in cols:
         table.add_column(col, justify="right")
     for m in result.measurements:
-        table.add_row(f"{m.deflection:g}", f"{m.total_force[2]:.1f}",
+        extra = ((f"{m.motion.shift_x:g}", f"{m.motion.shift_y:g}", f"{m.total_force[0]:.1f}",
+                  f"{m.total_force[1]:.1f}") if combined and m.motion is not None
+                 else ("0", "0", f"{m.total_force[0]:.1f}", f"{m.total_force[1]:.1f}")
+                 if combined else ())
+        table.add_row(f"{m.deflection:g}", *extra, f"{m.total_force[2]:.1f}",
                       f"{m.moment[0] / 1e3:.3f}", f"{m.moment[1] / 1e3:.3f}",
                       str(m.contact_nodes), f"{m.solve_seconds:.1f}")
     timing = ("solve s: cumulative along the one-run path" if spec.road == "contact"

@@ -54,11 +54,18 @@ class PathOutcome:
 
 
 def _guarded_path(task: PathTask, exps: list[Experiment], should_stop, retry: bool):
-    path = LoadPath(tuple(e.deflection for e in exps), exps[0].pressure)
+    # the path's road motion (combined loads; None: vertical) acts on the whole path
+    path = LoadPath(tuple(e.deflection for e in exps), exps[0].pressure, exps[0].motion)
+    if path.motion is not None and path.motion.moves and len(exps) != 1:
+        raise ValueError("a path with a road shift holds one experiment (jobs.expand.plan)")
 
     def solve(settings: SolverSettings) -> Solved:
         r = run_load_path(task.model, path, settings, should_stop=should_stop)
-        return Solved(r.measurements, r.solve_seconds, r.ccx_runs, r.increments)
+        # With a shift the path's states are its deflections (unshifted) and then the
+        # shift's ramp; the experiment is the last state (jobs.expand.plan gives such a
+        # path one deflection). Otherwise one state per deflection.
+        states = r.measurements[-len(exps):]
+        return Solved(states, r.solve_seconds, r.ccx_runs, r.increments)
 
     return guarded(solve, task.settings, retry=retry)
 
@@ -80,7 +87,10 @@ def _write(task: PathTask, exps: list[Experiment], result) -> PathOutcome:
             storage.write_failure(task.store, task.group, x.id, result.reason, {})
         return PathOutcome(task.path.key, failed=tuple((x.id, result.reason) for x in exps))
     for x, m in zip(exps, result.measurements, strict=True):
-        storage.write_experiment(task.store, task.group, x.id, m.arrays(), {
+        # combined_arrays() is empty for a vertical state: the store then keeps the
+        # combined variables (combined-load groups only) as not recorded
+        storage.write_experiment(task.store, task.group, x.id,
+                                 {**m.arrays(), **m.combined_arrays()}, {
             "solve_seconds": m.solve_seconds, "increments": result.increments,
             "ccx_runs": result.ccx_runs, "contact_nodes": m.contact_nodes})
     return PathOutcome(task.path.key, done=tuple(x.id for x in exps),

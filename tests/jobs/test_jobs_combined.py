@@ -6,9 +6,11 @@ small combined study runs end to end on ccx with every array in the store."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
-from conftest import QUICK_MODEL, study_text
+from conftest import QUICK_MODEL, ccx_runs, study_text
 
 from farm.specs import RoadMotion
 from jobs import identity
@@ -17,6 +19,7 @@ from jobs.expand import cases, experiments, parameters, plan
 from jobs.study import parse_study
 
 SOLVER = "CalculiX 2.20"
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def _combined(tmp_path, loads: str, model: str = QUICK_MODEL) -> str:
@@ -144,3 +147,110 @@ def test_motion_values_count_against_the_experiment_limit(tmp_path, monkeypatch)
     with pytest.raises(StudyError, match=r"3 deflections x 2 frictions x 4 tilts is 24"):
         parse_study(_combined(tmp_path, "deflection_mm = [10, 15, 20]\nfriction = [0.2, 0.5]"
                               "\ntilt_deg = [1, 2, 3, 4]"))
+
+
+# ---------------------------------------------------------------- farm run
+
+
+@pytest.mark.parametrize("argv, needle", [
+    (["--friction", "3"], "motion.friction"),
+    (["--shift-x", "-60"], "motion.shift_x"),
+    (["--tilt", "12"], "motion.tilt"),
+    (["--model", "reduced", "--friction", "0.5"], "need the contact road"),
+])
+def test_farm_run_refuses_bad_combined_options_in_one_line(argv, needle, capsys, monkeypatch):
+    import farm.experiment
+    from cli import main
+
+    monkeypatch.setattr(farm.experiment, "run_load_path", None)  # nothing may be solved
+    with pytest.raises(SystemExit) as info:
+        main(["run", "--deflection", "10", *argv])
+    err = capsys.readouterr().err.strip()
+    assert info.value.code != 0 and needle in err and "\n" not in err
+
+
+# ---------------------------------------------------------------- a sweep on ccx
+
+
+def _quick_study(tmp_path, n: int) -> Path:
+    """examples/combined_quick.toml with ``n`` points, writing into ``tmp_path``."""
+    text = (ROOT / "examples" / "combined_quick.toml").read_text()
+    text = text.replace('store = "results/combined_quick.zarr"',
+                        f'store = "{tmp_path / "combined.zarr"}"').replace("n = 10", f"n = {n}")
+    assert f"n = {n}" in text and str(tmp_path) in text
+    path = tmp_path / "combined.toml"
+    path.write_text(text)
+    return path
+
+
+def _check_store(path: Path) -> None:
+    import storage
+    from jobs.study import load_study
+
+    study = load_study(path)
+    ds = storage.open_dataset(study.store, study.group_name)
+    status = ds["status"].values
+    assert set(status.tolist()) <= {storage.DONE, storage.FAILED}
+    failed = np.flatnonzero(status == storage.FAILED)
+    assert all(str(ds["error"].values[k]).strip() for k in failed)  # failed with a reason
+    units = {n: ds[n].attrs["units"] for n in ("friction", "shift_x", "shift_y", "tilt",
+                                                "contact_status", "tread_slip",
+                                                "road_reaction", "road_moment")}
+    assert units == {"friction": "1", "shift_x": "mm", "shift_y": "mm", "tilt": "deg",
+                     "contact_status": "1", "tread_slip": "mm", "road_reaction": "N",
+                     "road_moment": "N mm"}
+    # the stored load cases are the study's (ids and motion)
+    want = {e.id: e for e in experiments(plan(study, ds.attrs["solver"]))}
+    assert set(ds["experiment"].values.tolist()) == set(want)
+    for k, e in enumerate(ds["experiment"].values.tolist()):
+        m = want[e].motion
+        assert [float(ds[n].values[k]) for n in ("friction", "shift_x", "shift_y", "tilt")] \
+            == [m.friction, m.shift_x, m.shift_y, m.tilt]
+    done = storage.done(ds)  # verified against the checksums
+    assert done.sizes["experiment"] >= 1
+    f = done["reaction_force"].values
+    total = done["total_force"].values
+    road = done["road_reaction"].values
+    assert np.allclose(f.sum(axis=1), total, rtol=1e-9, atol=1e-6)
+    for k in range(done.sizes["experiment"]):
+        size = np.linalg.norm(total[k])
+        # the tread's forces balance the road's reactions in x, y and z (0.5 % of |F|)
+        assert np.all(np.abs(total[k] - road[k]) <= 5e-3 * size), (total[k], road[k])
+        assert total[k][2] > 100  # pushed up by the road
+        assert abs(total[k][0]) > 1 and abs(total[k][1]) > 1  # Fx, Fy filled: slid, rough
+        status_k = done["contact_status"].values[k]
+        assert set(status_k.tolist()) <= {0, 1, 2} and np.count_nonzero(status_k) >= 1
+        assert np.isfinite(done["tread_slip"].values[k]).all()
+        assert np.isfinite(done["road_moment"].values[k]).all()
+
+
+@pytest.mark.ccx
+def test_quick_combined_study_end_to_end(tmp_path, counting_ccx, capsys):
+    """3 combined experiments of examples/combined_quick.toml through `farm sweep submit`:
+    store complete and balanced; resume and a second submit solve nothing."""
+    from cli import main
+
+    path = _quick_study(tmp_path, 3)
+    with pytest.raises(SystemExit) as info:
+        main(["sweep", "submit", str(path), "--workers", "2"])
+    assert info.value.code in (0, 1), capsys.readouterr()
+    runs = ccx_runs(counting_ccx)
+    assert 3 <= runs <= 6  # one ccx run each, a retry with smaller increments at most
+    _check_store(path)
+    for command in ("resume", "submit"):
+        with pytest.raises(SystemExit):
+            main(["sweep", command, str(path), "--workers", "2"])
+        assert ccx_runs(counting_ccx) == runs
+
+
+@pytest.mark.ccx
+@pytest.mark.slow
+def test_examples_combined_quick_in_full(tmp_path, counting_ccx, capsys):
+    """The whole quick example (10 experiments), as a user runs it."""
+    from cli import main
+
+    path = _quick_study(tmp_path, 10)
+    with pytest.raises(SystemExit) as info:
+        main(["sweep", "submit", str(path), "--workers", "2"])
+    assert info.value.code in (0, 1), capsys.readouterr()
+    _check_store(path)
