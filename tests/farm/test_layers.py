@@ -67,6 +67,15 @@ def test_a_layered_wall_is_another_mesh_and_another_experiment():
     assert two.node_estimate == 3 * one.node_estimate // 2  # three node layers, not two
 
 
+def test_editable_dict_names_through_and_round_trips():
+    one = default_model("reduced")
+    table = one.editable_dict()
+    assert table["mesh"]["through"] == 1 and "through" not in one.to_dict()["mesh"]
+    assert ModelSpec.from_dict(table) == one
+    table["mesh"]["through"] = 3
+    assert ModelSpec.from_dict(table).mesh.through == 3
+
+
 @pytest.mark.parametrize("bad", [0, 5, 2.0, True])
 def test_through_is_validated(bad):
     with pytest.raises(SpecError, match=r"mesh\.through"):
