@@ -85,9 +85,10 @@ class LatentCount:
     """What PCA of one field finds: its eigenvalues and three counts of latent variables.
 
     ``n_99`` / ``n_999``: fewest components explaining 99 % / 99.9 % of the variance.
-    ``n_gap``: the eigenvalue-gap rule: the k (1 <= k < rank) with the largest ratio
-    lambda_k / lambda_(k+1) of consecutive eigenvalues, where eigenvalues below
-    :data:`RANK_RTOL` x lambda_1 count as zero (so an exactly rank-r field gives r).
+    ``n_gap``: the eigenvalue-gap rule: the k with the largest ratio lambda_k /
+    lambda_(k+1) of consecutive eigenvalues, where eigenvalues below :data:`RANK_RTOL` x
+    lambda_1 count as zero (so an exactly rank-r field gives r); k < rank when the rank is
+    the most K samples allow (K - 1), whose drop to zero says nothing about the field.
     """
 
     eigenvalues: np.ndarray
@@ -109,9 +110,12 @@ def latent_count(X) -> LatentCount:
     n999 = int(np.searchsorted(frac, 0.999 - 1e-12) + 1)
     floor = RANK_RTOL * lam[0]
     rank = int(np.sum(lam > floor))
-    # The last K - rank eigenvalues are zero up to rounding; compare against the floor so
-    # that an exactly low-rank field's gap sits at its rank.
-    top = min(rank + 1, lam.size)
+    # Eigenvalues beyond the rank are zero up to rounding; compared against the floor, an
+    # exactly low-rank field's gap sits at its rank. But when the rank is the most the
+    # samples allow (K - 1 after centring), that drop says nothing about the field: a
+    # 8-experiment store would always report 7. Only k < rank are considered then.
+    full = rank >= min(X.shape[0] - 1, X.shape[1])
+    top = rank if full else min(rank + 1, lam.size)
     ratios = lam[: top - 1] / np.maximum(lam[1:top], floor)
     if ratios.size == 0:
         return LatentCount(lam, n99, n999, rank, float("nan"))

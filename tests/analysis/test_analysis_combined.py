@@ -54,6 +54,11 @@ def test_latent_count_follows_the_varied_parameters(tmp_path):
     lc = latent_count(a[0] @ b[0] + 1e-3 * a[1] @ b[1])
     assert (lc.n_gap, lc.n_99) == (1, 1)
     assert lc.n_999 == 1 and lc.gap_ratio > 1e4
+    # 8 samples: rank 7 at most; the drop to zero after 7 is the sample count, not a gap
+    full = rng.standard_normal((8, 50))
+    assert latent_count(full).n_gap < 7
+    low = rng.standard_normal((8, 3)) @ rng.standard_normal((3, 50))
+    assert latent_count(low).n_gap == 3
 
 
 def test_noise_free_held_out_errors_are_small_and_meet_the_goal(report):
