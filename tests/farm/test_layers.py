@@ -67,6 +67,17 @@ def test_a_layered_wall_is_another_mesh_and_another_experiment():
     assert two.node_estimate == 3 * one.node_estimate // 2  # three node layers, not two
 
 
+def test_only_a_layered_key_depends_on_the_splitter_source(monkeypatch):
+    from farm.mesh import version
+
+    one = default_model("reduced")
+    two = dataclasses.replace(one, mesh=dataclasses.replace(one.mesh, through=2))
+    before = mesh_key(one), mesh_key(two)
+    monkeypatch.setattr(version, "layers_fingerprint", lambda: "an edited layers.py")
+    assert mesh_key(one) == before[0]
+    assert mesh_key(two) != before[1]
+
+
 def test_editable_dict_names_through_and_round_trips():
     one = default_model("reduced")
     table = one.editable_dict()
