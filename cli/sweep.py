@@ -139,8 +139,18 @@ def _summary(report, console: Console) -> None:
                   f"{report.wall_seconds:.1f}")
     console.print(table)
     if report.failed:
-        _failure_table([(i, report.experiments[i].deflection, report.experiments[i].pressure, r)
+        _failure_table([(i, report.experiments[i].deflection, report.experiments[i].pressure,
+                         _motion_text(report.experiments[i]) + r)
                         for i, r in report.failed.items()], console)
+
+
+def _motion_text(experiment) -> str:
+    """A combined-load case's road motion, ahead of its failure reason ('' if vertical)."""
+    m = getattr(experiment, "motion", None)
+    if m is None:
+        return ""
+    return (f"[mu {m.friction:g}, shift ({m.shift_x:g}, {m.shift_y:g}) mm, tilt {m.tilt:g} "
+            "deg] ")
 
 
 def _failure_table(rows, console: Console) -> None:
