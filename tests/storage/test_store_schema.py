@@ -31,13 +31,16 @@ def test_contract_table_was_read():
     assert {"displacement", "status", "inner_row", "tread_col", "pressure"} <= set(CONTRACT)
 
 
+def test_combined_variables_and_parameters_are_in_the_contract():
+    assert {*schema.COMBINED_NAMES, *schema.COMBINED_PARAMETERS} <= set(CONTRACT)
+
+
 @pytest.mark.parametrize("name", sorted(CONTRACT))
 def test_variable_matches_contract(name):
     dims, dtype, units = CONTRACT[name]
     var = schema.FIXED_VARIABLES.get(name)
-    if var is None:  # a load-case parameter
-        unit, _ = schema.REQUIRED_PARAMETERS[name]
-        var = schema.parameter(name, unit)
+    if var is None:  # a load-case parameter (required, or a combined-load one)
+        var = schema.parameter(name, schema.KNOWN_PARAMETER_UNITS[name])
     assert ", ".join(var.dims) == dims
     assert var.dtype == dtype
     assert var.units == units
