@@ -12,7 +12,8 @@ edges through the wall (the revolved crossing lines of the section). Splitting t
 edges into ``through`` equal parts and joining the points gives ``through`` hexahedra
 that are exactly the parent's trilinear map restricted to a slab of its through-wall
 parent coordinate (a trilinear map is linear along each parent axis): the volume is
-the parent's, every Jacobian is the parent's divided by ``through``, so positive.
+the parent's, and the Jacobian determinant at each point is the parent's there divided by
+``through``, so positive where the parent's is.
 
 What the layered mesh keeps: node ids ``1..n`` of the one-element mesh (the inner and
 outer surface nodes, hence ``INNER``, ``OUTER``, ``TREAD_OUTER`` and both surface grids
