@@ -320,10 +320,9 @@ class ModelSpec:
 
     def editable_dict(self) -> dict[str, Any]:
         """:meth:`to_dict` with every field a study or ``--set`` may change, including
-        those ids omit at their default (``mesh.through = 1``): the table to merge
-        overrides into and to look swept paths up in (jobs/validate.py, jobs/design.py
-        use ``to_dict`` today, so ``mesh.through`` can only be set from a base that
-        already has ``through > 1``)."""
+        those ids omit at their default (``mesh.through = 1``): the table that
+        ``--set`` overrides and study designs merge into and look swept paths up in
+        (``jobs.validate.override_model``, ``jobs.design``)."""
         return {**self.to_dict(), "mesh": dataclasses.asdict(self.mesh)}
 
     @classmethod

@@ -203,7 +203,7 @@ def _is_number(x: Any) -> bool:
 
 def _leaf(base: ModelSpec, path: str, where: str) -> Any:
     """The value ``path`` names in ``base``'s canonical form (a number or a text)."""
-    node: Any = base.to_dict()
+    node: Any = base.editable_dict()
     parts = path.split(".")
     for k, part in enumerate(parts):
         if not isinstance(node, dict) or part not in node:

@@ -428,7 +428,7 @@ def override_model(base: ModelSpec, overrides: dict[str, Any], where: str = "mod
     """``base`` with ``overrides`` (nested tables merged key by key, unknown keys named),
     a mesh of at most :data:`MESH_NODES` nodes."""
     try:
-        spec = ModelSpec.from_dict(_merge(base.to_dict(), overrides, where))
+        spec = ModelSpec.from_dict(_merge(base.editable_dict(), overrides, where))
     except SpecError as e:  # its messages name the key (model.mesh.tread ...)
         raise StudyError(str(e)) from e
     m = spec.mesh
