@@ -102,8 +102,10 @@ def _verified(h: Handle, experiment_id: str, i: int) -> bool:
     return i < ids.shape[0] and str(read_item(ids, i)) == experiment_id
 
 
-def locate(store: Store, group: str, experiment_id: str) -> tuple[Handle, int]:
-    """The group's handle and the index of ``experiment_id`` in it.
+def locate(store: Store, group: str, experiment_id: str, *, fresh: bool = False
+           ) -> tuple[Handle, int]:
+    """The group's handle and the index of ``experiment_id`` in it (``fresh``: reload
+    the group even if a cached handle knows the id, e.g. to see arrays created since).
 
     Raises
     ------
@@ -115,7 +117,7 @@ def locate(store: Store, group: str, experiment_id: str) -> tuple[Handle, int]:
         h = _HANDLES.get(key)
         if h is not None:
             _HANDLES.move_to_end(key)
-    i = h.index.get(experiment_id) if h is not None else None
+    i = h.index.get(experiment_id) if h is not None and not fresh else None
     if i is not None and _verified(h, experiment_id, i):
         return h, i
     h = _load(store, group)

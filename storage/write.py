@@ -232,6 +232,9 @@ def write_experiment(
     """
     zs = open_store(store)
     h, i = locate(zs, group, _check_id(experiment_id))
+    if set(result) & set(COMBINED_NAMES) and not set(h.arrays) & set(COMBINED_NAMES):
+        # a handle opened before a client made the group a combined-load one
+        h, i = locate(zs, group, experiment_id, fresh=True)
     _check_mesh_key(h, group, mesh_key)
     values: dict[str, np.ndarray] = {**check_result(result, h), **check_info(info, complete=True)}
     values["error"] = np.array([""], dtype=object)

@@ -12,7 +12,7 @@ import pytest
 from store_helpers import GROUP, ROOT, make_info, make_result
 
 import storage
-from storage import SchemaError
+from storage import SchemaError, handles
 from storage import checksum as current_checksum
 from storage.schema import COMBINED_NAMES, COMBINED_PARAMETERS
 
@@ -149,3 +149,24 @@ def test_old_groups_stay_byte_compatible_and_verify(store, group):
     assert ds.sizes["experiment"] == 3
     assert np.isnan(ds["friction"].values[:2]).all() and ds["friction"].values[2] == 0.5
     assert (ds["contact_status"].values[:2] == -1).all()
+
+
+def test_worker_handle_opened_before_the_group_became_combined(store, group):
+    """A worker that cached the group while it was vertical: its vertical rewrite (no
+    combined arrays in its handle) and its combined write both verify."""
+    storage.reserve(store, group, ["v1"], {"deflection": 10.0, "pressure": 0.2})
+    storage.write_experiment(store, group, "v1", make_result("v1", N_INNER, N_TREAD),
+                             make_info("v1"))  # the handle is cached now, vertical
+    storage.reserve(store, group, ["c1"], {"deflection": 11.0, "pressure": 0.2,
+                                           **_motion(1)})
+    storage.write_experiment(store, group, "v1", make_result("v1", N_INNER, N_TREAD),
+                             make_info("v1"))  # with the stale handle
+    h, _ = handles.locate(storage.open_store(store), group, "v1")
+    assert not set(h.arrays) & set(COMBINED_NAMES)  # the stale handle was used
+    storage.write_experiment(store, group, "c1", {**make_result("c1", N_INNER, N_TREAD),
+                                                  **_combined("c1")}, make_info("c1"))
+    ds = storage.done(storage.open_dataset(store, group))
+    assert ds.sizes["experiment"] == 2
+    assert np.array_equal(ds["contact_status"].values[1], _combined("c1")["contact_status"])
+    assert (ds["contact_status"].values[0] == -1).all()
+    assert storage.verify(store).ok
