@@ -225,7 +225,8 @@ def run(
                                             report.out / f"error_map_{name}.png",
                                             f"Held-out nodal RMSE, PLSR from {name}")))
     report.files += [p for _, p in figures]
-    _summary(report, ds, varying, train, test, folds, draws, figures)
+    cap = min(max_components, train.size - int(np.ceil(train.size / folds)) - 1)
+    _summary(report, ds, varying, train, test, folds, draws, figures, cap)
     return report
 
 
@@ -350,7 +351,7 @@ def _pred_figure(report: Report, name: str, Y_true: np.ndarray, P: np.ndarray) -
     return plots._save(fig, report.out / f"pred_vs_true_{name}.png")
 
 
-def _summary(report, ds, varying, train, test, folds, draws, figures) -> None:
+def _summary(report, ds, varying, train, test, folds, draws, figures, cap) -> None:
     d = np.asarray(ds["deflection"].values, dtype=float)
     ranges = []
     for p in varying:
@@ -369,6 +370,13 @@ def _summary(report, ds, varying, train, test, folds, draws, figures) -> None:
                                              columns="component", values="rmse_pct_range",
                                              sort=False).reset_index()
     links = "\n\n".join(markdown.figure(p, report.out, c) for c, p in figures)
+    if cap < len(varying):
+        # 6 training experiments in 5 folds leave 3 components for 5 load parameters: the
+        # quick combined study's first run (8 done) was underfitted by construction.
+        sel += (f" **Warning: the CV can try at most {cap} components ({train.size} "
+                f"training experiments in {folds} folds), fewer than the {len(varying)} "
+                "varying load parameters: the models are underfitted by construction; run "
+                "more experiments or lower --folds / --test-fraction.**")
     sections = [
         ("Selection", sel),
         ("PCA: latent variables per input (rules: 99 % / 99.9 % variance; largest "

@@ -154,3 +154,13 @@ def test_too_few_experiments(tmp_path):
     make_combined_store(tmp_path / "few.zarr", n_experiments=5, **TINY)
     with pytest.raises(TooFewExperimentsError, match="5 done experiments"):
         combined.run(data.load(tmp_path / "few.zarr"), tmp_path / "out")
+
+
+def test_summary_warns_when_cv_cannot_reach_the_parameter_count(tmp_path, report):
+    """8 experiments: 6 training in 5 folds leave at most 3 components for 4 parameters."""
+    make_combined_store(tmp_path / "eight.zarr", n_experiments=8, **TINY)
+    small = combined.run(data.load(tmp_path / "eight.zarr"), tmp_path / "out",
+                         inputs="strain", draws=1)
+    assert small.tables["models"]["n_components"].max() <= 3
+    assert "at most 3 components" in (tmp_path / "out" / "summary.md").read_text()
+    assert "Warning" not in (report.out / "summary.md").read_text()
