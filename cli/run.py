@@ -120,19 +120,24 @@ def _print_table(result: PathResult, kpa: float) -> None:
     cols = ("deflection mm", *(("shift x mm", "shift y mm", "Fx N", "Fy N") if combined
                                else ()),
             "Fz N", "Mx N m", "My N m", "contact nodes", "solve s")
-    for col in cols:
-        table.add_column(col, justify="right")
+    rows = []
     for m in result.measurements:
         extra = ((f"{m.motion.shift_x:g}", f"{m.motion.shift_y:g}", f"{m.total_force[0]:.1f}",
                   f"{m.total_force[1]:.1f}") if combined and m.motion is not None
                  else ("0", "0", f"{m.total_force[0]:.1f}", f"{m.total_force[1]:.1f}")
                  if combined else ())
-        table.add_row(f"{m.deflection:g}", *extra, f"{m.total_force[2]:.1f}",
-                      f"{m.moment[0] / 1e3:.3f}", f"{m.moment[1] / 1e3:.3f}",
-                      str(m.contact_nodes), f"{m.solve_seconds:.1f}")
+        rows.append((f"{m.deflection:g}", *extra, f"{m.total_force[2]:.1f}",
+                     f"{m.moment[0] / 1e3:.3f}", f"{m.moment[1] / 1e3:.3f}",
+                     str(m.contact_nodes), f"{m.solve_seconds:.1f}"))
+    # on a narrow console (80 columns off a terminal) rich shrinks columns and cuts the
+    # numbers ("3511…"); headers may wrap, values never
+    for i, col in enumerate(cols):
+        table.add_column(col, justify="right", min_width=max(len(r[i]) for r in rows))
+    for row in rows:
+        table.add_row(*row)
     timing = ("solve s: cumulative along the one-run path" if spec.road == "contact"
               else "solve s: each deflection's iterations")
     table.caption = (f"{result.ccx_runs} ccx runs, {result.increments} increments, "
                      f"{result.solve_seconds:.1f} s solver, {result.wall_seconds:.1f} s wall, "
                      f"{result.solver}; {timing}")
-    Console().print(table)
+    Console().print(table, crop=False)

@@ -98,3 +98,28 @@ def test_out_is_checked_before_the_solve_not_after(out, tmp_path, capsys, monkey
     monkeypatch.setattr(cli.run, "run_load_path", lambda *a, **k: pytest.fail("solved"))
     code, _, err = _run(["run", "--model", "reduced", *COARSE, "--out", out], capsys)
     assert code == 2 and err.startswith("farm: error: --out: ") and err.count("\n") == 1, err
+
+
+def test_the_combined_table_never_cuts_a_number_on_a_narrow_console(capsys):
+    # off a terminal rich prints 80 columns; ten columns of a combined-load table were
+    # squeezed to "3511…" for Fz (seen in `farm run ... --friction 0.5 --shift-y 2 --tilt 2`)
+    from types import SimpleNamespace
+
+    from cli.run import _print_table
+    from farm.presets import default_model
+    from farm.specs import RoadMotion
+
+    motion = RoadMotion(friction=0.5, shift_y=2.0, tilt=2.0)
+    states = [SimpleNamespace(deflection=20.0, motion=m, total_force=np.array(f),
+                              moment=np.array([36812.5, -12.25, 0.0]), contact_nodes=9,
+                              solve_seconds=s)
+              for m, f, s in ((None, [0.0, -0.1, 3511.93], 28.6),
+                              (motion, [-0.01, 221.64, 3513.27], 42.2))]
+    result = SimpleNamespace(model=default_model("full"), path=SimpleNamespace(motion=motion),
+                             measurements=states, ccx_runs=1, increments=29,
+                             solve_seconds=42.3, wall_seconds=42.3, solver="CalculiX 2.20")
+    _print_table(result, 200.0)
+    out = capsys.readouterr().out
+    for value in ("3511.9", "3513.3", "221.6", "36.812", "-0.012", "28.6", "42.2"):
+        assert value in out, out
+    assert "…" not in out.split("┡")[1], out  # the values: nothing cut
