@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import ccx_runs
+from conftest import QUICK_MODEL, ccx_runs
 from SALib.sample import morris as salib_morris
 from SALib.sample import sobol as salib_sobol
 
@@ -22,16 +22,7 @@ HEAD = """
 [study]
 name = "space"
 store = "space.zarr"
-
-[model]
-kind = "reduced"
-road = "contact"
-[model.mesh]
-tread = 4
-sidewall = 2
-bead = 1
-circumferential = 8
-
+""" + QUICK_MODEL + """
 [loads]
 deflection_mm = [10, 20]
 """
