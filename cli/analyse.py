@@ -42,9 +42,13 @@ def _study(name: str):
 
 
 def dask_scheduler(address: str | None):
+    """Where the reductions run: ``--scheduler``, else the scheduler the environment
+    names (the order of :func:`jobs.cluster.resolve_scheduler`, as for sweeps), else
+    dask's local threads."""
     from analysis.cluster import scheduler
+    from jobs.cluster import resolve_scheduler
 
-    return scheduler(address)
+    return scheduler(resolve_scheduler(address))
 
 
 app = typer.Typer(
@@ -88,9 +92,12 @@ Reference = Annotated[
     float | None,
     typer.Option(help="Deflection (mm) of the reference experiment [default: the median]."),
 ]
+#: Analyses without a scheduler run on dask's threads, not on an embedded cluster
+ANALYSE_SCHEDULER_HELP = SCHEDULER_HELP.replace("else an embedded LocalCluster",
+                                                "else dask's local threads")
 Scheduler = Annotated[
     str | None,
-    typer.Option(help=SCHEDULER_HELP, callback=check_scheduler),
+    typer.Option(help=ANALYSE_SCHEDULER_HELP, callback=check_scheduler),
 ]
 
 

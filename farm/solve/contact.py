@@ -192,6 +192,7 @@ def _combined_deck(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: So
         D.contact_lines(mesh, spec.contact, (motion.friction, lam)), amplitudes,
         D.time_points_lines(out_times), D.measured_set_lines((*D.written_sets(mesh), "ROAD")),
         D.static_step_lines(t0 + (2.0 if motion.moves else 1.0), settings),
+        D.friction_controls_lines() if motion.friction > 0 else [],
         D.support_lines(spec), boundary, pressure,
         D.output_lines(time_points=True, contact=True), ["*END STEP"],
     )

@@ -271,3 +271,23 @@ def test_output_and_scheduler_options_are_checked_before_reading(thesis_store, t
     assert result.exit_code == 2 and "is not a scheduler address" in result.output
     with pytest.raises(ParameterError, match=r"--noise-levels must be .* in \[0, 100\]"):
         _run("noise", thesis_store, "--noise-levels", "1,nan", "--out", tmp_path / "n")
+
+
+def test_the_scheduler_named_by_the_environment_is_used(thesis_store, tmp_path, monkeypatch):
+    """As `farm sweep`: without --scheduler the environment's scheduler, not dask's threads
+    (port 9 on loopback: nothing listens, so the analysis must fail to reach it; the order
+    of the variables is jobs.cluster.resolve_scheduler's, tested there)."""
+    import analysis.cluster
+
+    variable = "DASK_SCHEDULER_ADDRESS"
+    monkeypatch.setattr(analysis.cluster, "CONNECT_TIMEOUT", "1s")  # refused: no need to wait
+    from analysis.errors import SchedulerError
+
+    for name in ("FARM_SCHEDULER", "DASK_SCHEDULER_ADDRESS"):
+        monkeypatch.delenv(name, raising=False)
+    monkeypatch.setenv(variable, "tcp://127.0.0.1:9")
+    result = runner.invoke(app, ["pca", str(thesis_store), "--out", str(tmp_path / "o")])
+    assert isinstance(result.exception, SchedulerError)
+    assert "cannot reach the Dask scheduler at tcp://127.0.0.1:9" in str(result.exception)
+    help_text = " ".join(runner.invoke(app, ["pca", "--help"]).output.split())
+    assert "$DASK_SCHEDULER_ADDRESS, else dask's local threads]" in help_text
