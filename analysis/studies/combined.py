@@ -197,7 +197,11 @@ def run(
                                                                                   Y[train])
                     rows_models.append({**key, "n_components": model.n_components_,
                                         "chosen_by": f"{folds}-fold CV on {train.size} "
-                                        "training experiments, noisy held-out inputs"})
+                                        "training experiments, "
+                                        + ("noisy held-out inputs" if np.any(sigma > 0)
+                                           else "noise-free")
+                                        + (" (the cap: the error still fell)"
+                                           if best == max_components else "")})
                     P = model.predict(Xt)
                     if target == "totals":
                         totals.append(_total_errors(P, Yt, Y, key))

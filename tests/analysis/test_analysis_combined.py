@@ -88,6 +88,9 @@ def test_cv_picks_the_latent_count_and_fewer_under_heavy_noise(report):
     assert pick["both", "plsr", "totals", "noise-free"] in (4, 5)
     assert pick["strain", "plsr", "totals", "1 mm, 0.5 %"] < pick["strain", "plsr", "totals",
                                                                   "noise-free"]
+    how = m.set_index(["inputs", "method", "target", "scenario"])["chosen_by"]
+    assert how["both", "plsr", "totals", "noise-free"].endswith("experiments, noise-free")
+    assert how["strain", "plsr", "totals", "1 mm, 0.5 %"].endswith("noisy held-out inputs")
     cv = report.tables["cross_validation"]
     chosen = cv[cv["chosen"]]
     assert len(chosen) == len(m)  # one chosen count per model
