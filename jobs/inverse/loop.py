@@ -61,7 +61,8 @@ def loop_seed(study: InverseStudy, spec: LoopSpec) -> list[int]:
 def loop_id(study: InverseStudy, spec: LoopSpec) -> str:
     """Content hash of a loop: the problem and everything about this solve."""
     optimizer = vars(spec.optimizer).copy()
-    for name, default in (("weight_rule", "fixed"), ("discrepancy", 1.0)):
+    for name, default in (("weight_rule", "fixed"), ("discrepancy", 1.0),
+                          ("jacobian_patience", 0)):
         if optimizer[name] == default:  # settings added later: old loops keep their ids
             del optimizer[name]
     body = {"problem": study.problem_hash(), "seed": loop_seed(study, spec),
@@ -223,7 +224,8 @@ def _optimise(opt: OptimizerSettings, batch, x0: np.ndarray, stop,
         return secant_least_squares(batch, x0, max_evaluations=opt.max_evaluations,
                                     fd_step=opt.fd_step, ftol=opt.tolerance,
                                     xtol=opt.tolerance, stop=stop, shared=shared,
-                                    radius=opt.jacobian_radius if shared else 0.0)
+                                    radius=opt.jacobian_radius if shared else 0.0,
+                                    patience=opt.jacobian_patience)
     # No gradient test (gtol): it is not scale-free, and strain residuals (~1e-3) have a
     # gradient below any useful gtol at the start - a reproduction run with gtol = 1e-5
     # stopped every strain solve at its initial guess. Stop on ftol/xtol only.

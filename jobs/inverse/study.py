@@ -34,6 +34,7 @@
     discrepancy = 1.0                     # τ: residual norm = τ x expected noise norm
     jacobian = "shared"                   # or "broyden", "full" (docs/inverse.md)
     jacobian_radius = 0.1                 # "shared": reuse within 10 % of ||x||
+    jacobian_patience = 0                 # damped retries on a stale Jacobian before a new one
 
     [mask]                                # optional: keep informative nodes only
     eigen_vectors = "pca/eigen_vectors.csv"   # from `farm analyse pca --out pca`
@@ -91,6 +92,7 @@ MAX_SCALE = 10.0
 MAX_FORCE_N = 1e4  # guess_sigma_n and fd_step_n: nodal forces are tens of newtons
 MAX_TOLERANCE = 1e3
 MAX_WEIGHT = 1e12
+MAX_PATIENCE = 100  # damped retries on a stale Jacobian (each costs one evaluation)
 
 
 @dataclass(frozen=True)
@@ -129,6 +131,7 @@ class OptimizerSettings:
     jacobian_radius: float = 0.1
     weight_rule: str = "fixed"
     discrepancy: float = 1.0
+    jacobian_patience: int = 0  # jobs.loops.secant: poor steps on a stale Jacobian tolerated
 
 
 @dataclass(frozen=True)
@@ -237,7 +240,7 @@ def _optimizer(name: str, data: Any) -> OptimizerSettings:
     lsq = name == "least-squares"
     keys = {"max_evaluations", "noise_draw"} | ({"fd_step_n", "regularisation", "weight",
                                                  "tolerance", "jacobian", "jacobian_radius",
-                                                 "discrepancy"}
+                                                 "jacobian_patience", "discrepancy"}
                                                 if lsq else {"xatol", "fatol"})
     t = v.table(data, where, keys)
     draw = v.choice(t.get("noise_draw", "per_solve" if lsq else "per_evaluation"),
@@ -267,6 +270,8 @@ def _optimizer(name: str, data: Any) -> OptimizerSettings:
                                                JACOBIANS),
                              jacobian_radius=v.number(t.get("jacobian_radius", 0.1),
                                                       f"{where}.jacobian_radius", low=0, high=1),
+                             jacobian_patience=_count(t, "jacobian_patience", where, 0, 0,
+                                                      MAX_PATIENCE),
                              weight_rule=rule, discrepancy=tau)
 
 

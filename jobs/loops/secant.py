@@ -17,8 +17,9 @@ the rejected point's information. Here:
 
 - every step's predicted-vs-actual reduction ratio rho is checked; a step with
   rho < 1/4 on a Jacobian not computed at the current point is answered by a full
-  Jacobian there (the secant model failed), on a fresh one by more damping (the step
-  was too long);
+  Jacobian there (the secant model failed; after ``patience`` such steps answered by
+  more damping, a shorter step often being enough), on a fresh one by more damping (the
+  step was too long);
 - the convergence tests are scipy's (``ftol`` on the cost reduction with rho > 1/4,
   ``xtol`` on the step), but pass only on a Jacobian computed within ``radius`` of the
   point: a secant Jacobian's stationary point J^T r = 0 is not the problem's when the
@@ -71,7 +72,7 @@ class _Model:
 def secant_least_squares(evaluate: BatchFunction, x0: np.ndarray, *, max_evaluations: int,
                          fd_step: float | np.ndarray, ftol: float = 1e-8, xtol: float = 1e-8,
                          bounds: tuple = (-np.inf, np.inf), radius: float = 0.0,
-                         shared: Shared | None = None,
+                         shared: Shared | None = None, patience: int = 0,
                          stop: Callable[[np.ndarray, float], bool] | None = None) -> Outcome:
     """Minimise ``||r(x)||`` by Levenberg-Marquardt on a Broyden-updated Jacobian.
 
@@ -80,7 +81,9 @@ def secant_least_squares(evaluate: BatchFunction, x0: np.ndarray, *, max_evaluat
     (0: only at x itself). ``shared(x)``: a full Jacobian computed elsewhere for a point
     near x, as ``(J, where)``, or None (then it is computed here). Every evaluation of
     this function counts against ``max_evaluations``, Jacobian columns included; shared
-    Jacobians cost this loop's budget nothing.
+    Jacobians cost this loop's budget nothing. ``patience``: how many poor steps (rho <
+    1/4) on a stale Jacobian are answered by more damping (one evaluation each) before a
+    full Jacobian (n evaluations); 0 refreshes at the first (docs/inverse.md).
     """
     tracker = _Tracker(evaluate, max_evaluations, stop)
     x = np.asarray(x0, dtype=float).copy()
@@ -108,6 +111,7 @@ def secant_least_squares(evaluate: BatchFunction, x0: np.ndarray, *, max_evaluat
     try:
         r, model = full(x, None)
         mu = MU0
+        strikes = 0  # poor steps on stale models since the model last failed
         while True:
             s = _step(model.jacobian, r, mu)
             s = np.clip(x + s, lower, upper) - x
@@ -133,9 +137,11 @@ def secant_least_squares(evaluate: BatchFunction, x0: np.ndarray, *, max_evaluat
                     r, model = full(x, r)  # confirm on a full Jacobian (see the docstring)
                     mu = MU0
                     continue
-            if rho < POOR and not fresh:
+            if rho < POOR and not fresh and strikes >= patience:
                 r, model = full(x, r)  # the secant model failed
-                mu = MU0
+                mu, strikes = MU0, 0
+            elif rho < POOR and not fresh:
+                mu, strikes = mu * 4.0, strikes + 1
             elif rho < POOR:
                 mu *= 4.0
             elif rho > GOOD:

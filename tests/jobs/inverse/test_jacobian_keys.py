@@ -21,14 +21,29 @@ def optimizer(keys: str = ""):
 
 def test_the_default_reuses_jacobians_within_ten_percent():
     opt = optimizer()
-    assert (opt.jacobian, opt.jacobian_radius) == ("shared", 0.1)
+    assert (opt.jacobian, opt.jacobian_radius, opt.jacobian_patience) == ("shared", 0.1, 0)
     assert optimizer('jacobian = "full"').jacobian == "full"
+    assert optimizer("jacobian_patience = 2").jacobian_patience == 2
+
+
+def test_patience_left_at_its_default_keeps_the_loop_ids():
+    """Loops stored before the key existed keep their ids (and their cached solves)."""
+    from jobs.inverse.loop import expand_loops, loop_id
+
+    text = STUDY + '[[conditions]]\nname = "ideal"\nnoise = false\n'
+    study = parse_inverse_study(text.format(keys=""), "t.toml")
+    again = parse_inverse_study(text.format(keys="jacobian_patience = 0"), "t.toml")
+    other = parse_inverse_study(text.format(keys="jacobian_patience = 2"), "t.toml")
+    ids = [loop_id(s, expand_loops(s)[0]) for s in (study, again, other)]
+    assert ids[0] == ids[1] != ids[2]
 
 
 @pytest.mark.parametrize(("keys", "match"), [
     ('jacobian = "secant"', r"optimizers.least-squares.jacobian.*full"),
     ("jacobian_radius = -0.1", "optimizers.least-squares.jacobian_radius"),
     ("jacobian_radius = 2", "optimizers.least-squares.jacobian_radius"),
+    ("jacobian_patience = -1", "optimizers.least-squares.jacobian_patience"),
+    ("jacobian_patience = 1.5", "optimizers.least-squares.jacobian_patience"),
 ])
 def test_bad_jacobian_keys_are_one_clear_error(keys, match):
     with pytest.raises(StudyError, match=match):

@@ -75,6 +75,18 @@ def test_rosenbrock_refreshes_the_secant_model_when_it_fails_and_converges():
     assert f.used < 100
 
 
+def test_patience_answers_poor_steps_by_damping_before_a_new_jacobian():
+    """Rosenbrock's curved valley: with patience, fewer refreshes, the same minimum."""
+    runs = {}
+    for patience in (0, 3):
+        f = Counted(rosenbrock)
+        out = secant_least_squares(f, np.array([-1.2, 1.0]), max_evaluations=500,
+                                   fd_step=1e-7, ftol=1e-12, xtol=1e-12, patience=patience)
+        np.testing.assert_allclose(out.x, [1.0, 1.0], atol=1e-6)
+        runs[patience] = f.batches[1:].count(2)  # later batches of n = 2: full Jacobians
+    assert runs[3] < runs[0]
+
+
 def test_a_nonzero_residual_ends_where_the_full_jacobian_method_ends():
     """Noisy target: the stationary point of a secant J is not the problem's, so the
     last steps must be taken on a full Jacobian."""
@@ -87,11 +99,12 @@ def test_a_nonzero_residual_ends_where_the_full_jacobian_method_ends():
 
     full = optimizers.least_squares(Counted(residual), 0.9 * x_true, max_evaluations=500,
                                     fd_step=1e-4, ftol=1e-10, xtol=1e-10, gtol=1e-15)
-    f = Counted(residual)
-    out = secant_least_squares(f, 0.9 * x_true, max_evaluations=500, fd_step=1e-4,
-                               ftol=1e-10, xtol=1e-10)
-    np.testing.assert_allclose(out.x, full.x, rtol=1e-5)
-    assert out.objective == pytest.approx(full.objective, rel=1e-8)
+    for patience in (0, 2):  # damping before a refresh changes the path, not the end
+        f = Counted(residual)
+        out = secant_least_squares(f, 0.9 * x_true, max_evaluations=500, fd_step=1e-4,
+                                   ftol=1e-10, xtol=1e-10, patience=patience)
+        np.testing.assert_allclose(out.x, full.x, rtol=1e-5)
+        assert out.objective == pytest.approx(full.objective, rel=1e-8)
 
 
 @pytest.mark.parametrize("budget", [7, 9, 13])
