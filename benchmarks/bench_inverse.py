@@ -134,7 +134,8 @@ def main() -> None:
                         help="the quick chapter-4 study, full vs reused Jacobians")
     parser.add_argument("--coarse", action="store_true", help="--study on the coarse mesh")
     parser.add_argument("--jacobians", default="full,shared",
-                        help="--study: the Jacobian modes to run, comma-separated")
+                        help="--study: the Jacobian modes to run, comma-separated; "
+                             "MODE:P adds jacobian_patience = P (e.g. shared:2)")
     parser.add_argument("--guesses", action="store_true",
                         help="initial guesses compared on the quick chapter-4 setup")
     parser.add_argument("--regularisation", action="store_true",

@@ -1,6 +1,7 @@
 """The quick chapter-4 study, full Jacobians vs Jacobian reuse, side by side (issue 16).
 
 Run: .venv/bin/python benchmarks/bench_inverse.py --study [--coarse] [--workers 2]
+     [--jacobians full,shared]   (a mode may carry a patience: shared:2)
 
 The study is the one ``farm reproduce --quick`` runs (jobs/reproduce/inverse.py
 ``study_text``: the reduced model at 30 mm, the thesis' four conditions x {displacement,
@@ -29,8 +30,15 @@ from jobs.reproduce.options import Options
 
 
 def run_mode(coarse: bool, workers: int, jacobian: str, tmp: Path) -> dict:
+    """``jacobian``: a mode of the study file's ``jacobian`` key, or ``MODE:P`` for that
+    mode with ``jacobian_patience = P`` (e.g. ``shared:2``)."""
     opts = Options(out=tmp, store=str(tmp / "store.zarr"), quick=True, coarse=coarse)
-    study = parse_inverse_study(study_text(opts, jacobian), "ch4.toml", tmp)
+    mode, _, patience = jacobian.partition(":")
+    text = study_text(opts, mode)
+    if patience:
+        line = f'jacobian = "{mode}"\n'
+        text = text.replace(line, f"{line}jacobian_patience = {int(patience)}\n")
+    study = parse_inverse_study(text, "ch4.toml", tmp)
     start = time.perf_counter()
     report = run_inverse(study, workers=workers, write=False)
     wall = time.perf_counter() - start
