@@ -263,6 +263,9 @@ def _optimizer(name: str, data: Any) -> OptimizerSettings:
         raise v.fail(f"{where}.weight", "\"discrepancy\" chooses a regularisation weight: "
                      "set regularisation = \"tikhonov\", \"smoothness\" or \"guess\"")
     tau = _positive(t, "discrepancy", where, 1.0, MAX_SCALE)
+    if t.get("jacobian") == "full" and t.get("jacobian_patience", 0) != 0:
+        raise v.fail(f"{where}.jacobian_patience", "applies to Jacobian reuse only: leave it "
+                     "out with jacobian = \"full\" (a new Jacobian at every accepted point)")
     return OptimizerSettings(**common, fd_step=_positive(t, "fd_step_n", where, 0.25, MAX_FORCE_N),
                              regularisation=reg, weight=weight,
                              tolerance=_positive(t, "tolerance", where, 1e-8, MAX_TOLERANCE),

@@ -44,6 +44,8 @@ def test_patience_left_at_its_default_keeps_the_loop_ids():
     ("jacobian_radius = 2", "optimizers.least-squares.jacobian_radius"),
     ("jacobian_patience = -1", "optimizers.least-squares.jacobian_patience"),
     ("jacobian_patience = 1.5", "optimizers.least-squares.jacobian_patience"),
+    ('jacobian = "full"\njacobian_patience = 2', r"jacobian_patience: applies to Jacobian "
+                                                  "reuse only"),
 ])
 def test_bad_jacobian_keys_are_one_clear_error(keys, match):
     with pytest.raises(StudyError, match=match):
