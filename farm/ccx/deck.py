@@ -231,7 +231,7 @@ def static_step_lines(period: float, settings: SolverSettings) -> list[str]:
 #: The first increment of a road slide under a sticking patch at high mu needs the
 #: increment cut to ~1e-3 of the ramp before it converges, after which it grows back
 #: at 2 iterations an increment: measured on the coarse full model at 80 kPa, 21.5 mm,
-#: mu 0.87, 3.95 mm slide, 5 cutbacks stop with "too many cutbacks", 8 get through
+#: mu 0.87, 3.95 mm slide, 5 cutbacks stop with "too many cutbacks", 10 get through
 #: (docs/combined-loads.md, "Convergence at high friction"). A converged increment is
 #: the same whatever it took to get there, so this changes no result.
 FRICTION_CUTBACKS = 10
