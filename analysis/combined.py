@@ -28,6 +28,7 @@ from analysis.errors import ComponentsError, ParameterError
 from analysis.moments import compute_moments
 from analysis.pcr import PCRegression
 from analysis.pls import SIMPLSRegression
+from analysis.selection import fit_at_most
 
 METHODS = {"plsr": SIMPLSRegression, "pcr": PCRegression}
 #: eigenvalues below this fraction of the largest count as zero (rounding)
@@ -154,7 +155,7 @@ class BlockRegression(MultiOutputMixin, RegressorMixin, BaseEstimator):
         self.x_scaler_ = BlockScaler(self.x_blocks).fit(X)
         self.y_scaler_ = BlockScaler(self.y_blocks).fit(Y)
         moments = compute_moments(self.x_scaler_.transform(X), self.y_scaler_.transform(Y))
-        self.model_ = _fit_at_most(METHODS[self.method], moments, int(self.n_components))
+        self.model_ = fit_at_most(METHODS[self.method], moments, int(self.n_components))
         self.n_components_ = _n(self.model_)
         return self
 
@@ -162,16 +163,6 @@ class BlockRegression(MultiOutputMixin, RegressorMixin, BaseEstimator):
         """Predictions of shape (K, n_targets), in Y's units."""
         check_is_fitted(self)
         return self.y_scaler_.inverse_transform(self.model_.predict(self.x_scaler_.transform(X)))
-
-
-def _fit_at_most(cls, moments, n: int):
-    try:
-        return cls(n).fit_moments(moments)
-    except ComponentsError as exc:
-        available = getattr(exc, "available", 0)
-        if available < 1:
-            raise
-        return cls(available).fit_moments(moments)
 
 
 def add_noise(X: np.ndarray, sigma: np.ndarray, rng: np.random.Generator) -> np.ndarray:
@@ -247,7 +238,7 @@ def cross_validate(
 def _predictions(method: str, moments, top: int, Xs: np.ndarray):
     """Predictions of Xs with 1..top components (an exhausted fit stops changing)."""
     if method == "plsr":
-        fit = _fit_at_most(SIMPLSRegression, moments, top)
+        fit = fit_at_most(SIMPLSRegression, moments, top)
         scores = (Xs - fit.x_mean_) @ fit.x_weights_
         pred = np.broadcast_to(fit.y_mean_, (Xs.shape[0], fit.y_mean_.size)).copy()
         for a in range(top):
@@ -258,7 +249,7 @@ def _predictions(method: str, moments, top: int, Xs: np.ndarray):
     model = None
     for a in range(1, top + 1):
         if model is None or _n(model) == a - 1:
-            model = _fit_at_most(METHODS[method], moments, a)
+            model = fit_at_most(METHODS[method], moments, a)
         yield model.predict(Xs)
 
 

@@ -118,7 +118,7 @@ def cross_validate_simpls(
     folds = KFold(cv, shuffle=seed is not None and cv < K, random_state=seed if cv < K else None)
     mse = np.empty((cv, top))
     for f, (train, test) in enumerate(folds.split(np.zeros(K))):
-        fit = _fit_at_most(SIMPLSRegression, compute_moments(X[train], Y[train]), top)
+        fit = fit_at_most(SIMPLSRegression, compute_moments(X[train], Y[train]), top)
         Xt, Yt = np.asarray(X[test], dtype=float), np.asarray(Y[test], dtype=float)
         scores = (Xt - fit.x_mean_) @ fit.x_weights_
         pred = np.broadcast_to(fit.y_mean_, Yt.shape).copy()
@@ -137,7 +137,7 @@ def cross_validate_simpls(
     return int(table.loc[table["mse_mean"].idxmin(), "n_components"]), table
 
 
-def _fit_at_most(cls, moments, n: int):
+def fit_at_most(cls, moments, n: int):
     """``cls(n)`` fitted on ``moments``, or with as many components as X̄ᵀȲ supports."""
     try:
         return cls(n).fit_moments(moments)
