@@ -133,9 +133,10 @@ def main() -> None:
     parser.add_argument("--study", action="store_true",
                         help="the quick chapter-4 study, full vs reused Jacobians")
     parser.add_argument("--coarse", action="store_true", help="--study on the coarse mesh")
-    parser.add_argument("--jacobians", default="full,shared",
-                        help="--study: the Jacobian modes to run, comma-separated; "
-                             "MODE:P adds jacobian_patience = P (e.g. shared:2)")
+    parser.add_argument("--jacobians", default="full-cold,shared",
+                        help="--study: the Jacobian modes to run, comma-separated, with "
+                             "warm starts; MODE-cold without (full-cold: the path before "
+                             "issue 16); MODE:P adds jacobian_patience = P (e.g. shared:2)")
     parser.add_argument("--guesses", action="store_true",
                         help="initial guesses compared on the quick chapter-4 setup")
     parser.add_argument("--regularisation", action="store_true",

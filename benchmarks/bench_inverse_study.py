@@ -1,18 +1,22 @@
 """The quick chapter-4 study, full Jacobians vs Jacobian reuse, side by side (issue 16).
 
 Run: .venv/bin/python benchmarks/bench_inverse.py --study [--coarse] [--workers 2]
-     [--jacobians full,shared]   (a mode may carry a patience: shared:2)
+     [--jacobians full-cold,shared]   (MODE-cold: no warm starts; a mode may carry a
+                                        patience: shared:2)
 
 The study is the one ``farm reproduce --quick`` runs (jobs/reproduce/inverse.py
 ``study_text``: the reduced model at 30 mm, the thesis' four conditions x {displacement,
-strain}, least squares), once with ``jacobian = "full"`` and once with the reproduction's
-default, one after the other on the same embedded cluster, each with a fresh evaluation
-cache (so the reference experiment is solved in both: its runs are in both totals).
-Printed per run: ccx runs (evaluations solved by ccx), evaluations, sequential rounds,
-wall seconds per solve; per condition and method, the quantities of Tables 4.1-4.4
-(Fz, nodal error std, RMSE of Uz and eyy) from both runs; the ratio of ccx runs (issue
-16's target: >= 4x fewer at the same final errors). Wall times depend on the machine's
-load: measured figures only.
+strain}, least squares), once with ``jacobian = "full"`` and every point solved from
+rest (``full-cold``: the path before issue 16) and once with the reproduction's default
+(shared Jacobians, warm starts: jobs/inverse/warm.py), one after the other on the same
+embedded cluster, each with a fresh evaluation cache (so the reference experiment is
+solved in both: its runs are in both totals). Printed per run: ccx runs (with warm
+starts one run may solve several evaluations: a Jacobian's columns), evaluations,
+sequential rounds, ccx seconds (the solver's own wall time summed over its runs), wall
+seconds per solve; per condition and method, the quantities of Tables 4.1-4.4 (Fz,
+nodal error std, RMSE of Uz and eyy) from both runs; the ratios of ccx runs (issue 16's
+target: >= 4x fewer at the same final errors), ccx seconds and wall time. Wall times
+depend on the machine's load: measured figures only.
 """
 
 from __future__ import annotations
@@ -28,13 +32,18 @@ from jobs.inverse.study import parse_inverse_study
 from jobs.reproduce.inverse import JACOBIAN, study_text
 from jobs.reproduce.options import Options
 
+COLD = "-cold"  # a mode without warm starts: the path before issue 16 is "full-cold"
+
 
 def run_mode(coarse: bool, workers: int, jacobian: str, tmp: Path) -> dict:
-    """``jacobian``: a mode of the study file's ``jacobian`` key, or ``MODE:P`` for that
-    mode with ``jacobian_patience = P`` (e.g. ``shared:2``)."""
+    """``jacobian``: a mode of the study file's ``jacobian`` key, with warm starts
+    (``MODE-cold``: without, every point from rest), or ``MODE:P`` for that mode with
+    ``jacobian_patience = P`` (e.g. ``shared:2``)."""
     opts = Options(out=tmp, store=str(tmp / "store.zarr"), quick=True, coarse=coarse)
     mode, _, patience = jacobian.partition(":")
-    text = study_text(opts, mode)
+    cold = mode.endswith(COLD)
+    mode = mode.removesuffix(COLD)
+    text = study_text(opts, mode, warm=not cold)
     if patience:
         line = f'jacobian = "{mode}"\n'
         text = text.replace(line, f"{line}jacobian_patience = {int(patience)}\n")
@@ -66,7 +75,8 @@ def table_rows(report) -> dict[tuple[str, str], dict]:
     return rows
 
 
-def compare(coarse: bool, workers: int, modes: tuple[str, ...] = ("full", JACOBIAN)) -> None:
+def compare(coarse: bool, workers: int,
+            modes: tuple[str, ...] = ("full" + COLD, JACOBIAN)) -> None:
     """Run the study once per Jacobian mode and print them side by side."""
     runs = []
     for jacobian in modes:
@@ -91,12 +101,12 @@ def report(runs: list[dict], coarse: bool, workers: int) -> None:
     problem = runs[0]["report"].problem
     print(f"quick chapter-4 study ({'coarse' if coarse else 'default'} reduced mesh, "
           f"{problem.n} unknowns, {len(runs[0]['report'].results)} solves, {workers} workers)")
-    print(f"{'jacobian':<10}{'ccx runs':>10}{'evaluations':>13}{'rounds':>8}"
-          f"{'wall s':>9}{'s/solve':>9}")
+    print(f"{'jacobian':<12}{'ccx runs':>10}{'evaluations':>13}{'rounds':>8}"
+          f"{'ccx s':>9}{'wall s':>9}{'s/solve':>9}")
     for run in runs:
         t, n = run["report"].totals, len(run["report"].results)
-        print(f"{run['jacobian']:<10}{t.solved:>10}{t.evaluations:>13}{t.rounds:>8}"
-              f"{run['wall']:>9.1f}{run['wall'] / n:>9.1f}")
+        print(f"{run['jacobian']:<12}{t.solved:>10}{t.evaluations:>13}{t.rounds:>8}"
+              f"{t.solver_seconds:>9.1f}{run['wall']:>9.1f}{run['wall'] / n:>9.1f}")
     print(f"final errors (Tables 4.1-4.4 quantities), {runs[0]['jacobian']} | "
           f"{runs[1]['jacobian']}:")
     print(f"{'condition/method':<26}{'Fz N':>20}{'nodal std N':>18}{'RMSE Uz mm':>22}"
@@ -108,7 +118,10 @@ def report(runs: list[dict], coarse: bool, workers: int) -> None:
               f"{x['nodal_std']:>9.3f}{y['nodal_std']:>9.3f}{x['uz']:>11.2e}{y['uz']:>11.2e}"
               f"{x['eyy']:>9.2f}{y['eyy']:>9.2f}{x['evaluations']:>7}{y['evaluations']:>7}"
               f"{x['objective']:>11.4g}{y['objective']:>11.4g}")
-    full, reused = (r["report"].totals.solved for r in runs)
-    print(f"ccx runs, {runs[0]['jacobian']} / {runs[1]['jacobian']}: "
-          f"{full / max(reused, 1):.1f}x "
+    full, reused = (r["report"].totals for r in runs)
+    names = f"{runs[0]['jacobian']} / {runs[1]['jacobian']}"
+    print(f"ccx runs, {names}: {full.solved / max(reused.solved, 1):.1f}x "
           "(target >= 4x at the same final errors)")
+    print(f"ccx seconds (the solver's own time, summed over runs), {names}: "
+          f"{full.solver_seconds / max(reused.solver_seconds, 1e-9):.1f}x; wall: "
+          f"{runs[0]['wall'] / max(runs[1]['wall'], 1e-9):.1f}x")

@@ -30,12 +30,18 @@ from farm.specs import SolverSettings
 
 @dataclass(frozen=True, eq=False)
 class Solved:
-    """A successful solve: one measurement per state of its load path."""
+    """A successful solve: one measurement per state of its load path.
+
+    ``state``: the solver's saved state at the end of the path (a compressed ccx restart
+    file) when the solve kept it for others to continue from
+    (:mod:`farm.solve.continuation`), else None.
+    """
 
     measurements: tuple[Measurement, ...]
     solve_seconds: float
     ccx_runs: int = 1
     increments: int = 0
+    state: bytes | None = None
 
     @property
     def measurement(self) -> Measurement:

@@ -244,6 +244,42 @@ def friction_controls_lines() -> list[str]:
             f"4, 8, 9, 16, 10, 4, , {FRICTION_CUTBACKS}"]
 
 
+#: ccx's field convergence controls R_n and C_n (residual force over the average force,
+#: correction over the increment's displacement change; defaults 0.005 and 0.01) for
+#: solves that continue from a saved state (:mod:`farm.solve.continuation`). At the
+#: defaults a converged state still carries errors up to ~1.5e-3 mm in U and ~3e-6 in
+#: strain on the reduced model at 30 mm, and which ones depends on where Newton started;
+#: at 1e-5 a state is the same to the .frd's six printed digits whether it was ramped
+#: from rest or continued from a neighbour (measured: 1-2 more iterations; tested in
+#: tests/farm/test_continuation.py), so a result does not depend on its path.
+TIGHT_FIELD_CONTROLS = (1e-5, 1e-5)
+
+
+def tight_controls_lines() -> list[str]:
+    """Step option: :data:`TIGHT_FIELD_CONTROLS` as R_n, C_n; ccx's defaults for the rest."""
+    return ["*CONTROLS, PARAMETERS=FIELD", ", ".join(_num(v) for v in TIGHT_FIELD_CONTROLS)]
+
+
+def restart_lines(read: bool, write: bool) -> list[str]:
+    """``*RESTART``: READ continues from ``<job>.rin`` (the model definition and the
+    state at the end of its last step come from it); WRITE leaves the state at the end
+    of every step in ``<job>.rout`` (each step overwrites it)."""
+    return ((["*RESTART, READ"] if read else [])
+            + (["*RESTART, WRITE, FREQUENCY=1"] if write else []))
+
+
+def continuation_step_lines(settings: SolverSettings) -> list[str]:
+    """NLGEOM static step for a small change of the loads from the previous state.
+
+    The change is tried in one increment (4x the first increment of a ramp, at most the
+    whole step: 1 with the default settings, 1/4 with the guard's smaller increments),
+    ccx cutting it back as it needs; loads move linearly from their previous values.
+    """
+    first = min(1.0, 4 * settings.initial_increment)
+    return [f"*STEP, NLGEOM, INC={settings.max_increments}", "*STATIC",
+            f"{_num(first)}, 1, {_num(settings.min_increment)}, {_num(first)}"]
+
+
 def time_points_lines(time_points: Sequence[float]) -> list[str]:
     """The output times (model definition, referenced as ``OUT`` by the step's output)."""
     return ["*TIME POINTS, NAME=OUT", *(_num(t) for t in time_points)]

@@ -24,7 +24,7 @@ import sys
 import tempfile
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -284,6 +284,7 @@ def run_ccx(
     timeout: float = 1800.0,
     should_stop: Callable[[], bool] | None = None,
     check: bool = True,
+    inputs: Mapping[str, bytes] | None = None,
 ) -> CcxRun:
     """Write ``deck`` to ``workdir/jobname.inp``, run ccx on it and classify the outcome.
 
@@ -301,9 +302,14 @@ def run_ccx(
         Polled while the solver runs; returning True kills it (outcome ``cancelled``).
     check : bool
         Raise :class:`SolverError` unless the run converged.
+    inputs : mapping of str to bytes, optional
+        Further input files by suffix, written as ``workdir/jobname.<suffix>`` first
+        (``{"rin": ...}``: the restart file a ``*RESTART, READ`` deck continues from).
     """
     exe = find_ccx()
     (workdir / f"{jobname}.inp").write_text(deck)
+    for suffix, data in (inputs or {}).items():
+        (workdir / f"{jobname}.{suffix}").write_bytes(data)
     command = (exe, "-i", jobname)
     log = workdir / f"{jobname}.log"
     start = time.perf_counter()

@@ -47,10 +47,17 @@ def check_tread_nodes(mesh: TyreMesh, nodes: np.ndarray) -> np.ndarray:
     return ids
 
 
+def cload_lines(nodes: np.ndarray, fz: np.ndarray, new: bool = False) -> list[str]:
+    """``*CLOAD`` of vertical forces ``fz[k]`` on ``nodes[k]``; ``new``: replacing every
+    load of the previous step (``OP=NEW``)."""
+    head = "*CLOAD, OP=NEW" if new else "*CLOAD"
+    return [head] + [f"{int(n)}, 3, {float(f)!r}" for n, f in zip(nodes, fz, strict=True)]
+
+
 def force_deck(spec: ModelSpec, mesh: TyreMesh, nodes: np.ndarray, fz: np.ndarray,
                settings: SolverSettings) -> str:
     """Deck with vertical forces ``fz[k]`` (N, +z pushes the tread up) on ``nodes[k]``."""
-    loads = ["*CLOAD"] + [f"{int(n)}, 3, {float(f)!r}" for n, f in zip(nodes, fz, strict=True)]
+    loads = cload_lines(nodes, fz)
     return D.assemble(
         D.mesh_lines(mesh), D.material_lines(spec.materials), D.cord_lines(spec, mesh),
         D.measured_set_lines(D.written_sets(mesh)),
@@ -70,14 +77,18 @@ def _run(deck: str, mesh: TyreMesh, settings: SolverSettings, should_stop, prefi
     return run, frd, t, u, rf
 
 
+def unloaded_reference(mesh: TyreMesh) -> SolvedState:
+    """The undeformed tyre: the reference state of the forward model's measurements."""
+    return SolvedState(0.0, np.nan, np.zeros((mesh.n_nodes, 3)),
+                       np.zeros((mesh.inner_nodes.size, 6)),
+                       np.zeros((mesh.tread_nodes.size, 3)), np.zeros(3))
+
+
 def _solution(mesh: TyreMesh, state: SolvedState, run) -> PathSolution:
-    reference = SolvedState(0.0, np.nan, np.zeros((mesh.n_nodes, 3)),
-                            np.zeros((mesh.inner_nodes.size, 6)),
-                            np.zeros((mesh.tread_nodes.size, 3)), np.zeros(3))
-    return PathSolution(reference, (state,), run.seconds, 1, run.increments)
+    return PathSolution(unloaded_reference(mesh), (state,), run.seconds, 1, run.increments)
 
 
-def _support_reaction(mesh: TyreMesh, rf: np.ndarray) -> np.ndarray:
+def support_reaction(mesh: TyreMesh, rf: np.ndarray) -> np.ndarray:
     """What the supports carry, with the sign of a road force: minus their reactions."""
     ids = np.unique(np.concatenate([mesh.node_sets[k] for k in SUPPORT_SETS
                                     if k in mesh.node_sets]))
@@ -115,9 +126,9 @@ def solve_applied_forces(spec: ModelSpec, mesh: TyreMesh, nodes: np.ndarray, fz:
     deck = force_deck(spec, mesh, nodes, fz, settings)
     run, frd, t, u, rf = _run(deck, mesh, settings, should_stop, "forces-")
     force = np.zeros((mesh.tread_nodes.size, 3))
-    force[_positions(mesh.tread_nodes, nodes), 2] = fz
+    force[positions_in(mesh.tread_nodes, nodes), 2] = fz
     state = SolvedState(0.0, road_z, u, inner_strain(frd, mesh, t), force,
-                        _support_reaction(mesh, rf), run.seconds)
+                        support_reaction(mesh, rf), run.seconds)
     return _solution(mesh, state, run)
 
 
@@ -133,14 +144,14 @@ def solve_prescribed_uz(spec: ModelSpec, mesh: TyreMesh, uz: Mapping[int, float]
     deck = prescribed_deck(spec, mesh, dict(uz), settings)  # the iterative road's deck
     run, frd, t, u, rf = _run(deck, mesh, settings, should_stop, "prescribed-")
     force = np.zeros((mesh.tread_nodes.size, 3))
-    pos = _positions(mesh.tread_nodes, nodes)
+    pos = positions_in(mesh.tread_nodes, nodes)
     force[pos] = np.nan_to_num(rf[nodes - 1])
     state = SolvedState(0.0, road_z, u, inner_strain(frd, mesh, t), force,
-                        _support_reaction(mesh, rf), run.seconds)
+                        support_reaction(mesh, rf), run.seconds)
     return _solution(mesh, state, run)
 
 
-def _positions(haystack: np.ndarray, needles: np.ndarray) -> np.ndarray:
+def positions_in(haystack: np.ndarray, needles: np.ndarray) -> np.ndarray:
     """Index of each of ``needles`` in ``haystack`` (all present)."""
     where = {int(v): k for k, v in enumerate(haystack)}
     return np.array([where[int(n)] for n in needles], dtype=np.int64)

@@ -26,6 +26,7 @@ from jobs.inverse.objective import Objective, field_rmse
 from jobs.inverse.problem import Problem
 from jobs.inverse.regularisation import discrepancy_weight, expected_noise_norm
 from jobs.inverse.study import Condition, InverseStudy, OptimizerSettings
+from jobs.inverse.warm import WarmStarts
 from jobs.loops import optimizers
 from jobs.loops.evaluator import Evaluator, Interrupted, LoopStats
 from jobs.loops.jacobians import JacobianStore, fd_jacobian, fd_points
@@ -61,8 +62,10 @@ def loop_seed(study: InverseStudy, spec: LoopSpec) -> list[int]:
 def loop_id(study: InverseStudy, spec: LoopSpec) -> str:
     """Content hash of a loop: the problem and everything about this solve."""
     optimizer = vars(spec.optimizer).copy()
+    if not optimizer["warm_starts"]:  # then the run length means nothing
+        del optimizer["columns_per_run"]
     for name, default in (("weight_rule", "fixed"), ("discrepancy", 1.0),
-                          ("jacobian_patience", 0)):
+                          ("jacobian_patience", 0), ("warm_starts", False)):
         if optimizer[name] == default:  # settings added later: old loops keep their ids
             del optimizer[name]
     body = {"problem": study.problem_hash(), "seed": loop_seed(study, spec),
@@ -141,9 +144,10 @@ def run_loop(study: InverseStudy, problem: Problem, spec: LoopSpec, evaluator: E
     xs: list[np.ndarray] = []
     fs: list[float] = []
     current: list[Objective] = []
+    warm = warm_starts(problem, evaluator, state.stats, opt)
 
-    def batch(points):
-        results = evaluator.run([problem.forward_evaluation(p) for p in points], state.stats)
+    def batch(points, base=None):
+        results = warm.run(points, base)
         out = []
         for p, result in zip(points, results, strict=True):
             r = current[0].residuals(result, p, len(fs))
@@ -157,20 +161,19 @@ def run_loop(study: InverseStudy, problem: Problem, spec: LoopSpec, evaluator: E
         current[:] = [_objective(study, problem, spec, seed, mask, scale, weight, x0)]
         shared = (_shared_jacobians(study, problem, spec, evaluator, state, mask, scale, weight)
                   if opt.jacobian == "shared" else None)
-        return _optimise(opt, batch, start, stop, shared)
+        return _optimise(opt, batch, start, stop, shared, warm.enabled)
 
     weight = opt.weight
     if opt.weight_rule == "discrepancy" and spec.condition.noise:
         # two stages: the unregularised solution, λ from the linearisation there, then
         # the regularised solve from it (jobs/inverse/regularisation.py)
         first = solve(x0, 0.0)
-        weight = _discrepancy(study, problem, spec, seed, mask, scale, first.x, x0, evaluator,
-                              state)
+        weight = _discrepancy(study, problem, spec, seed, mask, scale, first.x, x0, warm)
         outcome = solve(first.x, weight)
     else:
         outcome = solve(x0, 0.0 if opt.weight_rule == "discrepancy" else weight)
         weight = 0.0 if opt.weight_rule == "discrepancy" else weight
-    last = evaluator.run([problem.forward_evaluation(outcome.x)], state.stats)[0]
+    last = warm.run([outcome.x])[0]
     final = None if isinstance(last, Failed) else last.measurement
     status = "failed" if final is None else outcome.status
     message = last.reason if final is None else outcome.message
@@ -188,8 +191,7 @@ WEIGHT_TAG = "discrepancy weight"
 
 
 def _discrepancy(study: InverseStudy, problem: Problem, spec: LoopSpec, seed, mask,
-                 scale: float, x1: np.ndarray, x0: np.ndarray, evaluator: Evaluator,
-                 state: LoopState) -> float:
+                 scale: float, x1: np.ndarray, x0: np.ndarray, warm: WarmStarts) -> float:
     """λ by the discrepancy principle on the linearisation at x1, the unregularised
     solution (jobs.inverse.regularisation); x0 is the guess (the centre of ``guess``).
 
@@ -199,8 +201,7 @@ def _discrepancy(study: InverseStudy, problem: Problem, spec: LoopSpec, seed, ma
     data = _objective(study, problem, spec, seed, mask, scale, 0.0)
     h, points = fd_points(x1, np.full(problem.n, spec.optimizer.fd_step),
                           np.full(problem.n, np.inf))
-    results = evaluator.run([problem.forward_evaluation(p) for p in [x1, *points]],
-                            state.stats)
+    results = warm.around(x1, points)
     r = [data.data_residuals(res.measurement, 0) if not isinstance(res, Failed) else None
          for res in results]
     if any(v is None for v in r):
@@ -215,8 +216,16 @@ def _discrepancy(study: InverseStudy, problem: Problem, spec: LoopSpec, seed, ma
 GTOL_OFF = 1e-15
 
 
+def warm_starts(problem: Problem, evaluator: Evaluator, stats: LoopStats,
+                opt: OptimizerSettings) -> WarmStarts:
+    """How a loop with optimiser ``opt`` evaluates: warm starts for least squares with
+    ``warm_starts`` on; Nelder-Mead, the thesis' optimiser, solves every point from rest."""
+    return WarmStarts(problem, evaluator, stats, opt.columns_per_run,
+                      opt.name == "least-squares" and opt.warm_starts)
+
+
 def _optimise(opt: OptimizerSettings, batch, x0: np.ndarray, stop,
-              shared: Shared | None = None) -> optimizers.Outcome:
+              shared: Shared | None = None, warm: bool = False) -> optimizers.Outcome:
     if opt.name == "nelder-mead":
         return optimizers.nelder_mead(batch, x0, max_evaluations=opt.max_evaluations,
                                       xatol=opt.xatol, fatol=opt.fatol, stop=stop)
@@ -225,13 +234,14 @@ def _optimise(opt: OptimizerSettings, batch, x0: np.ndarray, stop,
                                     fd_step=opt.fd_step, ftol=opt.tolerance,
                                     xtol=opt.tolerance, stop=stop, shared=shared,
                                     radius=opt.jacobian_radius if shared else 0.0,
-                                    patience=opt.jacobian_patience)
+                                    patience=opt.jacobian_patience, warm_starts=warm)
     # No gradient test (gtol): it is not scale-free, and strain residuals (~1e-3) have a
     # gradient below any useful gtol at the start - a reproduction run with gtol = 1e-5
     # stopped every strain solve at its initial guess. Stop on ftol/xtol only.
     return optimizers.least_squares(batch, x0, max_evaluations=opt.max_evaluations,
                                     fd_step=opt.fd_step, ftol=opt.tolerance,
-                                    xtol=opt.tolerance, gtol=GTOL_OFF, stop=stop)
+                                    xtol=opt.tolerance, gtol=GTOL_OFF, stop=stop,
+                                    warm_starts=warm)
 
 
 _STORES: weakref.WeakKeyDictionary[Problem, JacobianStore] = weakref.WeakKeyDictionary()
@@ -282,8 +292,7 @@ def _shared_jacobians(study: InverseStudy, problem: Problem, spec: LoopSpec,
 
     def at(anchor: np.ndarray) -> np.ndarray:
         h, points = fd_points(anchor, step, np.full(problem.n, np.inf))
-        results = evaluator.run([problem.forward_evaluation(p) for p in [anchor, *points]],
-                                state.stats)
+        results = warm_starts(problem, evaluator, state.stats, opt).around(anchor, points)
         r = [clean.residuals(res, p, 0) for p, res in zip([anchor, *points], results,
                                                           strict=True)]
         return fd_jacobian(r[0], r[1:], h)

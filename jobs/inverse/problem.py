@@ -73,11 +73,21 @@ class Problem:
     def n(self) -> int:
         return self.nodes.size
 
-    def forward_evaluation(self, x: np.ndarray) -> Evaluation:
-        task = ForwardTask(self.model, tuple(int(v) for v in self.nodes),
-                           canonical(x), float(self.road_z), self.settings)
+    def forward_evaluation(self, x: np.ndarray, *, then=(), keep_state: bool = False,
+                           start: tuple[str, bytes | None] | None = None) -> Evaluation:
+        """The forward model at ``x``; then at each point of ``then`` in the same ccx run.
+
+        ``keep_state``: the result keeps the solver's last state; ``start``: (key, kept
+        state) of the evaluation to continue from. Either makes it a continuation
+        (:class:`~jobs.inverse.evaluate.ForwardTask`).
+        """
+        key, state = start if start is not None else (None, None)
+        task = ForwardTask(self.model, tuple(int(v) for v in self.nodes), canonical(x),
+                           float(self.road_z), self.settings,
+                           then=tuple(canonical(p) for p in then), keep_state=keep_state,
+                           start=key, start_state=state)
         return Evaluation(task_key("inverse-forward", task, self.solver), forward, task,
-                          "inverse-forward")
+                          "inverse-forward", 1 + len(task.then))
 
     def prescribed_evaluation(self, uz: dict[int, float]) -> Evaluation:
         nodes = tuple(int(v) for v in self.nodes)

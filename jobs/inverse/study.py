@@ -35,6 +35,8 @@
     jacobian = "shared"                   # or "broyden", "full" (docs/inverse.md)
     jacobian_radius = 0.1                 # "shared": reuse within 10 % of ||x||
     jacobian_patience = 0                 # damped retries on a stale Jacobian before a new one
+    warm_starts = true                    # solves continue from the loop's solved points
+    columns_per_run = 8                   # Jacobian columns a ccx run solves one after another
 
     [mask]                                # optional: keep informative nodes only
     eigen_vectors = "pca/eigen_vectors.csv"   # from `farm analyse pca --out pca`
@@ -93,6 +95,9 @@ MAX_FORCE_N = 1e4  # guess_sigma_n and fd_step_n: nodal forces are tens of newto
 MAX_TOLERANCE = 1e3
 MAX_WEIGHT = 1e12
 MAX_PATIENCE = 100  # damped retries on a stale Jacobian (each costs one evaluation)
+# Jacobian columns one ccx run continues through (jobs/inverse/warm.py): a run of 8 on
+# the default reduced mesh takes ~3 s; past a few hundred a run would outlast the timeout
+MAX_COLUMNS_PER_RUN = 256
 
 
 @dataclass(frozen=True)
@@ -132,6 +137,10 @@ class OptimizerSettings:
     weight_rule: str = "fixed"
     discrepancy: float = 1.0
     jacobian_patience: int = 0  # jobs.loops.secant: poor steps on a stale Jacobian tolerated
+    # jobs.inverse.warm: continue from solved states (the study files' default for least
+    # squares; False: every point from rest, as before warm starts existed)
+    warm_starts: bool = False
+    columns_per_run: int = 8
 
 
 @dataclass(frozen=True)
@@ -240,7 +249,8 @@ def _optimizer(name: str, data: Any) -> OptimizerSettings:
     lsq = name == "least-squares"
     keys = {"max_evaluations", "noise_draw"} | ({"fd_step_n", "regularisation", "weight",
                                                  "tolerance", "jacobian", "jacobian_radius",
-                                                 "jacobian_patience", "discrepancy"}
+                                                 "jacobian_patience", "discrepancy",
+                                                 "warm_starts", "columns_per_run"}
                                                 if lsq else {"xatol", "fatol"})
     t = v.table(data, where, keys)
     draw = v.choice(t.get("noise_draw", "per_solve" if lsq else "per_evaluation"),
@@ -275,7 +285,11 @@ def _optimizer(name: str, data: Any) -> OptimizerSettings:
                                                       f"{where}.jacobian_radius", low=0, high=1),
                              jacobian_patience=_count(t, "jacobian_patience", where, 0, 0,
                                                       MAX_PATIENCE),
-                             weight_rule=rule, discrepancy=tau)
+                             weight_rule=rule, discrepancy=tau,
+                             warm_starts=v.boolean(t.get("warm_starts", True),
+                                                   f"{where}.warm_starts"),
+                             columns_per_run=_count(t, "columns_per_run", where, 8, 1,
+                                                    MAX_COLUMNS_PER_RUN))
 
 
 def _weight(value: Any, where: str) -> tuple[str, float]:

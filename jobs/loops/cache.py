@@ -1,10 +1,11 @@
 """A persistent cache of solver evaluations, one ``.npz`` file per content hash.
 
 What is cached is a typed result of :mod:`jobs.guard`: a :class:`~jobs.guard.Solved`
-(its measurements, field by field) or a deterministic :class:`~jobs.guard.Failed`
-(its reason). :func:`encode` and :func:`decode` are the only places that know the
-file's layout; an entry in another layout (an older version of the farm) reads as
-absent, so it is solved again rather than misread.
+(its measurements, field by field, and the solver state it kept, as bytes) or a
+deterministic :class:`~jobs.guard.Failed` (its reason). :func:`encode` and
+:func:`decode` are the only places that know the file's layout; an entry in another
+layout (an older version of the farm) reads as absent, so it is solved again rather
+than misread.
 
 The client is the only writer (it writes what its futures return), so a cache needs no
 locking; every file is written to a temporary name and renamed into place, so a client
@@ -43,6 +44,8 @@ def encode(result: Result) -> dict[str, np.ndarray]:
     out = {"layout": np.array(LAYOUT), "solve_seconds": np.array(result.solve_seconds),
            "ccx_runs": np.array(result.ccx_runs), "increments": np.array(result.increments),
            "states": np.array(len(result.measurements))}
+    if result.state is not None:
+        out["state"] = np.frombuffer(result.state, dtype=np.uint8)
     for k, m in enumerate(result.measurements):
         # fields that are None (the combined-load ones of a vertical path, issue 13) are
         # left out: np.asarray(None) is an object array, which np.load refuses without
@@ -62,8 +65,9 @@ def decode(arrays: Mapping[str, np.ndarray]) -> Result | None:
                               if f"m{k}.{name}" in arrays or name not in _OPTIONAL else None
                               for name in _FIELDS})
                for k in range(int(arrays["states"])))
+    state = arrays["state"].tobytes() if "state" in arrays else None
     return Solved(ms, float(arrays["solve_seconds"]), int(arrays["ccx_runs"]),
-                  int(arrays["increments"]))
+                  int(arrays["increments"]), state)
 
 
 def _scalar(a: np.ndarray):
@@ -77,11 +81,16 @@ class CacheError(JobError, OSError):
 class EvaluationCache:
     """Finished evaluations under ``directory``: ``<key[:2]>/<key>.npz``.
 
+    A kept solver state (``Solved.state``, ~300 kB on the default reduced mesh) stays on
+    disk only: :meth:`get` answers without it and :meth:`state` reads it when a solve
+    continues from it, so a study of thousands of evaluations holds their measurements
+    in memory, not their states.
+
     Parameters
     ----------
     directory : path
         Created on first write. ``None`` keeps nothing on disk (an in-memory cache of
-        this process only).
+        this process only, states included).
     """
 
     def __init__(self, directory: str | os.PathLike[str] | None) -> None:
@@ -100,19 +109,31 @@ class EvaluationCache:
             return self._memory[key]
         if self.directory is None:
             return None
-        path = self._path(key)
-        try:
-            with np.load(path, allow_pickle=False) as z:
-                result = decode({k: z[k] for k in z.files})
-        except (OSError, ValueError, KeyError, TypeError):  # absent or unreadable: solve again
-            return None
+        result = self._read(key, lambda files: [k for k in files if k != "state"])
         if result is not None:
             self._memory[key] = result
         return result
 
+    def state(self, key: str) -> bytes | None:
+        """The solver state kept with the result under ``key``, or None."""
+        if self.directory is None:
+            hit = self._memory.get(key)
+            return hit.state if isinstance(hit, Solved) else None
+        result = self._read(key, list)
+        return result.state if isinstance(result, Solved) else None
+
+    def _read(self, key: str, arrays) -> Result | None:
+        path = self._path(key)  # a malformed key raises: it is a bug, not a miss
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                return decode({k: z[k] for k in arrays(z.files)})
+        except (OSError, ValueError, KeyError, TypeError):  # absent or unreadable: solve again
+            return None
+
     def put(self, key: str, result: Result) -> None:
         """Store ``result`` under ``key`` (atomically; the last write wins)."""
-        self._memory[key] = result
+        light = isinstance(result, Solved) and result.state is not None and self.directory
+        self._memory[key] = dataclasses.replace(result, state=None) if light else result
         if self.directory is None:
             return
         arrays = encode(result)

@@ -38,6 +38,7 @@ class Evaluation:
     function: Callable[[Any], Result]
     argument: Any
     prefix: str = "eval"
+    points: int = 1  # the points it solves (one ccx run may solve several in a row)
 
     @property
     def task_key(self) -> str:
@@ -48,10 +49,12 @@ class Evaluation:
 class LoopStats:
     """What one loop spent (updated by the evaluator; read by progress displays).
 
-    ``rounds`` counts the batches the loop waited for: the sequential evaluations of the
-    loop's critical path, whatever the batch sizes. ``solved`` counts the evaluations
-    this loop submitted to the workers, ``cached`` those answered from the cache and
-    ``shared`` those another loop had in flight.
+    ``evaluations`` counts the points evaluated (an evaluation that solves several in
+    one ccx run counts each). ``rounds`` counts the batches the loop waited for: the
+    sequential evaluations of the loop's critical path, whatever the batch sizes.
+    ``solved`` counts the evaluations this loop submitted to the workers (ccx runs, for
+    the forward model), ``cached`` those answered from the cache and ``shared`` those
+    another loop had in flight.
     """
 
     evaluations: int = 0
@@ -148,16 +151,22 @@ class Evaluator:
             result = Failed(f"task error: {type(exc).__name__}: {exc}", type(exc).__name__,
                             transient=True)
         with self._lock:
-            if source == "solved":
-                if not (isinstance(result, Failed) and result.transient):
-                    self.cache.put(e.key, result)
-                self._inflight.pop(e.key, None)
+            # whichever loop's thread sees the result first caches it, so that it is in
+            # the cache before any caller of run() has it: a warm start reads the kept
+            # state of a point from the cache (jobs/inverse/warm.py), and the loop that
+            # joined a shared evaluation must find it there as surely as the one that
+            # submitted it, or its path would depend on which thread woke first
+            if not (isinstance(result, Failed) and result.transient) and \
+                    self._inflight.get(e.key) is future:
+                self.cache.put(e.key, result)
+            if self._inflight.get(e.key) is future:
+                del self._inflight[e.key]
         return result
 
     @staticmethod
     def _count(s: LoopStats, batch, sources, results, waited: float) -> None:
         with s.lock:
-            s.evaluations += len(batch)
+            s.evaluations += sum(e.points for e in batch)
             s.rounds += 1
             s.wait_seconds += waited
             seen = set()

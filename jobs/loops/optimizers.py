@@ -23,7 +23,10 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.optimize
 
-BatchFunction = Callable[[Sequence[np.ndarray]], list[np.ndarray]]
+BatchFunction = Callable[..., list[np.ndarray]]
+"""``evaluate(points)``, or with ``warm_starts`` ``evaluate(points, base=x)``: ``x``
+(evaluated alone before) is where the points lie near, so their solves may continue
+from its solved state (:mod:`jobs.inverse.warm`)."""
 
 # scipy's Nelder-Mead initial simplex: 5 % of each nonzero coordinate, 0.00025 for zeros.
 NONZDELT, ZDELT = 0.05, 0.00025
@@ -50,21 +53,35 @@ class _Budget(Exception):
 
 
 class _Tracker:
-    """Counts evaluations against the budget and remembers the best point."""
+    """Counts evaluations against the budget and remembers the best point.
+
+    ``warm``: pass each batch's ``base`` on to ``evaluate`` (see :data:`BatchFunction`).
+    """
 
     def __init__(self, evaluate: BatchFunction, budget: int,
-                 stop: Callable[[np.ndarray, float], bool] | None) -> None:
-        self.evaluate, self.budget, self.stop = evaluate, budget, stop
+                 stop: Callable[[np.ndarray, float], bool] | None, warm: bool = False) -> None:
+        self.evaluate, self.budget, self.stop, self.warm = evaluate, budget, stop, warm
         self.used = 0
         self.best_x: np.ndarray | None = None
         self.best_f = np.inf
         self.stopped = False
 
-    def batch(self, points: Sequence[np.ndarray]) -> list[np.ndarray]:
+    def around(self, x: np.ndarray, points: Sequence[np.ndarray]) -> list[np.ndarray]:
+        """r(x) and r at ``points`` near it: one round, or with warm starts x first and
+        then the points from its solved state (two rounds)."""
+        if not self.warm:
+            return self.batch([x, *points])
+        r = self.batch([x])[0]
+        return [r, *self.batch(points, base=x)]
+
+    def batch(self, points: Sequence[np.ndarray], base: np.ndarray | None = None
+              ) -> list[np.ndarray]:
         if self.stopped or self.used + len(points) > self.budget:
             raise _Budget
         self.used += len(points)
-        out = self.evaluate([np.asarray(p, dtype=float) for p in points])
+        points = [np.asarray(p, dtype=float) for p in points]
+        out = (self.evaluate(points, base=base) if self.warm and base is not None
+               else self.evaluate(points))
         for p, r in zip(points, out, strict=True):
             f = float(np.linalg.norm(r))
             if f < self.best_f:
@@ -116,19 +133,24 @@ def least_squares(evaluate: BatchFunction, x0: np.ndarray, *, max_evaluations: i
                   fd_step: float | np.ndarray, x_scale: float | np.ndarray = 1.0,
                   ftol: float = 1e-8, xtol: float = 1e-8, gtol: float = 1e-8,
                   bounds: tuple = (-np.inf, np.inf),
-                  stop: Callable[[np.ndarray, float], bool] | None = None) -> Outcome:
+                  stop: Callable[[np.ndarray, float], bool] | None = None,
+                  warm_starts: bool = False) -> Outcome:
     """Minimise ``||r(x)||`` by TRF with a Jacobian whose columns are solved in parallel.
 
     ``fd_step`` is the absolute forward-difference step per unknown (units of x); a
     column whose step would leave ``bounds`` is differenced backwards. The first round
-    solves x0 and the Jacobian's columns at x0 together (scipy always asks for both).
+    solves x0 and the Jacobian's columns at x0 together (scipy always asks for both);
+    with ``warm_starts`` x0 comes first, and the columns (base: their point) and every
+    trial point (base: the point of the last Jacobian, TRF's current point) are passed
+    their base.
     """
-    tracker = _Tracker(evaluate, max_evaluations, stop)
+    tracker = _Tracker(evaluate, max_evaluations, stop, warm_starts)
     x0 = np.asarray(x0, dtype=float)
     step = np.broadcast_to(np.asarray(fd_step, dtype=float), x0.shape)
     upper = np.broadcast_to(np.asarray(bounds[1], dtype=float), x0.shape)
     last: dict[bytes, np.ndarray] = {}
     ready: dict[bytes, list[np.ndarray]] = {}  # Jacobian columns solved ahead of time
+    current: list[np.ndarray] = []  # where the last Jacobian was taken: TRF's iterate
 
     def steps(x: np.ndarray) -> np.ndarray:
         return np.where(x + step > upper, -step, step)
@@ -141,10 +163,10 @@ def least_squares(evaluate: BatchFunction, x0: np.ndarray, *, max_evaluations: i
         x = np.asarray(x, float)
         last.clear()
         if not tracker.used:  # scipy always wants J at x0: solve its columns alongside
-            r, *cols = tracker.batch([x, *columns(x)])
+            r, *cols = tracker.around(x, columns(x))
             ready[x.tobytes()] = cols
         else:
-            r = tracker.batch([x])[0]
+            r = tracker.batch([x], base=current[0] if current else None)[0]
         last[x.tobytes()] = r
         return r
 
@@ -153,9 +175,10 @@ def least_squares(evaluate: BatchFunction, x0: np.ndarray, *, max_evaluations: i
         base = last.get(x.tobytes())
         cols = ready.pop(x.tobytes(), None)
         if base is None:  # not expected (scipy asks for J where it just evaluated r)
-            base, *cols = tracker.batch([x, *columns(x)])
+            base, *cols = tracker.around(x, columns(x))
         elif cols is None:
-            cols = tracker.batch(columns(x))
+            cols = tracker.batch(columns(x), base=x)
+        current[:] = [x]
         h = steps(x)
         return np.column_stack([(c - base) / h[j] for j, c in enumerate(cols)])
 

@@ -73,7 +73,8 @@ def secant_least_squares(evaluate: BatchFunction, x0: np.ndarray, *, max_evaluat
                          fd_step: float | np.ndarray, ftol: float = 1e-8, xtol: float = 1e-8,
                          bounds: tuple = (-np.inf, np.inf), radius: float = 0.0,
                          shared: Shared | None = None, patience: int = 0,
-                         stop: Callable[[np.ndarray, float], bool] | None = None) -> Outcome:
+                         stop: Callable[[np.ndarray, float], bool] | None = None,
+                         warm_starts: bool = False) -> Outcome:
     """Minimise ``||r(x)||`` by Levenberg-Marquardt on a Broyden-updated Jacobian.
 
     ``fd_step`` is the absolute forward-difference step (units of x). ``radius`` (relative
@@ -84,8 +85,10 @@ def secant_least_squares(evaluate: BatchFunction, x0: np.ndarray, *, max_evaluat
     Jacobians cost this loop's budget nothing. ``patience``: how many poor steps (rho <
     1/4) on a stale Jacobian are answered by more damping (one evaluation each) before a
     full Jacobian (n evaluations); 0 refreshes at the first (docs/inverse.md).
+    ``warm_starts``: every trial point is passed the current point as its base, the
+    columns of a Jacobian their point (:data:`jobs.loops.optimizers.BatchFunction`).
     """
-    tracker = _Tracker(evaluate, max_evaluations, stop)
+    tracker = _Tracker(evaluate, max_evaluations, stop, warm_starts)
     x = np.asarray(x0, dtype=float).copy()
     lower, upper = (np.broadcast_to(np.asarray(b, dtype=float), x.shape) for b in bounds)
     step = np.broadcast_to(np.asarray(fd_step, dtype=float), x.shape)
@@ -97,10 +100,10 @@ def secant_least_squares(evaluate: BatchFunction, x0: np.ndarray, *, max_evaluat
         known = {}
 
         def compute() -> np.ndarray:
-            out = tracker.batch(points if r is not None else [x, *points])
-            if r is None:
-                known["r"], out = out[0], out[1:]
-            return fd_jacobian(r if r is not None else known["r"], out, h)
+            if r is not None:
+                return fd_jacobian(r, tracker.batch(points, base=x), h)
+            known["r"], *out = tracker.around(x, points)
+            return fd_jacobian(known["r"], out, h)
 
         got = None if shared is None else shared(x)
         jac, origin = (compute(), x.copy()) if got is None else got
@@ -123,7 +126,7 @@ def secant_least_squares(evaluate: BatchFunction, x0: np.ndarray, *, max_evaluat
                 mu = MU0
                 continue
             fresh = model.fresh(x, radius)  # the step is taken on a full Jacobian
-            r_new = tracker.batch([x + s])[0]
+            r_new = tracker.batch([x + s], base=x)[0]
             cost, new = 0.5 * float(r @ r), 0.5 * float(r_new @ r_new)
             predicted = cost - 0.5 * float(np.sum((r + model.jacobian @ s) ** 2))
             rho = (cost - new) / predicted if predicted > 0 else -1.0

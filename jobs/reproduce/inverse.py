@@ -37,12 +37,14 @@ DISTRIBUTION = ("distribution", "distribution", 1.0, 0.0, True)
 REGULARISED = ("tikhonov", "smoothness", "guess")
 
 
-def study_text(opts: Options, jacobian: str = JACOBIAN, regularisation: str = "none") -> str:
+def study_text(opts: Options, jacobian: str = JACOBIAN, regularisation: str = "none",
+               warm: bool = True) -> str:
     """The inverse study of the reproduction (written next to the report).
 
-    ``jacobian``: how least squares gets its Jacobians (``full`` is the path before
-    issue 16; benchmarks/bench_inverse.py --study compares the two). ``regularisation``
-    other than "none": the study of ``regularised_text``.
+    ``jacobian``: how least squares gets its Jacobians; ``warm``: whether its solves
+    continue from the loop's solved points (``jacobian = "full"`` without warm starts
+    is the path before issue 16; benchmarks/bench_inverse.py --study compares them).
+    ``regularisation`` other than "none": the study of ``regularised_text``.
     """
     regularised = regularisation != "none"
     repeats = 1 if opts.coarse else 2 if opts.quick else 10
@@ -60,6 +62,7 @@ def study_text(opts: Options, jacobian: str = JACOBIAN, regularisation: str = "n
              # below ~1e-5 are rounding, and polishing them cost 2-4x the rounds
              "[optimizers.least-squares]\nmax_evaluations = 200\nfd_step_n = 0.1\n"
              f'tolerance = 1e-5\njacobian = "{jacobian}"\n'
+             f"warm_starts = {str(warm).lower()}\n"
              + (f'regularisation = "{regularisation}"\nweight = "discrepancy"\n'
                 if regularised else "")]
     if not opts.quick and not regularised:

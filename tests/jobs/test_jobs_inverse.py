@@ -237,6 +237,21 @@ def test_cache_round_trips_exactly_and_leaves_no_temporary_files(tmp_path):
         cache.get("../../etc/passwd")
 
 
+def test_a_kept_solver_state_round_trips_byte_for_byte(tmp_path):
+    state = bytes(range(256)) * 40 + b"\x00"  # any bytes, trailing zeros included
+    m = measurement(np.zeros((2, 3)), np.zeros((2, 3)), fz=1.0)
+    EvaluationCache(tmp_path).put("a" * 64, Solved((m,), 1.0, 1, 3, state))
+    EvaluationCache(tmp_path).put("b" * 64, Solved((m,), 1.0))
+    cache = EvaluationCache(tmp_path)
+    assert cache.state("a" * 64) == state and cache.state("b" * 64) is None
+    assert cache.state("c" * 64) is None
+    # measurements are held in memory, states are read from disk when needed
+    assert cache.get("a" * 64).state is None and cache.get("a" * 64).increments == 3
+    memory = EvaluationCache(None)
+    memory.put("a" * 64, Solved((m,), 1.0, 1, 3, state))
+    assert memory.state("a" * 64) == state
+
+
 def test_a_cache_file_of_another_layout_reads_as_absent(tmp_path):
     (tmp_path / "aa").mkdir()
     np.savez(tmp_path / "aa" / f"{'a' * 64}.npz", displacement=np.zeros(3))  # layout 1
@@ -291,6 +306,27 @@ def test_loops_share_an_evaluation_in_flight(tmp_path):
             t.join()
     assert ev.total.solved == 1  # one task for four loops
     assert sum(s.shared + s.cached for s in stats) == 3
+
+
+class _Pending:
+    """A future another loop submitted, whose result its own thread has not yet cached."""
+
+    def result(self):
+        return _square(3)
+
+
+def test_a_loop_that_joined_an_evaluation_finds_it_cached_when_it_gets_it(tmp_path):
+    """Whichever waiting thread wakes first caches the result: a warm start reads the
+    kept state of its base from the cache, so a loop's path must not depend on which
+    thread woke first (jobs/inverse/warm.py)."""
+    ev = Evaluator(None, EvaluationCache(tmp_path))
+    e = Evaluation("f" * 64, _square, 3, "test")
+    ev._inflight[e.key] = _Pending()  # submitted by another loop, still in flight
+    (got,) = ev.run([e])
+    assert ev.total.shared == 1 and e.key in EvaluationCache(tmp_path)
+    assert EvaluationCache(tmp_path).get(e.key).measurement.total_force[2] == \
+        got.measurement.total_force[2]
+    assert e.key not in ev._inflight
 
 
 # ---------------------------------------------------------------- results in the store, tables

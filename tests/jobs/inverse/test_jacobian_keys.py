@@ -46,10 +46,35 @@ def test_patience_left_at_its_default_keeps_the_loop_ids():
     ("jacobian_patience = 1.5", "optimizers.least-squares.jacobian_patience"),
     ('jacobian = "full"\njacobian_patience = 2', r"jacobian_patience: applies to Jacobian "
                                                   "reuse only"),
+    ('warm_starts = "yes"', "optimizers.least-squares.warm_starts"),
+    ("columns_per_run = 0", "optimizers.least-squares.columns_per_run"),
+    ("columns_per_run = 1000", "optimizers.least-squares.columns_per_run"),
 ])
 def test_bad_jacobian_keys_are_one_clear_error(keys, match):
     with pytest.raises(StudyError, match=match):
         optimizer(keys)
+
+
+def test_least_squares_warm_starts_by_default():
+    opt = optimizer()
+    assert opt.warm_starts and opt.columns_per_run == 8
+    assert not optimizer("warm_starts = false").warm_starts
+    assert optimizer("columns_per_run = 16").columns_per_run == 16
+
+
+def test_loops_from_rest_keep_their_ids_and_warm_ones_get_new_ones():
+    """Solves stored before warm starts existed are the ``warm_starts = false`` ones:
+    they keep their ids; warm-started solves (other numbers, at the solver's precision)
+    and each run length are other solves."""
+    from jobs.inverse.loop import expand_loops, loop_id
+
+    text = STUDY + '[[conditions]]\nname = "ideal"\nnoise = false\n'
+    ids = []
+    for keys in ("warm_starts = false", "warm_starts = false\ncolumns_per_run = 4",
+                 "", "columns_per_run = 4"):
+        study = parse_inverse_study(text.format(keys=keys), "t.toml")
+        ids.append(loop_id(study, expand_loops(study)[0]))
+    assert ids[0] == ids[1] and len(set(ids[1:])) == 3
 
 
 def test_nelder_mead_has_no_jacobian():

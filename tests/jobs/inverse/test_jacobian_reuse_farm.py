@@ -1,9 +1,11 @@
 """Jacobian reuse on the farm with the real solver (coarse reduced model, 6 unknowns).
 
 The same two solves (the strain objective, noise-free and noisy: a residual that
-vanishes at the truth and one that does not) run with ``jacobian = "full"`` and
-``"shared"``: the shared run ends at the same nodal forces (within the tolerance
-Tables 4.1-4.4 print) for fewer ccx runs, and its loops reuse each other's Jacobians.
+vanishes at the truth and one that does not) run with ``jacobian = "full"`` from rest
+(the path before issue 16), ``"full"`` with warm starts and ``"shared"`` with warm
+starts: every run ends at the same nodal forces (within the tolerance Tables 4.1-4.4
+print), the reusing ones for fewer ccx runs, and the shared run's loops reuse each
+other's Jacobians.
 """
 
 import numpy as np
@@ -33,6 +35,7 @@ max_evaluations = 120
 fd_step_n = 0.1
 tolerance = 1e-5
 jacobian = "{jacobian}"
+warm_starts = {warm}
 [[conditions]]
 name = "ideal"
 methods = ["strain"]
@@ -44,35 +47,42 @@ noise = true
 """
 
 
+MODES = {"full": ("full", "false"), "full-warm": ("full", "true"), "shared": ("shared", "true")}
+
+
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory, ccx):
     out = {}
-    for jacobian in ("full", "shared"):
-        tmp = tmp_path_factory.mktemp(jacobian)
-        study = parse_inverse_study(STUDY.format(tmp=tmp, jacobian=jacobian))
-        out[jacobian] = run_inverse(study, workers=2, write=False)
-        out[f"{jacobian}-study"] = study
+    for mode, (jacobian, warm) in MODES.items():
+        tmp = tmp_path_factory.mktemp(mode)
+        study = parse_inverse_study(STUDY.format(tmp=tmp, jacobian=jacobian, warm=warm))
+        out[mode] = run_inverse(study, workers=2, write=False)
+        out[f"{mode}-study"] = study
     return out
 
 
-def test_reused_jacobians_end_at_the_full_jacobian_answer(runs):
+@pytest.mark.parametrize("mode", ["full-warm", "shared"])
+def test_reused_jacobians_and_warm_starts_end_at_the_full_jacobian_answer(runs, mode):
     full = {r.spec.condition.name: r for r in runs["full"].results}
-    shared = {r.spec.condition.name: r for r in runs["shared"].results}
+    other = {r.spec.condition.name: r for r in runs[mode].results}
     x_true = runs["full"].problem.x_true
     for name in ("ideal", "noise"):
-        a, b = full[name], shared[name]
+        a, b = full[name], other[name]
         assert b.status == "converged"
         # Table 4.1 prints Fz to 0.01 N of ~840 N; nodal errors (Figs. 4.2/4.3) to 0.1 N
         assert b.x.sum() == pytest.approx(a.x.sum(), rel=1e-4)
         np.testing.assert_allclose(b.x, a.x, atol=0.1)
         assert b.rmse["Uz"] == pytest.approx(a.rmse["Uz"], rel=0.05, abs=1e-4)
-    np.testing.assert_allclose(shared["ideal"].x, x_true, atol=0.05)
+    np.testing.assert_allclose(other["ideal"].x, x_true, atol=0.05)
 
 
-def test_reused_jacobians_cost_fewer_ccx_runs(runs):
-    full, shared = runs["full"].totals, runs["shared"].totals
-    assert shared.solved < 0.6 * full.solved
+def test_reused_jacobians_cost_fewer_evaluations_and_warm_starts_fewer_ccx_runs(runs):
+    full, warm, shared = (runs[m].totals for m in MODES)
     assert shared.evaluations < full.evaluations
+    # the same path as full, a Jacobian's 6 columns in one continued run instead of 6
+    assert warm.evaluations == pytest.approx(full.evaluations, rel=0.2)
+    assert warm.solved < 0.6 * full.solved
+    assert shared.solved < 0.6 * full.solved
 
 
 def test_the_loops_of_a_run_share_their_jacobians(runs):

@@ -190,6 +190,7 @@ def _solve(regularisation: str, weight: str, repeat: int):
         max_evaluations = 200
         fd_step_n = 0.1
         jacobian = "broyden"
+        warm_starts = false  # the linear stand-in has no solver states to continue from
         regularisation = "{regularisation}"
         weight = {weight}
         discrepancy = {TAU}

@@ -213,3 +213,43 @@ def test_a_failed_computation_is_not_stored():
         store.get_or_compute("k", [1.0], 0.5, fails)
     jac, _, computed = store.get_or_compute("k", [1.0], 0.5, lambda: np.ones((1, 1)))
     assert computed and jac[0, 0] == 1
+
+
+class Based(Counted):
+    """A batch function that records the base each batch was given (warm starts)."""
+
+    def __init__(self, residual):
+        super().__init__(residual)
+        self.evaluated, self.bases = [], []
+
+    def __call__(self, points, base=None):
+        if base is not None:  # a base is always a point evaluated alone before
+            assert any(np.array_equal(base, p) for p in self.evaluated)
+        self.bases.append(None if base is None else np.array(base))
+        if len(points) == 1:
+            self.evaluated.append(np.array(points[0]))
+        return super().__call__(points)
+
+
+@pytest.mark.parametrize("optimiser", ["secant", "trf"])
+def test_warm_starts_give_every_batch_after_the_first_its_evaluated_base(optimiser):
+    _, x_true, residual = linear()
+    f = Based(rosenbrock if optimiser == "secant" else residual)
+    x0 = np.array([-1.2, 1.0]) if optimiser == "secant" else 0.9 * x_true
+    if optimiser == "secant":
+        out = secant_least_squares(f, x0, max_evaluations=500, fd_step=1e-7, ftol=1e-12,
+                                   xtol=1e-12, warm_starts=True)
+    else:
+        out = optimizers.least_squares(f, x0, max_evaluations=100, fd_step=0.1,
+                                       warm_starts=True)
+    assert out.status == "converged"
+    assert f.batches[0] == 1 and f.bases[0] is None  # x0 alone, from rest
+    assert f.batches[1] == x0.size and np.array_equal(f.bases[1], x0)  # then its columns
+    assert all(b is not None for b in f.bases[1:])
+
+
+def test_without_warm_starts_the_batch_function_gets_no_base():
+    _, x_true, residual = linear()
+    f = Counted(residual)  # takes no base argument: calling it with one would fail
+    optimizers.least_squares(f, 0.9 * x_true, max_evaluations=100, fd_step=0.1)
+    secant_least_squares(f, 0.9 * x_true, max_evaluations=100, fd_step=0.1)
