@@ -130,7 +130,7 @@ def _inverse(opts):
         groups = {"none": ds} | {name.removeprefix("ch4-"): open_solves(s.store, s.group)
                                  for name, s in run.studies.items()
                                  if name != "ch4" and run.reports[name].results}
-        if len(groups) > 1:  # --full: the regularised studies
+        if len(groups) > 1:  # the regularised studies
             stage.tables["Regularisation, weights by the discrepancy principle: nodal errors "
                          "and total force, ours beside the thesis' (issue 16)"] = \
                 ch4_extra.regularisation(groups).round(4)

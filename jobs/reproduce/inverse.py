@@ -5,13 +5,15 @@ The reference is the reduced model at 30 mm on the iterative road with the
 so that forces and moments compare directly. ``quick`` solves the thesis' four
 conditions with the parallel-Jacobian least squares (§5.2/§6.2's recommendation: a few
 dozen sequential rounds instead of hundreds of serial evaluations), reusing Jacobians
-between rounds and loops (``JACOBIAN``; docs/inverse.md), and two repeats of
-each random condition (one on the test-sized ``coarse`` meshes); ``quick=False`` adds
-the thesis' own Nelder-Mead, ten repeats, and a fifth condition whose initial guess is
-the statistical "tyre distribution" of §6.2 (``jobs/inverse/distribution.py``), trained
-on the chapter-3 reduced sweep of the same run (same mesh; its 30 mm experiment left
-out). The quick run leaves it out to stay within issue 16's time budget:
-``benchmarks/bench_inverse.py --guesses`` measures it.
+between rounds and loops (``JACOBIAN``) and continuing every solve from the loop's
+solved states (warm starts; docs/inverse.md), two repeats of each random condition (one
+on the test-sized ``coarse`` meshes), and a fifth condition whose initial guess is the
+statistical "tyre distribution" of §6.2 (``jobs/inverse/distribution.py``), trained on
+the chapter-3 reduced sweep of the same run (same mesh; its 30 mm experiment left out).
+Then the noisy conditions again, once per regularisation (``REGULARISED``, weights by
+the discrepancy principle), one repeat each (issue 16's tables; their unregularised
+first stages replay the first repeat from the cache). ``quick=False`` adds the thesis'
+own Nelder-Mead and ten repeats of everything.
 Evaluations are cached next to the store, so a second run solves nothing.
 """
 
@@ -33,7 +35,7 @@ CONDITIONS = (("ideal", "scaled", 0.9, 0.0, False), ("noise", "scaled", 0.9, 0.0
               ("guess-uniform", "uniform", 1.0, 4.0, True))
 # beyond the thesis (§6.2): the "tyre distribution" guess, with noise, no guess jitter
 DISTRIBUTION = ("distribution", "distribution", 1.0, 0.0, True)
-# --full: the noisy conditions again, once per regularisation (weights: discrepancy principle)
+# the noisy conditions again, once per regularisation (weights: discrepancy principle)
 REGULARISED = ("tikhonov", "smoothness", "guess")
 
 
@@ -47,7 +49,7 @@ def study_text(opts: Options, jacobian: str = JACOBIAN, regularisation: str = "n
     ``regularisation`` other than "none": the study of ``regularised_text``.
     """
     regularised = regularisation != "none"
-    repeats = 1 if opts.coarse else 2 if opts.quick else 10
+    repeats = 1 if opts.coarse or (opts.quick and regularised) else 2 if opts.quick else 10
     optimizers = (['"least-squares"'] if opts.quick or regularised
                   else ['"nelder-mead"', '"least-squares"'])
     mesh = f"[model.mesh]\n{COARSE_MESH['reduced']}\n" if opts.coarse else ""
@@ -68,11 +70,10 @@ def study_text(opts: Options, jacobian: str = JACOBIAN, regularisation: str = "n
     if not opts.quick and not regularised:
         lines.append('[optimizers.nelder-mead]\nmax_evaluations = 600\n'
                      'noise_draw = "per_evaluation"\n')
-    conditions = CONDITIONS
-    if not opts.quick:  # the §6.2 guess, trained on the chapter-3 sweep of this run
-        lines.append(f'[distribution]\nstore = "{opts.store}"\ngroup = "{opts.group("reduced")}"\n'
-                     "exclude_within_mm = 0.5\n")
-        conditions += (DISTRIBUTION,)
+    # the §6.2 guess, trained on the chapter-3 sweep of this run
+    lines.append(f'[distribution]\nstore = "{opts.store}"\ngroup = "{opts.group("reduced")}"\n'
+                 "exclude_within_mm = 0.5\n")
+    conditions = (*CONDITIONS, DISTRIBUTION)
     for name, initial, scale, sigma, noise in conditions:
         if regularised and not noise:  # nothing to regularise against
             continue
@@ -109,7 +110,7 @@ def run(opts: Options, log: Log | None = None, progress: ProgressFor | None = No
     log(f"ch4: {report.summary()}")
     stage.ccx_runs, stage.solver_seconds = report.totals.solved, report.totals.solver_seconds
     stage.notes += notes(report)
-    for reg in () if opts.quick else REGULARISED:  # same cache: stage 1 replays the above
+    for reg in REGULARISED:  # same cache: stage 1 replays the above
         name = f"ch4-{reg}"
         text = regularised_text(opts, reg)
         study = parse_inverse_study(text, f"{name}.toml", opts.out)

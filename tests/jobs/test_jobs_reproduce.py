@@ -44,11 +44,12 @@ def test_the_chapter_4_study_has_the_thesis_conditions(tmp_path, quick, coarse, 
     opts = Options(out=tmp_path, store=str(tmp_path / "s.zarr"), quick=quick, coarse=coarse)
     study = parse_inverse_study(study_text(opts), "ch4.toml", tmp_path)
     thesis = ["ideal", "noise", "guess-90", "guess-uniform"]
-    # --full adds the tyre-distribution start (issue 16) after the thesis' four
-    extra = [] if quick else ["distribution"]
-    assert [c.name for c in study.conditions] == thesis + extra
+    # the tyre-distribution start (issue 16) after the thesis' four
+    assert [c.name for c in study.conditions] == [*thesis, "distribution"]
     assert {o.name for o in study.optimizers} == optimizers
-    assert [c.repeats for c in study.conditions][:4] == [1, repeats, repeats, repeats]
+    assert [c.repeats for c in study.conditions] == [1, *[repeats] * 4]
+    lsq = study.optimizer("least-squares")
+    assert (lsq.jacobian, lsq.warm_starts) == ("shared", True)
     assert study.model.materials.tread.youngs_modulus < 10  # the 359 N reference (§4.1)
     assert study.deflection == 30 and study.noise.displacement == 1.0
 

@@ -136,28 +136,26 @@ def test_a_group_of_another_mesh_is_refused(data):
         check_mesh(ts, ts.tread_nodes, ts.tread_xyz + 1.0)
 
 
-def test_the_full_reproduction_trains_the_distribution_on_its_chapter_3_sweep(tmp_path):
+@pytest.mark.parametrize("quick", [True, False])
+def test_the_reproduction_trains_the_distribution_on_its_chapter_3_sweep(tmp_path, quick):
     from jobs.inverse.study import parse_inverse_study
     from jobs.reproduce.inverse import study_text
     from jobs.reproduce.options import Options
 
-    studies = {}
-    for quick in (True, False):
-        opts = Options(out=tmp_path, store=str(tmp_path / "thesis.zarr"), quick=quick)
-        studies[quick] = parse_inverse_study(study_text(opts), "ch4.toml", tmp_path)
-    assert studies[True].distribution is None  # the quick run stays within its budget
-    full = studies[False]
-    assert full.distribution.group == opts.group("reduced") == "reduced-table-3.1-default"
-    assert full.distribution.store == opts.store
-    assert [c.initial for c in full.conditions if c.name == "distribution"] == ["distribution"]
+    opts = Options(out=tmp_path, store=str(tmp_path / "thesis.zarr"), quick=quick)
+    study = parse_inverse_study(study_text(opts), "ch4.toml", tmp_path)
+    assert study.distribution.group == opts.group("reduced") == "reduced-table-3.1-default"
+    assert study.distribution.store == opts.store
+    assert [c.initial for c in study.conditions if c.name == "distribution"] == ["distribution"]
 
 
-def test_the_full_reproduction_regularises_its_noisy_conditions(tmp_path):
+@pytest.mark.parametrize(("quick", "repeats"), [(True, 1), (False, 10)])
+def test_the_reproduction_regularises_its_noisy_conditions(tmp_path, quick, repeats):
     from jobs.inverse.study import parse_inverse_study
     from jobs.reproduce.inverse import REGULARISED, regularised_text
     from jobs.reproduce.options import Options
 
-    opts = Options(out=tmp_path, store=str(tmp_path / "thesis.zarr"), quick=False)
+    opts = Options(out=tmp_path, store=str(tmp_path / "thesis.zarr"), quick=quick)
     for reg in REGULARISED:
         study = parse_inverse_study(regularised_text(opts, reg), f"{reg}.toml", tmp_path)
         (opt,) = study.optimizers
@@ -165,4 +163,5 @@ def test_the_full_reproduction_regularises_its_noisy_conditions(tmp_path):
             "least-squares", reg, "discrepancy")
         assert all(c.noise for c in study.conditions)
         assert "distribution" in {c.name for c in study.conditions}
-        assert study.group == f"inverse-ch4-full-default-{reg}"
+        assert {c.repeats for c in study.conditions} == {repeats}
+        assert study.group == f"inverse-ch4-{'quick' if quick else 'full'}-default-{reg}"
