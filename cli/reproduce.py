@@ -127,13 +127,14 @@ def _inverse(opts):
         stage.tables.update(_ch4_tables(ch4, ds))
         stage.tables["Initial guesses: evaluations to converge, nodal errors of the guess and "
                      "of the solution, N (issue 16)"] = ch4_extra.guesses(ds).round(4)
-        groups = {"none": ds} | {name.removeprefix("ch4-"): open_solves(s.store, s.group)
-                                 for name, s in run.studies.items()
-                                 if name != "ch4" and run.reports[name].results}
-        if len(groups) > 1:  # the regularised studies
+        groups = {name.removeprefix("ch4-"): open_solves(s.store, s.group)
+                  for name, s in run.studies.items()
+                  if name != "ch4" and run.reports[name].results}
+        if groups:  # the regularised studies, beside the same noise draws unregularised
+            baseline = {"none": ch4_extra.same_solves(ds, groups)}
             stage.tables["Regularisation, weights by the discrepancy principle: nodal errors "
                          "and total force, ours beside the thesis' (issue 16)"] = \
-                ch4_extra.regularisation(groups).round(4)
+                ch4_extra.regularisation(baseline | groups).round(4)
         for path in ch4.histograms(ds, opts.out / "ch4"):
             stage.figures[f"Nodal force errors, {path.stem.removeprefix('nodal_errors_')} "
                           "(thesis Figs. 4.2/4.3)"] = path

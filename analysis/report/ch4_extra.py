@@ -79,6 +79,20 @@ def guesses(ds: xr.Dataset) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def same_solves(ds: xr.Dataset, others: Mapping[str, xr.Dataset]) -> xr.Dataset:
+    """The solves of ``ds`` whose (condition, method, repeat) the ``others`` solved too.
+
+    The unregularised row of a setting must pool the same noise draws as the regularised
+    ones beside it (the quick reproduction regularises one repeat of two, say)."""
+    def triples(d: xr.Dataset) -> list[tuple]:
+        return list(zip(_text(d, "condition"), _text(d, "method"),
+                        d["repeat"].values.tolist(), strict=True))
+
+    wanted = set().union(*(triples(d) for d in others.values()))
+    keep = np.array([t in wanted for t in triples(ds)], dtype=bool)
+    return ds.isel(solve=np.flatnonzero(keep))
+
+
 def regularisation(groups: Mapping[str, xr.Dataset]) -> pd.DataFrame:
     """Nodal error std and total-force error per setting (label), condition and method,
     beside the thesis' values (which had no regularisation: Nelder-Mead, §4.4-4.5)."""

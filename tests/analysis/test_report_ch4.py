@@ -199,3 +199,15 @@ def test_regularisation_table_reads_the_chosen_weights_from_the_messages(tmp_pat
     assert np.isnan(r.iloc[1]["weight"])  # a fixed weight records nothing
     assert r.iloc[0]["thesis_nodal_std"] == 2.0  # Fig. 4.2, noise/displacement
     assert r.iloc[0]["nodal_std"] == pytest.approx(np.array([1.0, -1, 2, -1, 1, 0]).std())
+
+
+def test_the_unregularised_baseline_pools_the_same_noise_draws(ds):
+    """Regularised studies of one repeat sit beside the unregularised solves of that
+    repeat, not beside every repeat of the base study."""
+    from analysis.report import ch4_extra
+
+    first = ds.isel(solve=[k for k, r in enumerate(ds["repeat"].values) if r == 0])
+    same = ch4_extra.same_solves(ds, {"tikhonov": first})
+    assert same.sizes["solve"] == first.sizes["solve"] < ds.sizes["solve"]
+    assert set(same["repeat"].values.tolist()) == {0}
+    assert ch4_extra.same_solves(ds, {"all": ds}).sizes["solve"] == ds.sizes["solve"]

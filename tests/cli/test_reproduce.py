@@ -55,7 +55,8 @@ def test_reproduce_writes_a_complete_report_and_is_idempotent(tmp_path):
     assert set(regularised["setting"]) == {"none", "tikhonov", "smoothness", "guess"}
     noisy = {"noise", "guess-90", "guess-uniform", "distribution"}
     for setting, frame in regularised.groupby("setting"):
-        assert set(frame["condition"]) - {"ideal"} == noisy, setting
+        assert set(frame["condition"]) == noisy, setting
+        assert (frame["solves"] == 1).all(), setting  # the same one draw each
     assert first["validation"]["ccx_runs"] > 0 and first["inverse"]["ccx_runs"] > 0
 
     second = _run(out)
