@@ -6,7 +6,8 @@ Run: .venv/bin/python benchmarks/bench_inverse.py --study [--coarse] [--workers 
 
 The study is the one ``farm reproduce --quick`` runs (jobs/reproduce/inverse.py
 ``study_text``: the reduced model at 30 mm, the thesis' four conditions x {displacement,
-strain}, least squares), once with ``jacobian = "full"`` and every point solved from
+strain}, least squares; without its tyre-distribution condition, which needs the
+chapter-3 sweep), once with ``jacobian = "full"`` and every point solved from
 rest (``full-cold``: the path before issue 16) and once with the reproduction's default
 (shared Jacobians, warm starts: jobs/inverse/warm.py), one after the other on the same
 embedded cluster, each with a fresh evaluation cache (so the reference experiment is
@@ -43,7 +44,7 @@ def run_mode(coarse: bool, workers: int, jacobian: str, tmp: Path) -> dict:
     mode, _, patience = jacobian.partition(":")
     cold = mode.endswith(COLD)
     mode = mode.removesuffix(COLD)
-    text = study_text(opts, mode, warm=not cold)
+    text = study_text(opts, mode, warm=not cold, distribution=False)  # the thesis' four
     if patience:
         line = f'jacobian = "{mode}"\n'
         text = text.replace(line, f"{line}jacobian_patience = {int(patience)}\n")

@@ -156,11 +156,11 @@ class Evaluator:
             # state of a point from the cache (jobs/inverse/warm.py), and the loop that
             # joined a shared evaluation must find it there as surely as the one that
             # submitted it, or its path would depend on which thread woke first
-            if not (isinstance(result, Failed) and result.transient) and \
-                    self._inflight.get(e.key) is future:
-                self.cache.put(e.key, result)
-            if self._inflight.get(e.key) is future:
+            first = future is not None and self._inflight.get(e.key) is future
+            if first:
                 del self._inflight[e.key]
+                if not (isinstance(result, Failed) and result.transient):
+                    self.cache.put(e.key, result)
         return result
 
     @staticmethod

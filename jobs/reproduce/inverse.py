@@ -40,13 +40,15 @@ REGULARISED = ("tikhonov", "smoothness", "guess")
 
 
 def study_text(opts: Options, jacobian: str = JACOBIAN, regularisation: str = "none",
-               warm: bool = True) -> str:
+               warm: bool = True, distribution: bool = True) -> str:
     """The inverse study of the reproduction (written next to the report).
 
     ``jacobian``: how least squares gets its Jacobians; ``warm``: whether its solves
     continue from the loop's solved points (``jacobian = "full"`` without warm starts
     is the path before issue 16; benchmarks/bench_inverse.py --study compares them).
     ``regularisation`` other than "none": the study of ``regularised_text``.
+    ``distribution``: with the "tyre distribution" condition (trained on the store's
+    chapter-3 reduced sweep); without, the thesis' four alone (the benchmark's study).
     """
     regularised = regularisation != "none"
     repeats = 1 if opts.coarse or (opts.quick and regularised) else 2 if opts.quick else 10
@@ -70,10 +72,11 @@ def study_text(opts: Options, jacobian: str = JACOBIAN, regularisation: str = "n
     if not opts.quick and not regularised:
         lines.append('[optimizers.nelder-mead]\nmax_evaluations = 600\n'
                      'noise_draw = "per_evaluation"\n')
-    # the §6.2 guess, trained on the chapter-3 sweep of this run
-    lines.append(f'[distribution]\nstore = "{opts.store}"\ngroup = "{opts.group("reduced")}"\n'
-                 "exclude_within_mm = 0.5\n")
-    conditions = (*CONDITIONS, DISTRIBUTION)
+    conditions = CONDITIONS
+    if distribution:  # the §6.2 guess, trained on the chapter-3 sweep of this run
+        lines.append(f'[distribution]\nstore = "{opts.store}"\n'
+                     f'group = "{opts.group("reduced")}"\nexclude_within_mm = 0.5\n')
+        conditions += (DISTRIBUTION,)
     for name, initial, scale, sigma, noise in conditions:
         if regularised and not noise:  # nothing to regularise against
             continue

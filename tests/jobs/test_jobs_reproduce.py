@@ -50,6 +50,13 @@ def test_the_chapter_4_study_has_the_thesis_conditions(tmp_path, quick, coarse, 
     assert [c.repeats for c in study.conditions] == [1, *[repeats] * 4]
     lsq = study.optimizer("least-squares")
     assert (lsq.jacobian, lsq.warm_starts) == ("shared", True)
+    # the benchmark's study (benchmarks/bench_inverse_study.py): the thesis' four, and
+    # issue 16's "before": full Jacobians, every point from rest
+    before = parse_inverse_study(study_text(opts, "full", warm=False, distribution=False),
+                                 "ch4.toml", tmp_path)
+    assert [c.name for c in before.conditions] == thesis and before.distribution is None
+    lsq = before.optimizer("least-squares")
+    assert (lsq.jacobian, lsq.warm_starts) == ("full", False)
     assert study.model.materials.tread.youngs_modulus < 10  # the 359 N reference (§4.1)
     assert study.deflection == 30 and study.noise.displacement == 1.0
 
