@@ -26,7 +26,17 @@ import warnings
 
 import typer
 
-from cli import analyse, calibrate, export, invert, reproduce, run, sweep
+from cli import (
+    analyse,
+    calibrate,
+    compare,
+    converge,
+    export,
+    invert,
+    reproduce,
+    run,
+    sweep,
+)
 from cli.errors import USER_ERRORS, exit_code, fail
 from cli.options import APP_SETTINGS
 
@@ -79,6 +89,8 @@ app.command("invert")(invert.invert)
 app.command("calibrate")(calibrate.calibrate)
 app.command("export")(export.export)
 app.command("reproduce")(reproduce.reproduce)
+app.command("converge")(converge.converge)
+app.command("compare")(compare.compare)
 app.add_typer(analyse.app, name="analyse", help="Chapter-5 analyses of a store: "
               "cross-covariance PCA, PCR, PLSR, Monte Carlo noise.")
 

@@ -47,9 +47,16 @@ def _literal(text: str) -> Any:
     return text
 
 
-def build_model(kind: str, materials: str, road: str | None, overrides: list[str]) -> ModelSpec:
+MATERIALS_HELP = ("Material preset: table-3.1 (the thesis' Table 3.1), thesis-calibrated, "
+                  "cord-reinforced.")
+MESH_HELP = ("Mesh preset: thesis (Table 3.1's element counts) or patch (full model only: "
+             "refined over +-32 degrees about the road, docs/mesh-convergence.md).")
+
+
+def build_model(kind: str, materials: str, road: str | None, overrides: list[str],
+                mesh: str = "thesis") -> ModelSpec:
     """A preset model with ``key=value`` overrides (dotted keys, e.g. mesh.circumferential=80)."""
-    base = default_model(kind, materials=materials)
+    base = default_model(kind, materials=materials, mesh=mesh)
     table: dict[str, Any] = {} if road is None else {"road": road}
     for item in overrides:
         key, sep, value = item.partition("=")

@@ -15,7 +15,7 @@ from rich.console import Console
 from rich.table import Table
 
 from cli.errors import usage
-from cli.params import build_model, parse_range
+from cli.params import MATERIALS_HELP, MESH_HELP, build_model, parse_range
 from farm.ccx.runner import find_ccx
 from farm.errors import SpecError
 from farm.experiment import PathResult, run_load_path
@@ -41,7 +41,8 @@ def run(
     road: str = typer.Option(
         None, "--road", help="Road boundary: iterative or contact [default: contact for the full "
         "model, iterative for the reduced one]."),
-    materials: str = typer.Option("table-3.1", "--materials", help="Material preset."),
+    materials: str = typer.Option("table-3.1", "--materials", help=MATERIALS_HELP),
+    mesh: str = typer.Option("thesis", "--mesh", help=MESH_HELP),
     overrides: list[str] = typer.Option(
         [], "--set", help="Override a model setting, e.g. --set mesh.circumferential=80."),
     threads: int = typer.Option(1, "--threads", help="Solver threads."),
@@ -62,7 +63,7 @@ def run(
 ) -> None:
     """Solve one load path (one model, one pressure, several deflections) and print a table."""
     with usage():
-        spec = build_model(model, materials, road, overrides)
+        spec = build_model(model, materials, road, overrides, mesh)
         kpa = (200.0 if spec.inflated else 0.0) if pressure is None else pressure
         motion = RoadMotion(friction=friction, shift_x=shift_x, shift_y=shift_y, tilt=tilt)
         path, settings = _checked(spec, kpa, deflection, threads, timeout, keep, out, vtu,
@@ -72,7 +73,7 @@ def run(
         scratch = Path(f"farm-run-{time.strftime('%Y%m%d-%H%M%S')}").resolve()
         os.environ["FARM_SCRATCH_DIR"] = str(scratch)
     result = run_load_path(spec, path, settings)
-    _print_table(result, kpa)  # the result on stdout; the notes below on stderr
+    _print_table(result, kpa, _patches(result))  # on stdout; the notes below on stderr
     if keep:
         Console(stderr=True).print(f"solver files kept in {scratch}")
     if out is not None:
@@ -108,7 +109,25 @@ def _checked(spec, kpa: float, deflection: str, threads: int, timeout: float, ke
     return path, SolverSettings(threads=threads, timeout=timeout, keep_scratch=keep)
 
 
-def _print_table(result: PathResult, kpa: float) -> None:
+def _patches(result: PathResult) -> tuple[list, float | None]:
+    """Each state's contact patch, and the inflation growth of an inflated model."""
+    import math
+
+    import numpy as np
+
+    from farm.measure.patch import inflation_growth, patch_metrics, tread_areas
+
+    mesh = mesh_for(result.model)
+    areas = tread_areas(mesh)
+    tilt = math.radians(result.path.motion.tilt) if result.path.motion else 0.0
+    normal = np.array([0.0, -math.sin(tilt), math.cos(tilt)])
+    patches = [patch_metrics(mesh, s, normal, areas) for s in result.states]
+    growth = inflation_growth(mesh, result.reference) if result.model.inflated else None
+    return patches, growth
+
+
+def _print_table(result: PathResult, kpa: float,
+                 patches: tuple[list, float | None] | None = None) -> None:
     spec = result.model
     moduli = "/".join(f"{m.youngs_modulus:g}" for m in spec.materials.by_region().values())
     table = Table(title=f"{spec.kind} model, {kpa:g} kPa, {spec.road} road, E = {moduli} MPa")
@@ -119,16 +138,19 @@ def _print_table(result: PathResult, kpa: float) -> None:
     combined = motion is not None
     cols = ("deflection mm", *(("shift x mm", "shift y mm", "Fx N", "Fy N") if combined
                                else ()),
-            "Fz N", "Mx N m", "My N m", "contact nodes", "solve s")
+            "Fz N", "Mx N m", "My N m", "contact nodes",
+            *(("area cm²", "peak kPa") if patches else ()), "solve s")
     rows = []
-    for m in result.measurements:
+    for k, m in enumerate(result.measurements):
+        patch = ((f"{patches[0][k].area / 100:.1f}", f"{patches[0][k].peak_pressure * 1e3:.0f}")
+                 if patches else ())
         extra = ((f"{m.motion.shift_x:g}", f"{m.motion.shift_y:g}", f"{m.total_force[0]:.1f}",
                   f"{m.total_force[1]:.1f}") if combined and m.motion is not None
                  else ("0", "0", f"{m.total_force[0]:.1f}", f"{m.total_force[1]:.1f}")
                  if combined else ())
         rows.append((f"{m.deflection:g}", *extra, f"{m.total_force[2]:.1f}",
                      f"{m.moment[0] / 1e3:.3f}", f"{m.moment[1] / 1e3:.3f}",
-                     str(m.contact_nodes), f"{m.solve_seconds:.1f}"))
+                     str(m.contact_nodes), *patch, f"{m.solve_seconds:.1f}"))
     # on a narrow console (80 columns off a terminal) rich shrinks columns and cuts the
     # numbers ("3511…"); headers may wrap, values never
     for i, col in enumerate(cols):
@@ -140,4 +162,7 @@ def _print_table(result: PathResult, kpa: float) -> None:
     table.caption = (f"{result.ccx_runs} ccx runs, {result.increments} increments, "
                      f"{result.solve_seconds:.1f} s solver, {result.wall_seconds:.1f} s wall, "
                      f"{result.solver}; {timing}")
+    if patches and patches[1] is not None:
+        table.caption += (f"; inflation growth {patches[1]:.2f} mm (crown, radial; thesis "
+                          "§3.3.2: the real tyre at most 4 mm at 200 kPa)")
     Console().print(table, crop=False)

@@ -69,12 +69,26 @@ DEFAULT_MESH = {
     "full": MeshDensity(tread=8, sidewall=5, bead=2, circumferential=40),
 }
 
+# "patch": the full model refined over +-32 degrees about the road (issue 24): 2 degree
+# elements there, 12 across the tread, graded outside (farm/spacing.py). The level the
+# convergence study (`farm converge`, docs/mesh-convergence.md) chose for studies; the
+# thesis reproduction keeps "thesis" (Table 3.1's 880 elements).
+MESH_PRESETS: dict[str, dict[str, MeshDensity]] = {
+    "thesis": DEFAULT_MESH,
+    "patch": {"full": MeshDensity(tread=12, sidewall=5, bead=2, circumferential=66,
+                                  window=32.0, window_elements=16)},
+}
 
-def default_model(kind: str, materials: str = "table-3.1", **overrides: Any) -> ModelSpec:
-    """The thesis' model of ``kind`` ("reduced" or "full"), with optional field overrides.
+
+def default_model(kind: str, materials: str = "table-3.1", mesh: str | MeshDensity = "thesis",
+                  **overrides: Any) -> ModelSpec:
+    """The thesis' model of ``kind`` ("reduced" or "full") with a material and a mesh
+    preset (or a :class:`MeshDensity` of its own), and optional field overrides.
 
     >>> default_model("full").materials.tread.youngs_modulus
     60.0
+    >>> default_model("full", mesh="patch").mesh.window
+    32.0
     """
     if kind not in DEFAULT_MESH:
         raise SpecError(f"unknown model {kind!r}: choose 'reduced' or 'full'")
@@ -82,9 +96,17 @@ def default_model(kind: str, materials: str = "table-3.1", **overrides: Any) -> 
         raise SpecError(
             f"unknown material preset {materials!r}: choose one of {', '.join(MATERIAL_PRESETS)}"
         )
+    if isinstance(mesh, MeshDensity):
+        density = mesh
+    elif mesh not in MESH_PRESETS or kind not in MESH_PRESETS[mesh]:
+        names = [name for name, kinds in MESH_PRESETS.items() if kind in kinds]
+        raise SpecError(f"unknown mesh preset {mesh!r} for the {kind} model: choose one of "
+                        f"{', '.join(names)}")
+    else:
+        density = MESH_PRESETS[mesh][kind]
     base = ModelSpec(
         kind=kind,  # type: ignore[arg-type]
-        mesh=DEFAULT_MESH[kind],
+        mesh=density,
         materials=MATERIAL_PRESETS[materials][kind],
         road="contact" if kind == "full" else "iterative",
         sector_angle=360.0 if kind == "full" else 90.0,

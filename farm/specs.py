@@ -22,6 +22,7 @@ from typing import Any, ClassVar, Literal, get_args, get_type_hints
 
 from farm.errors import SpecError
 from farm.reinforcement import Reinforcement
+from farm.spacing import half_steps
 
 ModelKind = Literal["reduced", "full"]
 RoadKind = Literal["iterative", "contact"]
@@ -142,6 +143,12 @@ class MeshDensity:
     §3.2; more are issue 15's model-complexity option, :mod:`farm.mesh.layers`).
     ``through = 1`` is absent from :meth:`canonical`, so every id of a one-element
     wall predates the field.
+
+    ``window`` (degrees) and ``window_elements`` refine the circumference about the
+    contact centre (issue 24, :mod:`farm.spacing`): ``window_elements`` equal elements
+    on each side within ``+-window`` degrees, graded geometrically outside;
+    ``circumferential`` still counts all elements round the sector. ``window = 0`` (the
+    default) is the uniform mesh, and both fields are then absent from :meth:`canonical`.
     """
 
     _prefix: ClassVar[str] = "mesh"
@@ -150,9 +157,13 @@ class MeshDensity:
     bead: int = 2
     circumferential: int = 20
     through: int = 1
+    window: float = 0.0
+    window_elements: int = 0
 
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):
+            if f.name in ("window", "window_elements"):
+                continue
             v = getattr(self, f.name)
             if not (isinstance(v, int) and not isinstance(v, bool) and v >= 1):
                 raise SpecError(f"mesh.{f.name} must be a positive integer, got "
@@ -169,6 +180,25 @@ class MeshDensity:
         if self.through > MAX_THROUGH:
             raise SpecError(f"mesh.through must be in [1, {MAX_THROUGH}] (elements through "
                             f"the wall), got {self.through}")
+        self._check_window()
+
+    def _check_window(self) -> None:
+        w, k = self.window, self.window_elements
+        if not (isinstance(w, int | float) and not isinstance(w, bool) and 0 <= w < 180):
+            raise SpecError(f"mesh.window must be a number of degrees in [0, 180) (0: a "
+                            f"uniform mesh), got {_SHORT.repr(w)}")
+        if not (isinstance(k, int) and not isinstance(k, bool) and k >= 0):
+            raise SpecError(f"mesh.window_elements must be a whole number >= 0, got "
+                            f"{_SHORT.repr(k)}")
+        if (w == 0) != (k == 0):
+            raise SpecError("mesh.window and mesh.window_elements go together: both 0 (a "
+                            f"uniform mesh) or both positive, got window={w:g}, "
+                            f"window_elements={k}")
+        object.__setattr__(self, "window", float(w))  # 30 and 30.0: one id
+
+    @property
+    def windowed(self) -> bool:
+        return self.window > 0
 
     @property
     def meridional(self) -> int:
@@ -179,6 +209,8 @@ class MeshDensity:
         data = dataclasses.asdict(self)
         if self.through == 1:  # the one-element wall's ids predate the field
             del data["through"]
+        if not self.windowed:  # so do the uniform meshes'
+            del data["window"], data["window_elements"]
         return data
 
 
@@ -284,7 +316,7 @@ class ModelSpec:
                     "road must be 'contact' for the full model (the iterative procedure is "
                     f"the reduced model's), got {self.road!r}"
                 )
-            if self.mesh.circumferential % 4:
+            if self.mesh.circumferential % 4 and not self.mesh.windowed:
                 raise SpecError(
                     "mesh.circumferential of the full model must be a multiple of 4 (it is "
                     f"revolved in quarters), got {self.mesh.circumferential}"
@@ -294,6 +326,9 @@ class ModelSpec:
                 "sector_angle of the reduced model must be in [20, 180) degrees, "
                 f"got {self.sector_angle!r}"
             )
+        if self.mesh.windowed:  # the window must fit and grade smoothly: refuse here
+            half_steps(self.sector_angle / 2, self.mesh.circumferential // 2,
+                       self.mesh.window, self.mesh.window_elements)
 
     @property
     def is_full(self) -> bool:

@@ -38,6 +38,7 @@ from typing import Any, Protocol
 import dask
 
 from jobs.errors import ClusterError, StudyError
+from jobs.handshake import check_scheduler
 from jobs.tls import TlsFiles, check_address
 
 ALLOWED_FAILURES = 10  # the embedded scheduler's allowed-failures (Dask's default: 3)
@@ -141,6 +142,9 @@ def connect(scheduler: str | None = None, workers: int | None = None,
     _check_address(address)
     check_address(address, tls)
     kwargs = {"security": tls.client_security()} if tls is not None else {}
+    # Client's timeout does not cover Dask's handshake: ask who is there first (issue 26)
+    check_scheduler(address, dask.utils.parse_timedelta(CONNECT_TIMEOUT),
+                    kwargs["security"].get_connection_args("client") if kwargs else None)
     try:
         client = Client(address, timeout=CONNECT_TIMEOUT, **kwargs)
     except (OSError, TimeoutError, ValueError) as e:

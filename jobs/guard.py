@@ -21,6 +21,7 @@ import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TypeVar
 
 from farm.ccx.outcome import Outcome
 from farm.errors import FarmError, SolverError
@@ -74,6 +75,7 @@ class Failed:
 
 
 Result = Solved | Failed
+T = TypeVar("T")
 
 
 def smaller_increments(settings: SolverSettings) -> SolverSettings:
@@ -85,9 +87,11 @@ def smaller_increments(settings: SolverSettings) -> SolverSettings:
         max_increments=settings.max_increments * 4)
 
 
-def guarded(solve: Callable[[SolverSettings], Solved], settings: SolverSettings, *,
-            retry: bool = True) -> Result:
-    """Run ``solve(settings)`` under the policy above; ``retry=False`` skips step 1."""
+def guarded(solve: Callable[[SolverSettings], T], settings: SolverSettings, *,
+            retry: bool = True) -> T | Failed:
+    """Run ``solve(settings)`` under the policy above; ``retry=False`` skips step 1.
+    ``solve`` returns a :class:`Solved` for sweeps and loops, anything for other jobs
+    (a :class:`farm.experiment.PathResult` for the convergence study)."""
     try:
         try:
             return solve(settings)

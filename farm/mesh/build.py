@@ -17,16 +17,27 @@ import numpy as np
 from farm.errors import MeshError
 from farm.geometry import REGIONS as SECTION_REGIONS
 from farm.geometry import Section, build_section
+from farm.mesh.layers import split_wall
 from farm.mesh.session import gmsh_session
+from farm.mesh.signals import signal_dispositions_kept
 from farm.mesh.tyremesh import REGIONS, TyreMesh, face_with_nodes, hex_jacobians
 from farm.mesh.version import mesh_key
+from farm.spacing import column_angles, half_steps
 from farm.specs import ModelSpec
 
 SAMPLES_PER_ELEMENT = 4
 
 
 def build_mesh(spec: ModelSpec) -> TyreMesh:
-    """Mesh ``spec`` with gmsh and return the checked arrays."""
+    """Mesh ``spec`` with gmsh and return the checked arrays: one element through the
+    wall, then split into ``spec.mesh.through`` (:mod:`farm.mesh.layers`). gmsh runs
+    with the process's signal dispositions kept (:mod:`farm.mesh.signals`)."""
+    with signal_dispositions_kept():
+        mesh = _one_element_mesh(spec)
+    return split_wall(mesh, spec.mesh.through)
+
+
+def _one_element_mesh(spec: ModelSpec) -> TyreMesh:
     section = build_section(spec.geometry, spec.mesh, SAMPLES_PER_ELEMENT)
     with gmsh_session(f"tyre-{spec.kind}") as gmsh:
         patches = _section_patches(gmsh.model.geo, section, spec)
@@ -106,18 +117,37 @@ def _revolve(geo, patches: list[dict], spec: ModelSpec) -> list[list[dict]]:
     A positive gmsh angle turns the bottom point towards -x; sectors are revolved both
     ways from phi = 0 so the section itself stays a node row under the wheel centre.
     """
-    n_circ = spec.mesh.circumferential
-    chunks, layers = (2, n_circ // 4) if spec.is_full else (1, n_circ // 2)
-    angle = math.radians(spec.sector_angle) / (2 * chunks)
     pieces = []
     for sign in (1, -1):
         sources = [(2, p["surface"]) for p in patches]
-        for _ in range(chunks):
-            out = geo.revolve(sources, 0, 0, 0, 0, 1, 0, sign * angle, [layers], recombine=True)
+        for angle, layers, heights in _chunks(spec):
+            out = geo.revolve(sources, 0, 0, 0, 0, 1, 0, sign * angle, layers, heights,
+                              recombine=True)
             parts = _split(out, patches)
             pieces.append(parts)
             sources = [part["top"] for part in parts]
     return pieces
+
+
+def _chunks(spec: ModelSpec) -> list[tuple[float, list[int], list[float]]]:
+    """The revolve calls of one side: (angle in radians, gmsh layers, gmsh heights).
+
+    A gmsh revolve must turn less than pi, so the full tyre's half is two chunks. A
+    uniform mesh: equal chunks of equal layers (the full tyre in quarters). A windowed
+    mesh (:mod:`farm.spacing`): the window's equal elements, then the graded rest as one
+    layer per element at its cumulative height.
+    """
+    n_circ = spec.mesh.circumferential
+    if not spec.mesh.windowed:
+        chunks, layers = (2, n_circ // 4) if spec.is_full else (1, n_circ // 2)
+        return [(math.radians(spec.sector_angle) / (2 * chunks), [layers], [])] * chunks
+    m = spec.mesh
+    steps = half_steps(spec.sector_angle / 2, n_circ // 2, m.window, m.window_elements)
+    rest = steps[m.window_elements:]
+    heights = (np.cumsum(rest) / rest.sum()).tolist()
+    heights[-1] = 1.0
+    return [(math.radians(m.window), [m.window_elements], []),
+            (math.radians(float(rest.sum())), [1] * len(rest), heights)]
 
 
 def _physical_groups(model, patches, pieces, spec: ModelSpec) -> dict[str, tuple[int, int]]:
@@ -216,19 +246,19 @@ def _surface_grid(nodes, ids, contour, spec: ModelSpec) -> tuple[np.ndarray, np.
     if np.any(dist[np.arange(len(i)), i] > 1e-6 * spec.geometry.outer_radius):
         raise MeshError("a surface node does not lie on the section's node rows")
 
-    n_circ = spec.mesh.circumferential
-    step = math.radians(spec.sector_angle) / n_circ
+    m = spec.mesh
+    angles = column_angles(spec.sector_angle, m.circumferential, spec.is_full, m.window,
+                           m.window_elements)
     phi = np.arctan2(xyz[:, 0], -xyz[:, 2])
-    k = np.rint(phi / step).astype(np.int64)
-    if spec.is_full:
-        n_cols, j = n_circ, (k + n_circ // 2) % n_circ
-    else:
-        n_cols, j = n_circ + 1, k + n_circ // 2
-    grid = np.zeros((len(rows), n_cols), dtype=np.int64)
+    if spec.is_full:  # the seam's nodes at +pi are column 0's, at -pi
+        phi = np.where(phi > angles[-1] + 0.5 * (np.pi - angles[-1]), phi - 2 * np.pi, phi)
+    j = np.abs(phi[:, None] - angles[None, :]).argmin(axis=1)
+    if np.any(np.abs(phi - angles[j]) > 1e-6):
+        raise MeshError("a surface node does not lie on the mesh's node columns")
+    grid = np.zeros((len(rows), len(angles)), dtype=np.int64)
     grid[i, j] = ids
     if np.any(grid == 0) or len(ids) != grid.size:
         raise MeshError(f"surface nodes do not fill a {grid.shape} structured grid")
-    angles = (np.arange(n_cols) - n_circ // 2) * step
     return angles, grid
 
 

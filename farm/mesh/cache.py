@@ -11,7 +11,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from farm.mesh.signals import build_mesh
+from farm.mesh.build import build_mesh
 from farm.mesh.tyremesh import TyreMesh
 from farm.mesh.version import mesh_key
 from farm.specs import ModelSpec

@@ -6,11 +6,7 @@ With SIGPIPE at its default, the first write to a socket whose peer has gone kil
 whole process instead of raising ``BrokenPipeError``: a Dask client, a worker, or the
 test session (CI died so, exit 141, in the TLS tests after an earlier test had meshed
 in-process); with SIGINT at its default, Ctrl-C no longer cancels a run cleanly.
-
-This lives beside :mod:`farm.mesh.session` rather than in it on purpose: the session's
-source is part of the mesher fingerprint (:mod:`farm.mesh.version`), and a change there
-would give every mesh a new key - new experiment ids, and stores refusing their own
-groups - for a fix that moves no node.
+:func:`farm.mesh.build.build_mesh` meshes inside :func:`signal_dispositions_kept`.
 """
 
 from __future__ import annotations
@@ -20,11 +16,6 @@ import signal
 import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
-
-from farm.mesh.build import build_mesh as _build_mesh
-from farm.mesh.layers import split_wall
-from farm.mesh.tyremesh import TyreMesh
-from farm.specs import ModelSpec
 
 _SIGNALS = tuple(s for s in range(1, signal.NSIG) if s not in (signal.SIGKILL, signal.SIGSTOP))
 
@@ -51,12 +42,3 @@ def signal_dispositions_kept() -> Iterator[None]:
     finally:
         for number, action in saved.items():
             libc.sigaction(number, action, None)
-
-
-def build_mesh(spec: ModelSpec) -> TyreMesh:
-    """:func:`farm.mesh.build.build_mesh`, the signal dispositions kept, its wall split
-    into ``spec.mesh.through`` elements (:mod:`farm.mesh.layers`; also not fingerprinted
-    for a one-element wall, hence here rather than in the mesher)."""
-    with signal_dispositions_kept():
-        mesh = _build_mesh(spec)
-    return split_wall(mesh, spec.mesh.through)

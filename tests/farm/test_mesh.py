@@ -15,12 +15,27 @@ from farm.mesh.volume import hex_volumes
 from farm.presets import default_model
 from farm.specs import MeshDensity
 
-KINDS = ["reduced", "full"]
+# the thesis' meshes, and meshes refined over a window about the road (issue 24)
+WINDOWED = {
+    "reduced-window": ("reduced", MeshDensity(tread=4, sidewall=2, bead=1, circumferential=20,
+                                              window=10.0, window_elements=4)),
+    "full-window": ("full", MeshDensity(tread=4, sidewall=2, bead=1, circumferential=42,
+                                        window=20.0, window_elements=8)),
+}
+KINDS = ["reduced", "full", *WINDOWED]
+ELEMENTS = {"reduced": 440, "full": 880, "reduced-window": 200, "full-window": 420}
+
+
+def _spec(name):
+    if name in WINDOWED:
+        kind, mesh = WINDOWED[name]
+        return default_model(kind, mesh=mesh)
+    return default_model(name)
 
 
 @pytest.fixture(scope="module", params=KINDS)
 def case(request):
-    spec = default_model(request.param)
+    spec = _spec(request.param)
     return spec, build_mesh(spec)
 
 
@@ -28,7 +43,8 @@ def test_element_and_node_counts(case):
     spec, mesh = case
     rows = spec.mesh.meridional + 1
     cols = spec.mesh.circumferential + (0 if spec.is_full else 1)
-    assert mesh.n_elements == {"reduced": 440, "full": 880}[spec.kind]
+    assert mesh.n_elements == spec.mesh.meridional * spec.mesh.circumferential
+    assert mesh.n_elements in ELEMENTS.values()
     assert mesh.n_nodes == 2 * rows * cols  # one element through the wall
     assert mesh.inner_grid.shape == mesh.outer_grid.shape == (rows, cols)
     assert len(mesh.tread_nodes) == (spec.mesh.tread + 1) * cols
@@ -100,8 +116,10 @@ def test_volume_equals_revolved_section(case):
     y, r = ring[:, 1], np.hypot(ring[:, 0], ring[:, 2])
     y2, r2 = np.roll(y, -1), np.roll(r, -1)
     first_moment = abs(np.sum((r + r2) * (y * r2 - y2 * r)) / 6.0)  # int r dA
-    dphi = np.radians(spec.sector_angle) / spec.mesh.circumferential
-    expected = spec.mesh.circumferential * np.sin(dphi) * first_moment
+    dphi = np.diff(np.append(mesh.angles, mesh.angles[0] + 2 * np.pi) if spec.is_full
+                   else mesh.angles)
+    assert dphi.sum() == pytest.approx(np.radians(spec.sector_angle), rel=1e-12)
+    expected = np.sin(dphi).sum() * first_moment
     assert hex_volumes(mesh.nodes, mesh.elements).sum() == pytest.approx(expected, rel=1e-9)
 
 
@@ -111,6 +129,24 @@ def test_regions_have_the_right_number_of_elements(case):
     assert len(mesh.region_elements("tread")) == n.tread * n.circumferential
     assert len(mesh.region_elements("sidewall")) == 2 * n.sidewall * n.circumferential
     assert len(mesh.region_elements("bead")) == 2 * n.bead * n.circumferential
+
+
+@pytest.mark.parametrize("name", sorted(WINDOWED))
+def test_window_columns_are_fine_inside_and_graded_outside(name):
+    spec = _spec(name)
+    mesh = build_mesh(spec)
+    m = spec.mesh
+    steps = np.degrees(np.diff(mesh.angles))
+    centre = int(np.flatnonzero(np.isclose(mesh.angles, 0.0, atol=1e-12))[0])
+    inside = steps[centre - m.window_elements: centre + m.window_elements]
+    np.testing.assert_allclose(inside, m.window / m.window_elements, rtol=1e-9)
+    right = steps[centre + m.window_elements:]  # outwards from the window's edge
+    growth = right[1:] / right[:-1]
+    assert np.all(growth > 1.0) and np.all(growth <= 1.25 + 1e-9)
+    assert np.allclose(growth, growth[0])  # one ratio: a geometric progression
+    # mirror symmetric about the contact centre
+    np.testing.assert_allclose(mesh.angles[centre:centre + 5], -mesh.angles[centre:centre - 5:-1],
+                               atol=1e-12)
 
 
 def test_density_is_configurable():

@@ -418,10 +418,10 @@ SCHEDULERS_BAD = ("not a url", "", " ", "tcp://", "tcp://:8786", "http://host:87
                   "tcp://host:0", "tcp://host:99999", "tcp://host:port", "tcp://ho st:1",
                   "tcp://[::1:8786", "a\u0000b:1", "x" * 5000, "file:///tmp/sched",
                   "inproc://", "host:-1", "://host:1", "tcp://host:8786/path?q",
-                  "tcp://scheduler",
+                  "tcp://scheduler", "ucx://10.0.0.1:13337",  # unsupported (issue 26)
                   "tls://scheduler.example:8786")  # TLS without certificates (jobs/tls.py)
 SCHEDULERS_OK = ("tcp://127.0.0.1:8786", "127.0.0.1:8786",
-                 "tcp://[::1]:8786", "inproc://10.0.0.1/1234/5", "ucx://10.0.0.1:13337",
+                 "tcp://[::1]:8786", "inproc://10.0.0.1/1234/5",
                  "localhost:8786", "ws://host:8786", "tcp://farm_scheduler_1:8786")
 WORKERS_BAD = ("-3", "0", "-1", "100000", "x", "1.5", "")
 

@@ -283,7 +283,7 @@ def test_pressures_are_bounded_in_kpa():
 
 @pytest.mark.parametrize(("address", "ok"), [
     ("tcp://127.0.0.1:8786", True), ("10.0.0.5:8786", True), ("tls://sched.example:8786", True),
-    ("tcp://[::1]:8786", True), ("inproc://10.0.0.1/123/1", True), ("ucx://h:13337", True),
+    ("tcp://[::1]:8786", True), ("inproc://10.0.0.1/123/1", True), ("ucx://h:13337", False),
     ("tcp://farm_scheduler_1:8786", True), ("not a url", False), ("tcp://host", False),
     ("http://host:8786", False), ("tcp://host:0", False), ("tcp://host:65536", False),
     ("tcp://[::1:8786", False), ("", False), ("tcp://host:8786/x", False),

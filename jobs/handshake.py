@@ -1,0 +1,80 @@
+"""Ask a scheduler address who it is, with a deadline, before a Client is made.
+
+``distributed.Client(address, timeout=...)`` bounds reaching the port, not Dask's
+handshake after it (issue 26): a port that accepts and never answers (a stuck process,
+a dashboard port given as the scheduler) hung ``farm sweep submit`` for minutes, and a
+port that answers with other bytes (an HTTP server) was read as a Dask frame length
+("Unable to allocate 3.07 EiB"). :func:`check_scheduler` opens one connection, sends
+Dask's ``identity`` request, and wants a reply of type ``Scheduler`` within ``timeout``
+seconds overall; anything else is one :class:`~jobs.errors.ClusterError` line naming
+the address and what was expected.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import concurrent.futures
+import socket
+import time
+from typing import Any
+
+from jobs.errors import ClusterError
+
+HINT = ("give the address of a running Dask scheduler (`dask scheduler` prints it, port 8786 "
+        "by default; not its dashboard, 8787)")
+
+
+async def _identity(address: str, timeout: float, connection_args: dict[str, Any]) -> Any:
+    from distributed.comm import connect
+
+    deadline = time.monotonic() + timeout
+
+    def left() -> float:
+        return max(deadline - time.monotonic(), 0.01)
+
+    comm = await asyncio.wait_for(connect(address, timeout=left(), **connection_args), left())
+    try:
+        await asyncio.wait_for(comm.write({"op": "identity", "reply": True}), left())
+        return await asyncio.wait_for(comm.read(), left())
+    finally:
+        comm.abort()
+
+
+def _check_listening(address: str, timeout: float) -> None:
+    """Refuse a TCP address nothing listens on at once, before the handshake's deadline
+    (distributed retries a refused connection until its timeout)."""
+    scheme, _, rest = address.partition("://")
+    if scheme not in ("tcp", "tls"):
+        return
+    from distributed.comm.addressing import parse_host_port
+
+    try:
+        host, port = parse_host_port(rest)
+        socket.create_connection((host, port), timeout=timeout).close()
+    except (OSError, ValueError) as e:
+        raise ClusterError(f"cannot reach the Dask scheduler at {address!r}: "
+                           f"{e.strerror or e if isinstance(e, OSError) else e}; {HINT}") from e
+
+
+def check_scheduler(address: str, timeout: float, connection_args: dict[str, Any] | None = None
+                    ) -> dict[str, Any]:
+    """The scheduler's identity; raises :class:`ClusterError` within about ``timeout``
+    seconds when ``address`` does not answer as a Dask scheduler."""
+    _check_listening(address, timeout)
+    with concurrent.futures.ThreadPoolExecutor(1) as pool:  # own event loop, any caller
+        future = pool.submit(asyncio.run, _identity(address, timeout, connection_args or {}))
+        try:
+            reply = future.result(timeout + 5.0)
+        except (TimeoutError, concurrent.futures.TimeoutError) as e:
+            raise ClusterError(f"{address} accepted no Dask handshake within {timeout:g} s: "
+                               f"{HINT}") from e
+        except OSError as e:
+            raise ClusterError(f"cannot reach the Dask scheduler at {address!r}: {e}; "
+                               f"{HINT}") from e
+        except Exception as e:  # whatever the bytes were, they were not Dask's
+            raise ClusterError(f"{address} does not speak Dask's protocol ({type(e).__name__}"
+                               f"{': ' + str(e)[:120] if str(e) else ''}): {HINT}") from e
+    if not (isinstance(reply, dict) and reply.get("type") == "Scheduler"):
+        kind = reply.get("type") if isinstance(reply, dict) else type(reply).__name__
+        raise ClusterError(f"{address} answered as {kind!r}, not as a Dask scheduler: {HINT}")
+    return reply

@@ -1,0 +1,68 @@
+"""``farm compare`` and ``farm converge`` (issue 24): refusals, and real runs."""
+
+import json
+
+import pytest
+
+from cli import main
+
+COARSE = ["--set", "mesh.tread=4", "--set", "mesh.sidewall=2", "--set", "mesh.bead=1",
+          "--set", "mesh.circumferential=16"]
+
+
+def _run(argv, capsys):
+    with pytest.raises(SystemExit) as info:
+        main(argv)
+        raise SystemExit(0)
+    out = capsys.readouterr()
+    return info.value.code, out.out, out.err
+
+
+@pytest.mark.parametrize(("argv", "needle"), [
+    (["compare", "--mesh", "fine"], "unknown mesh preset 'fine' for the full model"),
+    (["compare", "--materials", "steel"], "unknown material preset 'steel'"),
+    (["compare", "--set", "mesh.window=30"], "go together"),
+    (["run", "--model", "reduced", "--mesh", "patch"], "choose one of thesis"),
+    (["converge", "--materials", "steel"], "unknown material preset 'steel'"),
+])
+def test_bad_input_is_one_line_and_nothing_is_solved(argv, needle, capsys, monkeypatch):
+    import jobs.calibrate.compare
+    import jobs.convergence.run
+
+    monkeypatch.setattr(jobs.calibrate.compare, "solve_curves", lambda *a: pytest.fail("solved"))
+    monkeypatch.setattr(jobs.convergence.run, "run_study", lambda *a, **k: pytest.fail("solved"))
+    code, out, err = _run(argv, capsys)
+    assert code == 2 and out == "" and err.count("\n") == 1 and needle in err, err
+
+
+@pytest.mark.ccx
+def test_compare_puts_both_readings_beside_the_model(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("FARM_CACHE_DIR", str(tmp_path / "cache"))
+    code, out, err = _run(["compare", *COARSE, "--workers", "2", "--out",
+                           str(tmp_path / "cmp")], capsys)
+    assert code == 0, err
+    assert "80kPa reading:" in out and "200kPa reading:" in out
+    assert "| model-30mm-80kPa | thesis model | 80kPa | 4476 |" in out
+    assert "| growth-200kPa | measured tyre | both | ≤ 4 |" in out
+    doc = json.loads((tmp_path / "cmp" / "compare.json").read_text())
+    fz = {p: c["Fz"] for p, c in doc["curves"].items()}
+    # stiffer with pressure and with deflection (a physical curve)
+    assert all(b > a for a, b in zip(fz["0.08"], fz["0.08"][1:], strict=False))
+    assert all(h > lo for lo, h in zip(fz["0.08"], fz["0.2"], strict=True))
+    growth = {p: c["growth"] for p, c in doc["curves"].items()}
+    assert 0 < growth["0.08"] < growth["0.2"]
+    ratio = next(r for r in doc["statements"] if r["statement"] == "stiffness-ratio")
+    assert ratio["ours"] > 1.0
+
+
+@pytest.mark.slow
+@pytest.mark.ccx
+def test_converge_quick_writes_the_table(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("FARM_CACHE_DIR", str(tmp_path / "cache"))
+    code, out, err = _run(["converge", "--quick", "--workers", "2", "--out",
+                           str(tmp_path / "conv")], capsys)
+    assert code == 0, err
+    text = (tmp_path / "conv" / "convergence.md").read_text()
+    assert "| vertical-200kPa | 10 mm | Fz N |" in text and "judged rows" in out
+    doc = json.loads((tmp_path / "conv" / "convergence.json").read_text())
+    assert {r["status"] for r in doc["records"]} == {"done"}

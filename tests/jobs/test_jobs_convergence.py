@@ -1,0 +1,102 @@
+"""The mesh-convergence study: Richardson arithmetic, the verdict, and a real run."""
+
+import itertools
+import math
+
+import pytest
+
+from jobs.cluster import connect
+from jobs.convergence.levels import CASES, LEVELS, QUICK_CASES, QUICK_LEVELS, Case
+from jobs.convergence.run import model_of, run_study, solve_case
+from jobs.convergence.table import markdown, richardson, rows, verdict
+
+
+@pytest.mark.parametrize("p", [1.0, 2.0, 1.5])
+def test_richardson_recovers_the_order_and_the_error_of_a_power_law(p):
+    exact, c = 100.0, 7.0
+    f = [exact + c * h ** p for h in (4.0, 2.0, 1.0)]
+    order, error = richardson(*f, 2.0)
+    assert order == pytest.approx(p)
+    assert f[2] + error == pytest.approx(exact)
+
+
+@pytest.mark.parametrize("f", [(1.0, 2.0, 1.5), (1.0, 1.0, 1.0), (1.0, 1.1, 1.3)])
+def test_richardson_gives_no_order_for_oscillating_flat_or_diverging_sequences(f):
+    assert all(math.isnan(x) for x in richardson(*f, 2.0))
+
+
+def _record(level, fz, fy=0.0, u=1.0):
+    state = {"state": "20 mm", "Fx": 0.0, "Fy": fy, "Fz": fz, "Mz": 0.0,
+             "patch": {k: 1.0 for k in ("nodes", "columns", "area", "length", "width",
+                                         "peak_pressure", "mean_pressure", "nodal_mean",
+                                         "nodal_std")},
+             "U_rms": u, "strain_rms": u, "solver_strain_rms": u}
+    return {"level": level, "case": "c", "status": "done", "states": [state], "nodes": 1,
+            "elements": 1, "growth": 1.0, "ccx_runs": 1, "solve_s": 1.0, "wall_s": 1.0}
+
+
+def test_verdict_judges_totals_at_2_and_fields_at_5_percent_and_skips_zero_forces():
+    records = [_record("a", 1000.0, u=1.0), _record("b", 1100.0, u=1.2),
+               _record("c", 1115.0, u=1.26)]
+    table = rows(records, ["a", "b", "c"])
+    fz = next(r for r in table if r["quantity"] == "Fz N")
+    assert fz["last_change_pct"] == pytest.approx(100 * 15 / 1115)
+    assert fz["converged"] is True and fz["order"] > 0
+    u = next(r for r in table if r["quantity"] == "window RMS of U mm")
+    assert u["converged"] is True  # 4.8 %
+    fy = next(r for r in table if r["quantity"] == "Fy N")
+    assert fy["limit_pct"] is None  # 0 N: round-off, not judged
+    assert verdict(table)["converged"]
+    worse = rows([*records[:2], _record("c", 1140.0, u=1.4)], ["a", "b", "c"])
+    assert {r["quantity"] for r in verdict(worse)["failing"]} == {
+        "Fz N", "window RMS of U mm", "window RMS of CST strain",
+        "window RMS of solver strain"}
+
+
+def test_failed_solves_are_rows_of_the_cost_table_not_crashes():
+    records = [_record("a", 1000.0), {"level": "b", "case": "c", "status": "failed",
+                                      "reason": "SolverError: too many cutbacks",
+                                      "wall_s": 1.0}]
+    text = markdown(rows(records, ["a", "b"]), records, ["a", "b"])
+    assert "failed: SolverError: too many cutbacks" in text
+
+
+def test_levels_are_valid_models_refined_by_two_in_the_window_and_tread():
+    seq = [lv for lv in LEVELS if lv.ratio]
+    for coarse, fine in itertools.pairwise(seq):
+        model_of(coarse), model_of(fine)
+        assert fine.mesh.window_elements == 2 * coarse.mesh.window_elements
+        assert fine.mesh.tread == 2 * coarse.mesh.tread
+        assert fine.mesh.window == coarse.mesh.window
+    assert {c.pressure_kpa for c in CASES} == {80.0, 200.0}
+    assert any(c.motion and c.motion.friction and c.motion.shift_y for c in CASES)
+    assert any(c.motion and c.motion.tilt for c in CASES)
+
+
+@pytest.mark.ccx
+def test_a_solver_failure_is_a_record_with_its_reason():
+    from farm.specs import SolverSettings
+
+    record = solve_case(model_of(QUICK_LEVELS[0]), Case("c", 200.0, (20.0,)),
+                        SolverSettings(timeout=1.0))
+    assert record["status"] == "failed"
+    assert record["reason"].startswith("SolverError") and "timeout" in record["reason"]
+
+
+@pytest.mark.ccx
+def test_two_levels_solve_on_a_dask_cluster_and_balance():
+    case = Case("vertical", 200.0, (15.0,))
+    with connect(workers=2) as client:
+        records = run_study(QUICK_LEVELS[:2], [case], client)
+    assert [r["level"] for r in records] == [lv.name for lv in QUICK_LEVELS[:2]]
+    for r in records:
+        assert r["status"] == "done", r.get("reason")
+        (state,) = r["states"]
+        assert state["Fz"] > 1000.0 and abs(state["Fy"]) < 1e-6 * state["Fz"]
+        assert state["patch"]["nodes"] >= 1 and state["patch"]["area"] > 0
+        assert state["patch"]["mean_pressure"] == pytest.approx(
+            state["Fz"] / state["patch"]["area"], rel=1e-3)
+        assert 0 < r["growth"] < 30.0  # table-3.1 grows ~16 mm at 200 kPa
+    # refining the window adds contact nodes
+    assert records[1]["states"][0]["patch"]["nodes"] > records[0]["states"][0]["patch"]["nodes"]
+    assert QUICK_CASES  # the CLI's quick study is a superset (tests/cli)
