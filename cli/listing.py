@@ -1,7 +1,7 @@
 """``farm sweep list``: the experiments of a store, one record each, for tables and JSON.
 
 Pressure is kPa here, as in study files and ``farm run``; the store keeps MPa (the
-farm's internal unit, DESIGN.md) and the conversion happens at this edge only.
+farm's internal unit, docs/architecture.md) and the conversion happens at this edge only.
 """
 
 from __future__ import annotations

@@ -327,7 +327,8 @@ def verify(store: str = typer.Argument(..., help="The store: a directory or fssp
                                      "[default: every group]."),
            repair: bool = typer.Option(
                False, "--repair", help="Mark damaged experiments pending (`farm sweep resume` "
-               "re-solves them) and restore damaged metadata from the consolidated copy."),
+               "re-solves them), give a lost status back where the slot's checksum verifies "
+               "it, and restore damaged metadata from the consolidated copy."),
            as_json: bool = JSON, storage_option: list[str] = STORAGE_OPTION) -> None:
     """Check a store for damage: metadata, ids, statuses, chunks, per-experiment checksums.
 

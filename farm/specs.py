@@ -2,7 +2,7 @@
 
 Everything that changes a result lives in these frozen dataclasses, validated once when
 constructed, so that a spec that exists is a spec that can be meshed and solved. Units
-are N, mm, MPa and s throughout (DESIGN.md); the CLI converts kPa at its boundary.
+are N, mm, MPa and s throughout (docs/architecture.md); the CLI converts kPa at its boundary.
 
 ``to_dict``/``from_dict`` give the canonical form used for content hashes (jobs) and
 for study files; ``from_dict`` rejects unknown keys so that a typo is never ignored.

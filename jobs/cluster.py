@@ -6,7 +6,7 @@ else an embedded LocalCluster (:func:`resolve_scheduler`); with TLS certificates
 :mod:`jobs.slurm`) plug in as a :class:`ClusterSpec`, the one thing
 :func:`jobs.driver.drive` connects through. The embedded cluster runs one
 single-threaded worker process per core: ccx is a subprocess, and one ccx per core is the
-throughput optimum on small models (DESIGN.md). Its dashboard is asked for on port 8787;
+throughput optimum on small models (docs/architecture.md). Its dashboard is asked for on port 8787;
 when that port is taken the scheduler serves it on a free one, silently, and
 :func:`dashboard_link` gives the real address.
 

@@ -170,7 +170,7 @@ class LoopThreads(Strategy):
 
     Tasks never wait on tasks: a loop blocks only its own client thread while its
     evaluations run on the workers, so any number of loops share any number of workers
-    without deadlock (DESIGN.md, "Jobs on Dask"). Subclasses give the loops
+    without deadlock (docs/architecture.md, "Jobs on Dask"). Subclasses give the loops
     (:meth:`loops`) and collect each one's end (:meth:`collected`).
     """
 

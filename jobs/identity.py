@@ -1,12 +1,12 @@
-"""Every key the farm derives, from one recipe (DESIGN.md, "Identity").
+"""Every key the farm derives, from one recipe (docs/architecture.md, "Identity").
 
 A key is the SHA-256 of canonical JSON (sorted keys, :func:`farm.specs.content_hash`) of
 the same ingredients everywhere:
 
 - the model spec (``ModelSpec.to_dict()``);
 - the mesh key (:func:`farm.mesh.version.mesh_key`: the spec's geometry and density AND
-  the mesher's own code and gmsh's version - a geometry fix once answered for hours from
-  stale caches because keys left the mesher out);
+  the mesher's version and gmsh's - a geometry fix once answered for hours from stale
+  caches because keys left the mesher out);
 - the solver version (``"CalculiX 2.20"``);
 - what is solved: a load case for an experiment, a task body for a loop evaluation.
 

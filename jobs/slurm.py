@@ -2,7 +2,8 @@
 
 The scheduler runs in this (the submitting) process; each SLURM job runs ``processes``
 single-threaded Dask workers, by default one per job core, as the embedded cluster does:
-ccx is a subprocess, one ccx per core is the throughput optimum (DESIGN.md, "Jobs on Dask").
+ccx is a subprocess, one ccx per core is the throughput optimum (docs/architecture.md,
+"Jobs on Dask").
 
 Walltime. SLURM kills a job at its walltime; a worker killed while running a task is a
 lost worker, and ``allowed-failures`` such losses give the task up (``KilledWorker``).

@@ -53,6 +53,7 @@ import re
 import reprlib
 import stat
 import tomllib
+import unicodedata
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -78,6 +79,8 @@ MAX_EVALUATIONS = 100_000  # evaluations of one optimisation loop
 MAX_REPEATS = 1_000  # repeats of one inverse condition
 MAX_LOOPS = 10_000  # optimisation loops of one inverse study
 IDENTIFIER = GROUP_NAME  # names of store groups, studies and conditions: the store's rule
+RESERVED_NAMES = frozenset({"zarr.json"})  # Zarr v3's metadata file in every group
+WINDOWS_PATH = re.compile(r"[A-Za-z]:[\\/]")  # C:\farm or C:/farm
 MODEL_KINDS = ("reduced", "full")
 MODEL_KEYS = {"kind", "materials", "road", "cut_faces", "geometry", "mesh", "contact",
               "sector_angle"}
@@ -336,6 +339,9 @@ def identifier(value: Any, where: str) -> str:
     if not (isinstance(value, str) and IDENTIFIER.fullmatch(value)):
         raise fail(where, f"must be letters, digits, '_', '.', '-' (at most 128), "
                    f"got {shown(value)}")
+    if value in RESERVED_NAMES:  # issue 26: passed here, then failed in create_group
+        raise fail(where, f"{shown(value)} is the name of Zarr's own metadata file in every "
+                   "group: choose another name")
     return value
 
 
@@ -502,17 +508,35 @@ def location(value: Any, where: str, what: str = "a path or URL", base: Path | N
     if len(text) > MAX_PATH_CHARS or any(ord(c) < 32 or ord(c) == 127 for c in text):
         raise fail(where, f"must be {what} of at most {MAX_PATH_CHARS} printable characters, "
                    f"got {shown(text)}")
+    invisible = [c for c in text if unicodedata.category(c) == "Cf"]
+    if invisible:  # a U+202E makes a path read differently from what it is (issue 26)
+        raise fail(where, f"contains the invisible formatting character "
+                   f"U+{ord(invisible[0]):04X} ({unicodedata.name(invisible[0], '?')}): "
+                   "type the path again")
     if "://" in text:
         if not re.fullmatch(r"[A-Za-z][A-Za-z0-9+.-]*://\S+", text):
             raise fail(where, f"is not a URL (scheme://location), got {shown(text)}")
         return text
     if any(len(part.encode()) > 255 for part in Path(text).parts):
         raise fail(where, f"has a path component longer than 255 bytes: {shown(text)}")
+    if os.name == "posix" and (WINDOWS_PATH.match(text) or "\\" in text):
+        raise fail(where, f"{shown(text)} looks like a Windows path; on this system paths "
+                   "use '/' (e.g. /data/farm.zarr)")
+    _check_links(Path(text).expanduser(), where)
     try:
         path = Path(text).expanduser()
         return str((path if base is None else base / path).resolve())
     except (RuntimeError, KeyError, OSError) as e:  # ~nobody: no such user
         raise fail(where, f"cannot resolve the path {shown(text)}: {e}") from e
+
+
+def _check_links(path: Path, where: str) -> None:
+    """Refuse a path through a symbolic link whose target does not exist: the store would
+    be created at the link's target, somewhere the user did not name (issue 26)."""
+    for part in (path, *path.parents):
+        if part.is_symlink() and not part.exists():
+            raise fail(where, f"{part} is a symbolic link to {os.readlink(part)}, which does "
+                       "not exist: create the target or give another path")
 
 
 def store_location(value: Any, where: str, base: Path | None = None) -> str:

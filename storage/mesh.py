@@ -158,7 +158,10 @@ class GroupAttrs:
     model_spec : str
         JSON text of the model spec (``json.dumps(ModelSpec.to_dict())``).
     mesh_key : str
-        Content hash of what the mesh depends on (``ModelSpec.mesh_key()``).
+        The mesh's key: :func:`farm.mesh.version.mesh_key` (the spec's geometry,
+        density and sector, the mesher's and gmsh's versions), as the worker's mesh
+        carries it (``TyreMesh.mesh_key``); not ``ModelSpec.mesh_key()``, which leaves
+        the mesher out.
     solver : str
         Solver and version, e.g. ``"CalculiX 2.20"``.
     package_versions : mapping of str to str

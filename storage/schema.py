@@ -3,7 +3,7 @@
 This module is the code form of ``docs/schema.md``; the rest of the package reads its
 names, shapes and units from here, never from literals of its own.
 
-Who writes what (the write rules of DESIGN.md):
+Who writes what (docs/architecture.md, "The store"; docs/schema.md):
 
 - ``"mesh"`` variables are written once, by :func:`storage.create_group`.
 - ``"client"`` variables (experiment ids, load-case parameters) are written only by the

@@ -9,7 +9,9 @@ Per experiment group, :func:`verify` checks that
    every status is 0, 1 or 2, and no slot without an id is done or failed;
 4. each done or failed experiment's chunks decode and its checksum matches its id,
    load case, status and data (:mod:`storage.checksum`); experiments of groups
-   written before checksums are counted "unverifiable (no checksums)";
+   written before checksums are counted "unverifiable (no checksums)"; a *pending*
+   slot whose checksum matches it done or failed is damage too (its status was lost or
+   reset: readers would silently leave a whole experiment out);
 5. the other chunks (mesh arrays, load-case parameters) decode.
 
 ``repair=True`` then fixes what the store itself can tell (under the client lock,
@@ -20,6 +22,7 @@ Per experiment group, :func:`verify` checks that
   reader and the queue already take pending as "not done, solve it" (the queue runs
   pending experiments and, if asked, failed ones: a new value would be skipped by
   every client that does not know it); ``error`` keeps the why;
+- a pending slot whose checksum verifies it done (or failed) gets that status back;
 - a done or failed slot without an id (its ids chunk is lost) goes back to pending:
   resume reserves the study's ids again and re-solves them;
 - a ``zarr.json`` that is missing or does not decode is restored from the copy in the
@@ -49,8 +52,8 @@ from zarr.storage import LocalStore
 
 from storage._zarr import get_bytes, list_dir, set_bytes
 from storage.checksum import Slots, check
-from storage.errors import NotAStoreError, verify_hint
-from storage.paths import StoreLike, describe, open_store, publish
+from storage.errors import NotAStoreError, StoreError, verify_hint
+from storage.paths import LOCK_NAME, StoreLike, describe, open_store, publish
 from storage.schema import (
     CHECKED_NAMES,
     CLIENT_CHUNK,
@@ -199,6 +202,9 @@ def verify(store: StoreLike, group: str | None = None, *, repair: bool = False) 
     root_doc, root_damage = _root(zs)
     if root_damage and get_bytes(zs, "zarr.json") is None and not list_dir(zs, ""):
         raise NotAStoreError(f"no Zarr store at {where}: check the path")
+    root_damage += _lock_file(zs)
+    if repair and root_damage and root_damage[-1].what == LOCK_NAME:
+        raise StoreError(f"cannot repair {where}: {root_damage[-1].reason}")
     copies = _copies(root_doc)
     with _lock(zs, repair):  # repairs write metadata: one client at a time
         names = [group] if group is not None else _experiment_groups(zs)
@@ -211,6 +217,18 @@ def verify(store: StoreLike, group: str | None = None, *, repair: bool = False) 
         report = VerifyReport(where, reports, tuple(root_damage), tuple(repaired),
                               after=verify(store, group))
     return report
+
+
+def _lock_file(zs: Store) -> list[Damage]:
+    """A local store's lock that is not a regular file (a directory, a FIFO): every
+    client would fail to take it (issue 26: verify did not flag it)."""
+    if not isinstance(zs, LocalStore):
+        return []
+    path = Path(zs.root) / LOCK_NAME
+    if (not path.exists() and not path.is_symlink()) or path.is_file():
+        return []
+    return [Damage("", LOCK_NAME, f"the lock {path} is not a regular file: remove it "
+                   "while no client uses the store (farm recreates it)")]
 
 
 def _lock(zs: Store, repair: bool) -> AbstractContextManager:
@@ -293,6 +311,7 @@ class _GroupCheck:
         self.repaired: list[str] = []
         self.arrays: dict[str, zarr.Array] = {}
         self.restored: set[str] = set()
+        self.restore: dict[int, int] = {}  # slot -> the status its checksum verifies
 
     def report(self, reserved: int = 0, checked: int = 0, unverifiable: int = 0) -> GroupReport:
         return GroupReport(self.group, reserved, checked, unverifiable, tuple(self.damage),
@@ -321,6 +340,9 @@ class _GroupCheck:
         checkable = [i for i in positions if i not in bad_params and EXPERIMENT_ID.fullmatch(
             ids[i])]
         unverifiable = self._checksums(ids, status, params, checkable)
+        self._lost_status(ids, status, params, [
+            i for i in range(used) if status[i] == PENDING and ids[i] and i not in bad_params
+            and EXPERIMENT_ID.fullmatch(ids[i])])
         self._mark()
         return self.report(used, len(positions), unverifiable)
 
@@ -480,6 +502,29 @@ class _GroupCheck:
             self._experiment(ids[i], i, reason + self._missing_chunks(i, status[i]))
         return 0
 
+    def _lost_status(self, ids: list, status: np.ndarray, params: dict, pending: list[int]
+                     ) -> None:
+        """Pending slots whose checksum matches them done or failed: a ``status`` chunk
+        lost or reset (issue 26: verify said "no damage" while readers used 19 of 20),
+        or a write interrupted between its checksum and its status. Either way the slot
+        holds a whole, verified experiment; repair gives it its status back."""
+        if "checksum" not in self.arrays or any(n not in self.arrays for n in CHECKED_NAMES):
+            return
+        sums, bad = self._read_1d("checksum", len(ids))
+        candidates = [i for i in pending if i not in bad and sums[i]]
+        for state in (DONE, FAILED):
+            if not candidates:
+                break
+            trial = np.full(len(ids), state, dtype=np.int64)
+            wrong = check(self._slots(ids, trial, params, [str(s) for s in sums]), candidates)
+            for i in (i for i in candidates if i not in wrong):
+                self.restore[i] = state
+                self.damage.append(Damage(
+                    self.group, "status", f"its status is pending but its checksum matches it "
+                    f"{STATUS_NAMES[state]} (the status chunk was lost or reset, or a write "
+                    "stopped before its status)", ids[i], i))
+            candidates = list(wrong)
+
     def _slots(self, ids, status, params, sums) -> Slots:
         names = checked_names(self.arrays)
         sizes = {n: int(np.prod(self.arrays[n].shape[1:], dtype=np.int64))
@@ -544,16 +589,24 @@ class _GroupCheck:
         """Damaged experiments and orphan slots back to pending (``error`` says why)."""
         if not self.repair:
             return
-        marked = sorted({d.index for d in self.damage if d.index is not None})
+        if self.restore:
+            status = self._writable("status")
+            for i, state in sorted(self.restore.items()):
+                status[i] = state
+            self.repaired.append(f"{self.group}: {len(self.restore)} slot(s) given back the "
+                                 "status their checksum verifies")
+        marked = sorted({d.index for d in self.damage
+                         if d.index is not None and d.index not in self.restore})
         if not marked:
             return
         status = self._writable("status")
         error = self._writable("error") if "error" in self.arrays else None
-        for d in (d for d in self.damage if d.index is not None):
+        for d in (d for d in self.damage if d.index is not None and d.index not in self.restore):
             status[d.index] = PENDING
             if error is not None and d.experiment is not None:
                 error[d.index] = f"damaged, marked pending by farm sweep verify: {d.reason}"[:500]
-        ids = sorted({d.experiment for d in self.damage if d.experiment is not None})
+        ids = sorted({d.experiment for d in self.damage
+                      if d.experiment is not None and d.index not in self.restore})
         self.repaired.append(
             f"{self.group}: {len(marked)} slot(s) marked pending"
             + (f" ({_few(ids)})" if ids else "")

@@ -1,4 +1,4 @@
-"""The import graph of the project's packages (DESIGN.md, "Layering").
+"""The import graph of the project's packages (docs/architecture.md, "Layering").
 
 Dependencies point one way: ``jobs -> farm, storage``; ``analysis -> storage``; the CLI
 (``cli``) on top of all of them. Every import counts, also the ones inside functions: a

@@ -1,6 +1,6 @@
 """Strains on the inner surface in its local frame, as the in-tyre camera reports them.
 
-The local frame at each inner node (DESIGN.md, "Units and axes"): ``e1`` circumferential
+The local frame at each inner node (docs/architecture.md, "Units and axes"): ``e1`` circumferential
 (the rolling direction, +x under the wheel centre), ``e2`` along the meridian (lateral,
 +y on the crown), ``e3 = e1 x e2`` the surface normal pointing into the cavity.
 

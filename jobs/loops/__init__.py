@@ -3,7 +3,7 @@
 Loop drivers run on the client (one thread per loop); every solver evaluation is one
 Dask task keyed by the content hash of what it solves, so identical evaluations, in one
 loop or across loops, are solved once, and tasks never wait on tasks: however many loops
-share however few workers, nothing deadlocks (DESIGN.md, "Jobs on Dask").
+share however few workers, nothing deadlocks (docs/architecture.md, "Jobs on Dask").
 
 - :mod:`jobs.loops.cache` keeps every finished evaluation on disk, keyed by its hash;
   a loop resumed after the client died replays its evaluations from there without ccx.

@@ -196,7 +196,7 @@ def test_noise_chooses_components_by_cross_validation(thesis_store, tmp_path):
 
 
 def test_analysis_never_imports_farm_or_jobs():
-    """Layering rule (DESIGN.md): analysis (studies and report included) reads the store
+    """Layering rule (docs/architecture.md): analysis (studies and report included) reads the store
     only: no import of farm or jobs, in its source or at run time."""
     forbidden = ("farm", "jobs", "cli")
     root = Path(__file__).resolve().parents[2] / "analysis"

@@ -7,7 +7,7 @@ deep nesting, bytes that are not UTF-8, oversized files and grids, odd paths and
 FIFOs, devices and directories given as files, bad scheduler addresses and worker counts.
 Every case runs in-process through :func:`cli.main` in a folder of its own, under a
 deadline, against a fake cluster and a fake solver, and is checked for what the CLI
-promises (DESIGN.md "CLI shape", docs/limits.md):
+promises (docs/architecture.md "CLI shape", docs/limits.md):
 
 * rejected input: a non-zero exit, exactly one line on stderr starting ``farm: error:``
   (naming the offending key where the case knows it), no traceback, nothing submitted to

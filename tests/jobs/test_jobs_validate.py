@@ -3,6 +3,7 @@
 import ast
 import itertools
 import math
+import re
 import textwrap
 from pathlib import Path
 
@@ -216,3 +217,31 @@ def test_study_parsers_import_nothing_private(module):
                if isinstance(node, ast.ImportFrom)
                for alias in node.names if alias.name.startswith("_")]
     assert private == []
+
+
+# --- issue 26: store paths that were accepted and should not be ---------------------------
+
+@pytest.mark.parametrize(("text", "needle"), [
+    ("results/run\u202e.zarr", "U+202E (RIGHT-TO-LEFT OVERRIDE)"),
+    ("farm\u200b.zarr", "U+200B (ZERO WIDTH SPACE)"),
+    ("C:\\farm\\x.zarr", "looks like a Windows path"),
+    ("D:/farm/x.zarr", "looks like a Windows path"),
+    ("results\\x.zarr", "looks like a Windows path"),
+])
+def test_store_paths_that_read_other_than_they_are_are_refused(text, needle, tmp_path):
+    with pytest.raises(StudyError, match=re.escape(needle)):
+        v.store_location(text, "study.store", tmp_path)
+
+
+def test_a_store_through_a_dangling_symlink_is_refused(tmp_path):
+    (tmp_path / "link").symlink_to(tmp_path / "nowhere")
+    with pytest.raises(StudyError, match=r"is a symbolic link to .*nowhere, which does not exist"):
+        v.store_location(str(tmp_path / "link" / "x.zarr"), "study.store")
+    (tmp_path / "nowhere").mkdir()  # the same link, its target made: accepted
+    assert v.store_location(str(tmp_path / "link" / "x.zarr"), "study.store")
+
+
+def test_zarr_json_is_no_group_name():
+    with pytest.raises(StudyError, match="Zarr's own metadata file"):
+        v.identifier("zarr.json", "study.group")
+    assert v.identifier("zarr.json2", "study.group") == "zarr.json2"

@@ -372,3 +372,42 @@ def test_repair_restores_array_metadata_exactly(built):
     verify(built, repair=True)
     assert json.loads(key.read_text()) == before
     _exact(data.load(built, GROUP))
+
+
+# --- a status lost or reset under an intact experiment (issue 26) ----------------------------
+
+
+@pytest.mark.parametrize(("slot", "how", "state"), [
+    (1, "delete", storage.DONE), (2, "pending", storage.DONE), (4, "pending", storage.FAILED)])
+def test_a_lost_status_is_found_and_given_back(built, slot, how, state, capsys):
+    chunk = built / GROUP / "status" / "c" / str(slot)
+    if how == "delete":
+        chunk.unlink()  # reads as the fill value: pending
+    else:
+        chunk.write_bytes(bytes([storage.PENDING]))
+    report = verify(built)
+    assert not report.ok and report.damaged_ids == {IDS[slot]}
+    assert "its status is pending but its checksum matches it" in "\n".join(report.lines())
+    assert _cli("sweep", "verify", str(built)) == 1
+    capsys.readouterr()
+    assert _cli("sweep", "verify", str(built), "--repair") == 1  # 1: it was damaged
+    assert "after repair: no damage left" in capsys.readouterr().out
+    assert storage.statuses(built, GROUP, [IDS[slot]]) == {IDS[slot]: state}
+    assert verify(built).ok
+    _exact(storage.done(storage.open_dataset(built, GROUP)))
+    assert set(storage.done(storage.open_dataset(built, GROUP))["experiment"].values) == set(
+        DONE_IDS)
+
+
+def test_a_slot_never_written_is_not_taken_for_a_lost_status(built):
+    report = verify(built)  # e5 is pending with no checksum: nothing to report
+    assert report.ok and report.damaged_ids == set()
+
+
+def test_a_lock_that_is_a_directory_is_named_and_repair_refuses(built, capsys):
+    (built / ".farm.lock").mkdir()
+    report = verify(built)
+    assert not report.ok and "is not a regular file" in "\n".join(report.lines())
+    code = _cli("sweep", "verify", str(built), "--repair")
+    assert code == 1
+    assert "cannot repair" in _one_line(capsys.readouterr().err)
