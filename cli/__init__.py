@@ -137,8 +137,17 @@ def _main(args: list[str], debug: bool) -> None:
     except Exception as e:
         # Click's usage errors (typer vendors click as typer._click in recent versions,
         # so match the interface rather than a class).
-        if debug or not (hasattr(e, "format_message") and hasattr(e, "exit_code")):
+        if debug:
             raise
+        if not (hasattr(e, "format_message") and hasattr(e, "exit_code")):
+            # a store that cannot be reached or written (credentials, a full disk) is the
+            # user's to fix, wherever in the libraries it surfaced (issue 26)
+            from storage.errors import access_error
+
+            access = access_error(e)
+            if access is None:
+                raise
+            fail(str(access))
         message = e.format_message()
         if not message:  # e.g. help shown because no command was given
             raise SystemExit(e.exit_code) from None

@@ -9,6 +9,7 @@ working. ``LookupError`` rather than ``KeyError``: ``str(KeyError(msg))`` adds q
 
 from __future__ import annotations
 
+import errno
 from collections.abc import Iterator
 from contextlib import contextmanager
 
@@ -58,6 +59,56 @@ class DamagedStoreError(StoreError, ValueError):
     arrays, or experiments whose data do not match their checksum."""
 
 
+class StoreAccessError(StoreError, PermissionError):
+    """The store could not be reached or written: credentials, permissions, a missing
+    bucket, an unreachable endpoint, a full disk. Not damage: nothing is wrong with the
+    bytes already stored."""
+
+
+_CREDENTIALS = ("set AWS_ACCESS_KEY_ID and AWS_SECRET_ACCESS_KEY (or AWS_PROFILE) in the "
+                "environment of the client and of every worker")
+_CLIENT_CODES = {
+    "NoSuchBucket": "the bucket does not exist: create it, or check the URL",
+    "AccessDenied": f"access denied: check the credentials' rights on the bucket ({_CREDENTIALS})",
+    "InvalidAccessKeyId": f"the credentials were rejected ({_CREDENTIALS})",
+    "SignatureDoesNotMatch": f"the credentials were rejected ({_CREDENTIALS})",
+    "403": f"access denied ({_CREDENTIALS})",
+}
+
+
+def _chain(e: BaseException) -> Iterator[BaseException]:
+    seen: set[int] = set()
+    while e is not None and id(e) not in seen:
+        seen.add(id(e))
+        yield e
+        e = e.__cause__ or e.__context__
+
+
+def access_error(e: BaseException, store: str = "the store") -> StoreAccessError | None:
+    """The one line for an error that says the store cannot be reached or written (any
+    link of ``e``'s chain), or None when ``e`` is something else (issue 26: botocore's
+    ``NoCredentialsError`` and ``OSError: [Errno 28]`` reached users as tracebacks)."""
+    for x in _chain(e):
+        name = type(x).__name__
+        if name in ("NoCredentialsError", "PartialCredentialsError",
+                    "CredentialRetrievalError"):
+            why = f"no credentials for the object store: {_CREDENTIALS}"
+        elif name == "ClientError":
+            code = str(getattr(x, "response", {}).get("Error", {}).get("Code", ""))
+            why = _CLIENT_CODES.get(code, f"the object store refused ({code or x})")
+        elif name in ("EndpointConnectionError", "ConnectTimeoutError"):
+            why = f"cannot reach the object store ({x}): check endpoint_url and the network"
+        elif isinstance(x, OSError) and x.errno == errno.ENOSPC:
+            why = ("no space left on the device: free space or give a store elsewhere; what "
+                   "was written before stays (`farm sweep verify` checks it)")
+        elif isinstance(x, PermissionError):
+            why = f"permission denied ({x.filename or x}): give a store you can write"
+        else:
+            continue
+        return StoreAccessError(f"{store}: {why}")
+    return None
+
+
 def verify_hint(store: str = "STORE") -> str:
     """How to find and mark what is damaged (the end of every damage message)."""
     return f"run `farm sweep verify {store} --repair`"
@@ -75,6 +126,9 @@ def reading(what: str, store: str = "STORE") -> Iterator[None]:
     except StoreError:
         raise
     except Exception as e:  # zarr, json, codec and I/O errors have no common base class
+        access = access_error(e, f"the store at {store}")
+        if access is not None:
+            raise access from e
         detail = " ".join(str(e).split())[:200] or "no detail"
         raise DamagedStoreError(
             f"cannot read {what} of the store at {store} ({type(e).__name__}: {detail}): the "

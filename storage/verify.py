@@ -52,7 +52,7 @@ from zarr.storage import LocalStore
 
 from storage._zarr import get_bytes, list_dir, set_bytes
 from storage.checksum import Slots, check
-from storage.errors import NotAStoreError, StoreError, verify_hint
+from storage.errors import NotAStoreError, StoreError, access_error, verify_hint
 from storage.paths import LOCK_NAME, StoreLike, describe, open_store, publish
 from storage.schema import (
     CHECKED_NAMES,
@@ -197,6 +197,19 @@ def verify(store: StoreLike, group: str | None = None, *, repair: bool = False) 
     """
     zs = open_store(store, read_only=not repair)
     where = describe(zs)
+    try:
+        return _verify(zs, where, store, group, repair)
+    except StoreError:
+        raise
+    except Exception as e:  # a store that cannot be reached is no damage: say which
+        access = access_error(e, f"the store at {where}")
+        if access is None:
+            raise
+        raise access from e
+
+
+def _verify(zs: Store, where: str, store: StoreLike, group: str | None, repair: bool
+            ) -> VerifyReport:
     if isinstance(zs, LocalStore) and not Path(zs.root).is_dir():
         raise NotAStoreError(f"no store at {where}: check the path")
     root_doc, root_damage = _root(zs)

@@ -1,0 +1,65 @@
+"""A store that cannot be reached or written is one line naming it and the fix (issue 26).
+
+Before: botocore's NoCredentialsError was a traceback (`farm sweep verify s3://...`) or
+read as damage ("the store is damaged ... run verify --repair"); a full disk was an
+``OSError [Errno 28]`` traceback.
+"""
+
+import errno
+
+import pytest
+
+from cli import main
+from storage.errors import StoreAccessError, access_error
+
+
+def _botocore():
+    return pytest.importorskip("botocore.exceptions")
+
+
+def _chained(inner: BaseException) -> BaseException:
+    try:
+        try:
+            raise inner
+        except BaseException as e:
+            raise RuntimeError("zarr wrapped it") from e
+    except RuntimeError as outer:
+        return outer
+
+
+@pytest.mark.parametrize(("make", "words"), [
+    (lambda b: b.NoCredentialsError(), "no credentials"),
+    (lambda b: b.ClientError({"Error": {"Code": "NoSuchBucket"}}, "HeadObject"),
+     "bucket does not exist"),
+    (lambda b: b.ClientError({"Error": {"Code": "AccessDenied"}}, "PutObject"), "access denied"),
+    (lambda b: OSError(errno.ENOSPC, "No space left on device"), "no space left"),
+    (lambda b: PermissionError(errno.EACCES, "denied", "/ro/x.zarr"), "permission denied"),
+])
+def test_access_errors_become_one_line_through_any_chain(make, words):
+    error = access_error(_chained(make(_botocore())), "the store at s3://b/x.zarr")
+    assert isinstance(error, StoreAccessError)
+    assert str(error).startswith("the store at s3://b/x.zarr: ") and words in str(error)
+    assert "\n" not in str(error)
+
+
+def test_other_errors_are_not_taken_for_access_errors():
+    assert access_error(_chained(ValueError("a bug"))) is None
+    assert access_error(OSError(errno.EIO, "I/O error")) is None
+
+
+@pytest.mark.parametrize("command", ["verify", "status", "list"])
+def test_an_object_store_without_credentials_is_one_line(command, capsys, monkeypatch,
+                                                           tmp_path):
+    pytest.importorskip("s3fs")
+    for name in ("AWS_ACCESS_KEY_ID", "AWS_SECRET_ACCESS_KEY", "AWS_SESSION_TOKEN",
+                 "AWS_PROFILE", "AWS_DEFAULT_PROFILE"):
+        monkeypatch.delenv(name, raising=False)
+    monkeypatch.setenv("AWS_EC2_METADATA_DISABLED", "true")  # no instance-metadata lookup
+    monkeypatch.setenv("AWS_CONFIG_FILE", str(tmp_path / "none"))
+    monkeypatch.setenv("AWS_SHARED_CREDENTIALS_FILE", str(tmp_path / "none"))
+    with pytest.raises(SystemExit) as info:
+        main(["sweep", command, "s3://no-such-bucket/x.zarr", "--storage-option",
+              "endpoint_url=http://127.0.0.1:9"])
+    err = capsys.readouterr().err
+    assert info.value.code == 1 and err.count("\n") == 1, err
+    assert "s3://no-such-bucket/x.zarr" in err and "no credentials" in err
