@@ -21,6 +21,7 @@ option and table (the store keeps MPa; the CLI converts at its edge).
 from __future__ import annotations
 
 import functools
+import logging
 import sys
 import warnings
 
@@ -104,6 +105,17 @@ HARMLESS = (
 )
 
 
+class _UnretrievedTasks(logging.Filter):
+    """Drop asyncio's "Task exception was never retrieved" reports. zarr reads a group's
+    members as concurrent tasks; when one member's metadata is damaged, the error that
+    was awaited becomes the CLI's one line, and the siblings still pending are reported
+    at exit by asyncio's garbage collector: 46 lines of noise after the line that
+    matters (issue 26). Nothing in them is the user's to act on."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return not str(record.msg).startswith("Task exception was never retrieved")
+
+
 @functools.cache
 def command():
     """The click command of :data:`app`, built once: typer builds it anew on every call,
@@ -115,6 +127,8 @@ def main(argv: list[str] | None = None) -> None:
     """Console entry point: run the app and turn errors into one line and an exit code."""
     args = list(sys.argv[1:] if argv is None else argv)
     debug = args[:1] == ["--debug"]  # a root option: `farm --debug run ...`
+    if not debug:
+        logging.getLogger("asyncio").addFilter(_UnretrievedTasks())
     with warnings.catch_warnings():
         for message, category in HARMLESS:
             warnings.filterwarnings("ignore", message=message, category=category)

@@ -73,7 +73,10 @@ def open_dataset(store: StoreLike, group: str, *, chunks: Any = _DEFAULT_CHUNKS)
             f"metadata, absent from the group); {verify_hint(where)}"
         )
     text = [name for name, var in ds.data_vars.items() if var.dtype.kind == "T"]
-    ds = ds.assign({name: ds[name].astype(object) for name in text})
+    with reading(f"the text arrays ({', '.join(text)}) of group {group!r}", where):
+        # decoded here: one flipped byte in a checksum chunk was a 145-line
+        # UnicodeDecodeError from `farm analyse pca` (issue 26)
+        ds = ds.assign({name: ds[name].astype(object) for name in text})
     # The load case labels the experiments: coordinates along ``experiment`` (no index),
     # so ``ds.where(ds.deflection == 30, drop=True)`` and, after
     # ``ds.set_xindex("deflection")``, ``ds.sel(deflection=30)`` work (issue 12). Read

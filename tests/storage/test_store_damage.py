@@ -411,3 +411,25 @@ def test_a_lock_that_is_a_directory_is_named_and_repair_refuses(built, capsys):
     code = _cli("sweep", "verify", str(built), "--repair")
     assert code == 1
     assert "cannot repair" in _one_line(capsys.readouterr().err)
+
+
+def test_a_flipped_byte_in_a_checksum_chunk_is_one_line_for_the_analyses(built, capsys,
+                                                                        tmp_path):
+    _flip(built / GROUP / "checksum" / "c" / "1")
+    code = _cli("analyse", "pca", str(built), "--group", GROUP, "--out", str(tmp_path / "o"))
+    line = _one_line(capsys.readouterr().err)
+    assert code == 1 and "farm sweep verify" in line and "checksum" in line
+
+
+def test_garbage_group_metadata_is_one_line_in_a_fresh_process(built):
+    """The noise came at interpreter exit (asyncio's report of zarr's sibling tasks):
+    only a real process shows it."""
+    import subprocess
+    import sys
+
+    (built / GROUP / "zarr.json").write_text("garbage{")
+    for command in ("list", "status"):
+        run = subprocess.run([sys.executable, "-m", "cli", "sweep", command, str(built)],
+                             capture_output=True, text=True, timeout=120)
+        assert run.returncode == 1
+        assert _one_line(run.stderr).startswith("farm: error:"), run.stderr
