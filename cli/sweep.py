@@ -243,7 +243,8 @@ def status(target: str = TARGET, group: str = GROUP, as_json: bool = JSON,
            storage_option: list[str] = STORAGE_OPTION) -> None:
     """Counts of pending, done and failed experiments, and why the failed ones failed."""
     from jobs.status import GroupStatus, store_status
-    from storage.errors import reading
+    from storage import unfinished_groups
+    from storage.errors import GroupNotFoundError, NotAStoreError, StoreError, reading
 
     store, names, where, expected = _target(target, group, storage_option)
     with reading("the store's groups and statuses", where):
@@ -268,6 +269,15 @@ def status(target: str = TARGET, group: str = GROUP, as_json: bool = JSON,
         if g.failures:
             _failure_table([(f.experiment, f.deflection, f.pressure, f.reason)
                             for f in g.failures], console)
+    try:
+        with reading("the store's groups", where):
+            unfinished = unfinished_groups(store)
+    except (NotAStoreError, GroupNotFoundError):  # a study not submitted yet: no store
+        unfinished = []
+    if unfinished:  # invisible otherwise: "0 groups", exit 0 (issue 26)
+        raise StoreError(f"group {unfinished[0]!r} of {where} was never finished (a client "
+                         "stopped creating it, e.g. on a full disk): submit the study again "
+                         "to rebuild it")
 
 
 def _status_option(value: str | None) -> str | None:

@@ -47,7 +47,7 @@ from storage.errors import (
     StoreBusyError,
     StoreError,
 )
-from storage.group import create_group, list_groups
+from storage.group import create_group, list_groups, unfinished_groups
 from storage.lock import claim, client_lock
 from storage.mesh import GroupAttrs, MeshNodes, package_versions
 from storage.paths import URL_SCHEMES, StoreLike, open_store
@@ -104,6 +104,7 @@ __all__ = [
     "select",
     "status_counts",
     "statuses",
+    "unfinished_groups",
     "verify",
     "verify_done",
     "write_experiment",

@@ -181,6 +181,19 @@ def _spec(text: object) -> dict:
     return spec if isinstance(spec, dict) else {"model_spec": text}
 
 
+def unfinished_groups(store: StoreLike) -> list[str]:
+    """Groups of ours whose creation never finished (no ``schema_version``: a client
+    stopped mid-way, e.g. on a full disk), sorted. Invisible to :func:`list_groups`;
+    ``farm sweep verify`` and ``status`` name them (issue 26), and submitting the study
+    again rebuilds them (:func:`create_group`)."""
+    zs = open_store(store, read_only=True)
+    root = _root_group(zs)
+    ours = set(FIXED_VARIABLES) | set(KNOWN_PARAMETER_UNITS)
+    with farm_entries_ignored():
+        return sorted(name for name, g in root.groups()
+                      if "schema_version" not in g.attrs and set(g.keys()) <= ours)
+
+
 def list_groups(store: StoreLike) -> list[str]:
     """Names of the experiment groups in a store, sorted."""
     zs = open_store(store, read_only=True)

@@ -53,6 +53,7 @@ from zarr.storage import LocalStore
 from storage._zarr import get_bytes, list_dir, set_bytes
 from storage.checksum import Slots, check
 from storage.errors import NotAStoreError, StoreError, access_error, verify_hint
+from storage.group import unfinished_groups
 from storage.paths import LOCK_NAME, StoreLike, describe, open_store, publish
 from storage.schema import (
     CHECKED_NAMES,
@@ -215,9 +216,10 @@ def _verify(zs: Store, where: str, store: StoreLike, group: str | None, repair: 
     root_doc, root_damage = _root(zs)
     if root_damage and get_bytes(zs, "zarr.json") is None and not list_dir(zs, ""):
         raise NotAStoreError(f"no Zarr store at {where}: check the path")
-    root_damage += _lock_file(zs)
-    if repair and root_damage and root_damage[-1].what == LOCK_NAME:
-        raise StoreError(f"cannot repair {where}: {root_damage[-1].reason}")
+    root_damage += _lock_file(zs) + _unfinished(zs)
+    lock = [d for d in root_damage if d.what == LOCK_NAME]
+    if repair and lock:
+        raise StoreError(f"cannot repair {where}: {lock[0].reason}")
     copies = _copies(root_doc)
     with _lock(zs, repair):  # repairs write metadata: one client at a time
         names = [group] if group is not None else _experiment_groups(zs)
@@ -242,6 +244,18 @@ def _lock_file(zs: Store) -> list[Damage]:
         return []
     return [Damage("", LOCK_NAME, f"the lock {path} is not a regular file: remove it "
                    "while no client uses the store (farm recreates it)")]
+
+
+def _unfinished(zs: Store) -> list[Damage]:
+    """Groups whose creation stopped before it finished (issue 26: after a full disk the
+    half-written group was invisible, "0 groups, no damage")."""
+    try:
+        names = unfinished_groups(zs)
+    except Exception:  # a root too damaged to list: _root reports it
+        return []
+    return [Damage(name, name, "the group's creation never finished (a client stopped "
+                   "mid-way, e.g. on a full disk): submit the study again to rebuild it")
+            for name in names]
 
 
 def _lock(zs: Store, repair: bool) -> AbstractContextManager:

@@ -433,3 +433,22 @@ def test_garbage_group_metadata_is_one_line_in_a_fresh_process(built):
                              capture_output=True, text=True, timeout=120)
         assert run.returncode == 1
         assert _one_line(run.stderr).startswith("farm: error:"), run.stderr
+
+
+def test_a_group_whose_creation_stopped_is_named_by_verify_and_status(built, capsys):
+    import zarr
+
+    half = zarr.open_group(str(built), mode="a").create_group("mesh-b")
+    half.create_array("inner_node", shape=(3,), dtype="int64")  # then the disk was full
+    assert storage.unfinished_groups(built) == ["mesh-b"]
+    report = verify(built)
+    assert not report.ok and "mesh-b: the group's creation never finished" in "\n".join(
+        report.lines())
+    assert _cli("sweep", "status", str(built)) == 1
+    out, err = capsys.readouterr()
+    assert "4 done" in out and "'mesh-b'" in _one_line(err) and "never finished" in err
+    # submitting again rebuilds it (create_group treats a half-made group as its own)
+    from store_helpers import make_attrs, make_mesh
+
+    storage.create_group(built, "mesh-b", make_mesh(N_INNER, N_TREAD), make_attrs())
+    assert storage.unfinished_groups(built) == [] and "mesh-b" in storage.list_groups(built)
