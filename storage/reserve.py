@@ -204,12 +204,22 @@ def _check_known(
     if not rows:
         return
     slots = np.array([index[ids[j]] for j in rows])
+    restore: list[tuple[str, np.ndarray, np.ndarray]] = []
     for name, a in values.items():
         stored = g[name][...][slots] if name in g else np.full(len(rows), np.nan)
         if name in COMBINED_PARAMETERS:
             # a vertical experiment reserved before its group became a combined one has
             # no friction, shift or tilt stored (NaN): it is the case where all are 0
             stored = np.where(np.isnan(stored), 0.0, stored)
+        elif name in g and np.isnan(stored).any():
+            # a lost value (its chunk deleted): an id stands for one load case, so the
+            # value the id is reserved with again is its value (issue 26: resume refused
+            # "pressure=nan" and every result behind it was lost); written only once
+            # every other value agrees
+            lost = np.flatnonzero(np.isnan(stored))
+            restore.append((name, slots[lost], a[np.asarray(rows)[lost]]))
+            stored = stored.copy()
+            stored[lost] = a[np.asarray(rows)[lost]]
         bad = np.flatnonzero(stored != a[rows])
         if bad.size:
             j = rows[bad[0]]
@@ -218,6 +228,8 @@ def _check_known(
                 f"{float(stored[bad[0]])}, not {float(a[j])}: an id stands for one load case "
                 "forever, so a changed load case needs a new id"
             )
+    for name, where, value in restore:
+        g[name].set_coordinate_selection(where, value)
 
 
 def _grow(g: zarr.Group, values: dict[str, np.ndarray], units: dict[str, str], k: int) -> None:

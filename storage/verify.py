@@ -32,9 +32,14 @@ Per experiment group, :func:`verify` checks that
 - a damaged root ``zarr.json`` is rewritten as a plain group and the consolidated
   metadata rebuilt.
 
-What the store cannot tell stays reported: garbled load-case parameters (the damaged
-experiments are marked pending, but re-reserving them needs their true load case:
-restore the chunk or submit into a new store), or metadata without a consolidated copy.
+- a done or failed slot whose load case is lost (a parameter chunk deleted or not
+  decoding) is kept as it is: ``farm sweep resume STUDY`` writes the load case back
+  from the study (an id stands for one load case) and its checksum verifies again.
+
+What the store cannot tell stays reported: load-case values garbled into other numbers
+(the damaged experiments are marked pending, but re-reserving them needs their true
+load case: restore the chunk or submit into a new store), or metadata without a
+consolidated copy.
 """
 
 from __future__ import annotations
@@ -339,6 +344,7 @@ class _GroupCheck:
         self.arrays: dict[str, zarr.Array] = {}
         self.restored: set[str] = set()
         self.restore: dict[int, int] = {}  # slot -> the status its checksum verifies
+        self.keep: set[int] = set()  # slots repair leaves as they are (load case lost)
 
     def report(self, reserved: int = 0, checked: int = 0, unverifiable: int = 0) -> GroupReport:
         return GroupReport(self.group, reserved, checked, unverifiable, tuple(self.damage),
@@ -361,10 +367,8 @@ class _GroupCheck:
         self._mesh_chunks()
         positions = [i for i in range(used) if status[i] in (DONE, FAILED) and ids[i]]
         self._orphans(ids, status, used)
-        for i in positions:
-            if i in bad_params:
-                self._experiment(ids[i], i, bad_params[i])
-        checkable = [i for i in positions if i not in bad_params and EXPERIMENT_ID.fullmatch(
+        lost = self._lost_load_cases(ids, positions, params, bad_params)
+        checkable = [i for i in positions if i not in lost and EXPERIMENT_ID.fullmatch(
             ids[i])]
         unverifiable = self._checksums(ids, status, params, checkable)
         self._lost_status(ids, status, params, [
@@ -529,6 +533,29 @@ class _GroupCheck:
             self._experiment(ids[i], i, reason + self._missing_chunks(i, status[i]))
         return 0
 
+    def _lost_load_cases(self, ids: list, positions: list[int], params: dict,
+                         bad_params: dict[int, str]) -> set[int]:
+        """Done or failed slots whose load case is lost (a parameter chunk deleted or not
+        decoding): nothing in them can be checked, but nothing says their results are
+        wrong either. Repair keeps them as they are (issue 26: marking them pending made
+        resume refuse them, "pressure=nan", and lost every result); ``farm sweep resume
+        STUDY`` writes the load case back from the study, since an id stands for one
+        load case (:func:`storage.reserve`), and their checksums then verify again."""
+        lost: dict[int, str] = {}
+        for i in positions:
+            if i in bad_params:
+                lost[i] = bad_params[i]
+                continue
+            gone = [n for n in REQUIRED_PARAMETERS if n in params and np.isnan(params[n][i])]
+            if gone:
+                lost[i] = f"its {gone[0]!r} value is missing (a chunk deleted)"
+        for i, why in lost.items():
+            self.keep.add(i)
+            self._experiment(ids[i], i, f"its load case is lost: {why}; the results are "
+                             "kept, and `farm sweep resume STUDY` restores the load case from "
+                             "the study file (their checksums verify again then)")
+        return set(lost)
+
     def _lost_status(self, ids: list, status: np.ndarray, params: dict, pending: list[int]
                      ) -> None:
         """Pending slots whose checksum matches them done or failed: a ``status`` chunk
@@ -622,18 +649,23 @@ class _GroupCheck:
                 status[i] = state
             self.repaired.append(f"{self.group}: {len(self.restore)} slot(s) given back the "
                                  "status their checksum verifies")
+        if self.keep:
+            self.repaired.append(f"{self.group}: {len(self.keep)} slot(s) kept as they are: "
+                                 "their load case is lost; `farm sweep resume STUDY` restores "
+                                 "it from the study")
+        skip = set(self.restore) | self.keep
         marked = sorted({d.index for d in self.damage
-                         if d.index is not None and d.index not in self.restore})
+                         if d.index is not None and d.index not in skip})
         if not marked:
             return
         status = self._writable("status")
         error = self._writable("error") if "error" in self.arrays else None
-        for d in (d for d in self.damage if d.index is not None and d.index not in self.restore):
+        for d in (d for d in self.damage if d.index is not None and d.index not in skip):
             status[d.index] = PENDING
             if error is not None and d.experiment is not None:
                 error[d.index] = f"damaged, marked pending by farm sweep verify: {d.reason}"[:500]
         ids = sorted({d.experiment for d in self.damage
-                      if d.experiment is not None and d.index not in self.restore})
+                      if d.experiment is not None and d.index not in skip})
         self.repaired.append(
             f"{self.group}: {len(marked)} slot(s) marked pending"
             + (f" ({_few(ids)})" if ids else "")

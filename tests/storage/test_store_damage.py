@@ -452,3 +452,32 @@ def test_a_group_whose_creation_stopped_is_named_by_verify_and_status(built, cap
 
     storage.create_group(built, "mesh-b", make_mesh(N_INNER, N_TREAD), make_attrs())
     assert storage.unfinished_groups(built) == [] and "mesh-b" in storage.list_groups(built)
+
+
+@pytest.mark.parametrize("name", ["pressure", "deflection"])
+def test_a_lost_load_case_keeps_its_results_and_resume_restores_it(built, name, capsys):
+    """Before: repair marked every experiment of a deleted parameter chunk pending, and
+    resume refused them ("pressure=nan, not 0.2"): 0 of 4 done, all results lost."""
+    (built / GROUP / name / "c" / "0").unlink()
+    report = verify(built)
+    assert report.damaged_ids == {*DONE_IDS, "e4"}
+    assert "its load case is lost" in "\n".join(report.lines())
+    _cli("sweep", "verify", str(built), "--repair")
+    assert "kept as they are" in capsys.readouterr().out
+    assert storage.statuses(built, GROUP, IDS[:5]) == {
+        **dict.fromkeys(DONE_IDS, storage.DONE), "e4": storage.FAILED}
+    # what `farm sweep resume STUDY` does first: reserve the study's ids again
+    storage.reserve(built, GROUP, IDS, {"deflection": DEFLECTION, "pressure": PRESSURE})
+    assert verify(built).ok
+    ds = storage.done(storage.open_dataset(built, GROUP))
+    assert set(ds["experiment"].values) == set(DONE_IDS)
+    _exact(ds)
+
+
+def test_a_lost_load_case_is_restored_only_from_the_same_id(built):
+    (built / GROUP / "pressure" / "c" / "0").unlink()
+    # a different value for a slot whose value is intact is still a conflict
+    with pytest.raises(storage.ParameterConflictError, match="deflection"):
+        storage.reserve(built, GROUP, IDS, {"deflection": [1.0] * 6, "pressure": PRESSURE})
+    # and nothing was written by the refused call
+    assert np.isnan(storage.open_dataset(built, GROUP)["pressure"].values).all()
