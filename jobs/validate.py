@@ -522,10 +522,11 @@ def location(value: Any, where: str, what: str = "a path or URL", base: Path | N
     if os.name == "posix" and (WINDOWS_PATH.match(text) or "\\" in text):
         raise fail(where, f"{shown(text)} looks like a Windows path; on this system paths "
                    "use '/' (e.g. /data/farm.zarr)")
-    _check_links(Path(text).expanduser(), where)
     try:
         path = Path(text).expanduser()
-        return str((path if base is None else base / path).resolve())
+        path = path if base is None else base / path
+        _check_links(path, where)
+        return str(path.resolve())
     except (RuntimeError, KeyError, OSError) as e:  # ~nobody: no such user
         raise fail(where, f"cannot resolve the path {shown(text)}: {e}") from e
 

@@ -312,6 +312,8 @@ def structure_cases(r: random.Random) -> Iterator[Case]:
                       ("model.materials", "unobtainium"), ("model.cut_faces", "open"),
                       ("study.group", "../escape"), ("study.group", "a/b"), ("study.group", ""),
                       ("study.group", "x" * 200), ("study.name", 3),
+                      ("study.group", "zarr.json"),  # issue 26: failed in create_group
+                      ("model.mesh", "fine"),  # an unknown mesh preset (issue 24)
                       ("loads.sample", {"method": "grid", "n": 4, "deflection_mm": [5, 9]}),
                       ("loads.sample", {"method": "lhs", "n": 4, "deflection_mm": [9, 5]}),
                       ("loads.sample", {"method": "lhs", "n": 4, "deflection_mm": [5, NAN]}),
@@ -321,7 +323,9 @@ def structure_cases(r: random.Random) -> Iterator[Case]:
                           path.rsplit(".", 1)[-1])
     for store in ("", "   ", "a\u0000b.zarr", "x" * 5000, "~no_such_user_fuzz/s.zarr",
                   "bad\nname.zarr", 3, ["s.zarr"], "memory://fuzz", "nosuch://x/y", "s3:/b/x",
-                  "s3://", "http://example.com/s.zarr", "://x"):
+                  "s3://", "http://example.com/s.zarr", "://x",
+                  # issue 26: accepted before, made into odd directories
+                  "res\u202eults.zarr", "C:\\farm\\x.zarr", "D:/farm/x.zarr"):
         yield _study_case(f"store-{store!r:.20}", with_value(REDUCED, "study.store", store),
                           REJECT, "store")
     for store in ("results/new.zarr", "./s.zarr", "deep/er/s.zarr"):
@@ -330,6 +334,7 @@ def structure_cases(r: random.Random) -> Iterator[Case]:
         yield _study_case(f"group-ok-{group}", with_value(REDUCED, "study.group", group), SUBMIT)
     yield _study_case("materials-preset", with_value(FULL, "model.materials",
                                                      "thesis-calibrated"), SUBMIT)
+    yield _study_case("mesh-preset", with_value(FULL, "model.mesh", "patch"), SUBMIT)
     yield _study_case("sampled-pressures", {**FULL, "loads": {"deflection_mm": [10, 20], "sample": {
         "method": "sobol", "n": 4, "pressure_kpa": [80, 200]}}}, SUBMIT)
 
