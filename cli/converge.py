@@ -16,6 +16,7 @@ from rich.console import Console
 
 from cli.errors import usage
 from cli.options import SCHEDULER, WORKERS, with_cluster
+from cli.params import check_materials
 from cli.progress import LogLines
 
 
@@ -33,16 +34,12 @@ def converge(
 ) -> None:
     """Solve the mesh-convergence study and write OUT/convergence.md."""
     from farm.ccx.runner import find_ccx
-    from farm.errors import SpecError
-    from farm.presets import MATERIAL_PRESETS
     from jobs import validate
     from jobs.convergence import levels as lv
     from jobs.convergence.run import run_study
 
     with usage():
-        if materials not in MATERIAL_PRESETS:
-            raise SpecError(f"unknown material preset {validate.shown(materials)}: choose "
-                            f"one of {', '.join(MATERIAL_PRESETS)}")
+        check_materials(materials)
         validate.output_folder(out, "--out")
         if replay:
             saved = validate.read_text(out / "convergence.json", "convergence records")

@@ -53,6 +53,16 @@ MESH_HELP = ("Mesh preset: thesis (Table 3.1's element counts) or patch (full mo
              "refined over +-32 degrees about the road, docs/mesh-convergence.md).")
 
 
+def check_materials(name: str) -> str:
+    """``name`` if it is a material preset, else one :class:`SpecError` line naming them."""
+    from farm.presets import MATERIAL_PRESETS
+
+    if name not in MATERIAL_PRESETS:
+        raise SpecError(f"unknown material preset {validate.shown(name)}: choose one of "
+                        f"{', '.join(MATERIAL_PRESETS)}")
+    return name
+
+
 def build_model(kind: str, materials: str, road: str | None, overrides: list[str],
                 mesh: str = "thesis") -> ModelSpec:
     """A preset model with ``key=value`` overrides (dotted keys, e.g. mesh.circumferential=80)."""

@@ -18,6 +18,7 @@ from rich.console import Console
 from cli.errors import usage
 from cli.invert import loop_progress
 from cli.options import SCHEDULER, WORKERS, with_cluster
+from cli.params import check_materials
 from cli.progress import LogLines, interactive
 from cli.progress import console as stderr_console
 from cli.sweep import sweep_progress
@@ -40,16 +41,12 @@ def reproduce(
     """Run the thesis study (chapters 3-5) on the farm and write OUT/report.md."""
     from analysis.report import reproduction
     from farm.ccx.runner import ccx_version, find_ccx
-    from farm.errors import SpecError
-    from farm.presets import MATERIAL_PRESETS
     from jobs import validate
     from jobs.cluster import DaskCluster
     from jobs.reproduce import Options
 
     with usage():
-        if materials not in MATERIAL_PRESETS:
-            raise SpecError(f"unknown material preset {validate.shown(materials)}: choose "
-                            f"one of {', '.join(MATERIAL_PRESETS)}")
+        check_materials(materials)
         validate.output_folder(out, "--out")
         if store is not None:
             store = validate.store_location(store, "--store")
