@@ -90,3 +90,21 @@ def test_a_frictionless_slide_moves_nothing(vertical):
                                    atol=1e-3 * vertical.total_force[2])
         np.testing.assert_allclose(m.displacement, vertical.displacement,
                                    atol=1e-3 * np.abs(vertical.displacement).max())
+
+
+@pytest.mark.slow
+def test_the_patch_preset_balances_and_obeys_coulomb_node_by_node():
+    """The preset studies use (docs/mesh-convergence.md), at 30 mm / 200 kPa, slid
+    sideways with mu 0.5 until part of the patch slips."""
+    model = default_model("full", mesh="patch")
+    path = LoadPath((30.0,), PRESSURE, RoadMotion(0.5, shift_y=4.0), (1.0,))
+    vertical, slid = run_load_path(model, path, SETTINGS).measurements
+    assert abs(vertical.moment[0]) < 1e-3 * vertical.total_force[2] * 100.0
+    for m in (vertical, slid):
+        size = np.linalg.norm(m.road_reaction)
+        assert np.abs(m.total_force - m.road_reaction).max() < 5e-3 * size
+        f = m.reaction_force
+        fn, ft = f[:, 2], np.hypot(f[:, 0], f[:, 1])
+        assert np.all(fn >= 0) and np.all(ft <= 0.5 * fn * (1 + 1e-3) + 1e-9)
+    assert np.count_nonzero(np.abs(slid.reaction_force).sum(axis=1)) > 50  # a resolved patch
+    assert 0 < slid.total_force[1] < 0.5 * slid.total_force[2]
