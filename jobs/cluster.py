@@ -142,10 +142,10 @@ def connect(scheduler: str | None = None, workers: int | None = None,
     _check_address(address)
     check_address(address, tls)
     kwargs = {"security": tls.client_security()} if tls is not None else {}
-    # Client's timeout does not cover Dask's handshake: ask who is there first (issue 26)
-    check_scheduler(address, dask.utils.parse_timedelta(CONNECT_TIMEOUT),
-                    kwargs["security"].get_connection_args("client") if kwargs else None)
     try:
+        # Client's timeout does not cover Dask's handshake: ask who is there first (issue 26)
+        check_scheduler(address, dask.utils.parse_timedelta(CONNECT_TIMEOUT),
+                        kwargs["security"].get_connection_args("client") if kwargs else None)
         client = Client(address, timeout=CONNECT_TIMEOUT, **kwargs)
     except (OSError, TimeoutError, ValueError) as e:
         raise ClusterError(_unreachable(address, e)) from e

@@ -50,16 +50,16 @@ def _check_listening(address: str, timeout: float) -> None:
 
     try:
         host, port = parse_host_port(rest)
-        socket.create_connection((host, port), timeout=timeout).close()
-    except (OSError, ValueError) as e:
-        raise ClusterError(f"cannot reach the Dask scheduler at {address!r}: "
-                           f"{e.strerror or e if isinstance(e, OSError) else e}; {HINT}") from e
+    except ValueError as e:
+        raise ClusterError(f"{address!r} is not a scheduler address ({e}): {HINT}") from e
+    socket.create_connection((host, port), timeout=timeout).close()  # OSError: unreachable
 
 
 def check_scheduler(address: str, timeout: float, connection_args: dict[str, Any] | None = None
                     ) -> dict[str, Any]:
     """The scheduler's identity; raises :class:`ClusterError` within about ``timeout``
-    seconds when ``address`` does not answer as a Dask scheduler."""
+    seconds when ``address`` does not answer as a Dask scheduler, and ``OSError`` when
+    nothing can be reached there (refused, unroutable, a TLS handshake refused)."""
     _check_listening(address, timeout)
     with concurrent.futures.ThreadPoolExecutor(1) as pool:  # own event loop, any caller
         future = pool.submit(asyncio.run, _identity(address, timeout, connection_args or {}))
@@ -68,9 +68,8 @@ def check_scheduler(address: str, timeout: float, connection_args: dict[str, Any
         except (TimeoutError, concurrent.futures.TimeoutError) as e:
             raise ClusterError(f"{address} accepted no Dask handshake within {timeout:g} s: "
                                f"{HINT}") from e
-        except OSError as e:
-            raise ClusterError(f"cannot reach the Dask scheduler at {address!r}: {e}; "
-                               f"{HINT}") from e
+        except OSError:  # the caller says "cannot reach" with its own hints (TLS ...)
+            raise
         except Exception as e:  # whatever the bytes were, they were not Dask's
             raise ClusterError(f"{address} does not speak Dask's protocol ({type(e).__name__}"
                                f"{': ' + str(e)[:120] if str(e) else ''}): {HINT}") from e

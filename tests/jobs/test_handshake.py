@@ -77,7 +77,7 @@ def test_an_http_server_is_not_a_scheduler(http_port):
 
 def test_nothing_listening_is_said_at_once():
     start = time.monotonic()
-    with pytest.raises(ClusterError, match=r"cannot reach the Dask scheduler .* refused"):
+    with pytest.raises(OSError, match="refused"):
         check_scheduler(f"tcp://127.0.0.1:{_free_port()}", 20.0)
     assert time.monotonic() - start < 5.0
 
