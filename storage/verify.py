@@ -36,10 +36,10 @@ Per experiment group, :func:`verify` checks that
   decoding) is kept as it is: ``farm sweep resume STUDY`` writes the load case back
   from the study (an id stands for one load case) and its checksum verifies again.
 
-What the store cannot tell stays reported: load-case values garbled into other numbers
-(the damaged experiments are marked pending, but re-reserving them needs their true
-load case: restore the chunk or submit into a new store), or metadata without a
-consolidated copy.
+Load-case values garbled into other numbers mark their experiments pending; resume
+writes the true values back where the slot's checksum label proves them
+(:func:`storage.reserve`) and solves them again. What the store cannot tell stays
+reported: metadata without a consolidated copy.
 """
 
 from __future__ import annotations

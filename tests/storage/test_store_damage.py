@@ -481,3 +481,23 @@ def test_a_lost_load_case_is_restored_only_from_the_same_id(built):
         storage.reserve(built, GROUP, IDS, {"deflection": [1.0] * 6, "pressure": PRESSURE})
     # and nothing was written by the refused call
     assert np.isnan(storage.open_dataset(built, GROUP)["pressure"].values).all()
+
+
+def test_an_edited_load_case_is_restored_by_resume_from_the_signed_label(built, capsys):
+    """Before: an edited deflection made repair mark the slot pending and resume refuse
+    it ("deflection=99.5, not 17.3"): 3 of 4 done for good. The worker's checksum label
+    is the id with its true load case, so the study's value is proven and written back;
+    the slot (pending after repair) is solved again."""
+    import zarr
+
+    zarr.open_array(str(built / GROUP / "deflection"), mode="r+")[1] = 99.5
+    _cli("sweep", "verify", str(built), "--repair")
+    capsys.readouterr()
+    assert storage.statuses(built, GROUP, ["e1"]) == {"e1": storage.PENDING}
+    storage.reserve(built, GROUP, IDS, {"deflection": DEFLECTION, "pressure": PRESSURE})
+    ds = storage.open_dataset(built, GROUP)
+    assert ds["deflection"].values.tolist() == DEFLECTION
+    assert verify(built).ok
+    # a load case no signature proves is still a conflict
+    with pytest.raises(storage.ParameterConflictError, match="deflection"):
+        storage.reserve(built, GROUP, ["e0"], {"deflection": [12.0], "pressure": PRESSURE})
