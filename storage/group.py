@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 import zarr
 
-from storage.errors import MeshMismatchError, SchemaError
+from storage.errors import MeshMismatchError, SchemaError, names_the_store
 from storage.lock import client_lock
 from storage.mesh import GroupAttrs, MeshNodes
 from storage.paths import (
@@ -65,6 +65,7 @@ def create_array(g: zarr.Group, var: Variable, shape: tuple[int, ...]) -> zarr.A
     )
 
 
+@names_the_store
 def create_group(store: StoreLike, group: str, mesh: MeshNodes, attrs: GroupAttrs) -> None:
     """Create the group of one model mesh, with its node sets and no experiments.
 

@@ -20,7 +20,12 @@ import numpy as np
 import zarr
 
 from storage.checksum import label_digest
-from storage.errors import ConcurrentClientError, ParameterConflictError, SchemaError
+from storage.errors import (
+    ConcurrentClientError,
+    ParameterConflictError,
+    SchemaError,
+    names_the_store,
+)
 from storage.group import create_array
 from storage.lock import client_lock
 from storage.paths import StoreLike, describe, open_group, open_store
@@ -108,6 +113,7 @@ def read_ids(g: zarr.Group) -> list[str]:
     return raw[:used]
 
 
+@names_the_store
 def reserve(
     store: StoreLike,
     group: str,

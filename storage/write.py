@@ -26,7 +26,13 @@ import numpy as np
 
 from storage._zarr import read_item, write_in_order
 from storage.checksum import checksum
-from storage.errors import AlreadyDoneError, MeshMismatchError, SchemaError, StoreError
+from storage.errors import (
+    AlreadyDoneError,
+    MeshMismatchError,
+    SchemaError,
+    StoreError,
+    names_the_store,
+)
 from storage.handles import Handle, locate
 from storage.paths import StoreLike, open_store
 from storage.schema import (
@@ -200,6 +206,7 @@ def _write(h: Handle, i: int, values: dict[str, np.ndarray], status: int, where:
         ) from e
 
 
+@names_the_store
 def write_experiment(
     store: StoreLike,
     group: str,
@@ -242,6 +249,7 @@ def write_experiment(
     _write(h, i, values, DONE, f"experiment {experiment_id!r} into group {group!r}")
 
 
+@names_the_store
 def write_failure(
     store: StoreLike,
     group: str,

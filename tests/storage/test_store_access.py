@@ -63,3 +63,40 @@ def test_an_object_store_without_credentials_is_one_line(command, capsys, monkey
     err = capsys.readouterr().err
     assert info.value.code == 1 and err.count("\n") == 1, err
     assert "s3://no-such-bucket/x.zarr" in err and "no credentials" in err
+
+
+@pytest.fixture
+def tiny_disk(tmp_path):
+    """A 64 KiB tmpfs: a store on it fills the disk while its group is being made."""
+    import os
+    import subprocess
+
+    mount = tmp_path / "tiny"
+    mount.mkdir()
+    if os.geteuid() != 0:
+        pytest.skip("mounting a tmpfs needs root (CI runs as root)")
+    made = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(mount)],
+                          capture_output=True, text=True, check=False)
+    if made.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here: {made.stderr.strip()}")
+    yield mount
+    subprocess.run(["umount", str(mount)], check=False)
+
+
+def test_a_full_disk_is_one_line_and_the_half_made_group_is_named(tiny_disk, tmp_path,
+                                                                   capsys, monkeypatch):
+    monkeypatch.setenv("FARM_CACHE_DIR", str(tmp_path / "cache"))
+    study = tmp_path / "study.toml"
+    store = tiny_disk / "s.zarr"
+    study.write_text(f'[study]\nname = "tiny"\nstore = "{store}"\n[model]\nkind = "reduced"\n'
+                     "[model.mesh]\ntread = 4\nsidewall = 2\nbead = 1\ncircumferential = 8\n"
+                     "[loads]\ndeflection_mm = [10, 20]\n")
+    with pytest.raises(SystemExit) as info:
+        main(["sweep", "submit", str(study), "--workers", "1"])
+    err = capsys.readouterr().err
+    assert info.value.code == 1 and err.count("\n") == 1, err
+    assert f"the store at {store}: no space left on the device" in err
+    with pytest.raises(SystemExit) as info:
+        main(["sweep", "verify", str(store)])
+    out = capsys.readouterr().out
+    assert info.value.code == 1 and "creation never finished" in out, out
