@@ -23,6 +23,8 @@ Per experiment group, :func:`verify` checks that
   pending experiments and, if asked, failed ones: a new value would be skipped by
   every client that does not know it); ``error`` keeps the why;
 - a pending slot whose checksum verifies it done (or failed) gets that status back;
+- ids swapped between slots go back where their checksums were signed (when the failing
+  slots' ids are a permutation of each other and every one then verifies, data included);
 - a done or failed slot without an id (its ids chunk is lost) goes back to pending:
   resume reserves the study's ids again and re-solves them;
 - a ``zarr.json`` that is missing or does not decode is restored from the copy in the
@@ -56,7 +58,7 @@ from zarr.abc.store import Store
 from zarr.storage import LocalStore
 
 from storage._zarr import get_bytes, list_dir, set_bytes
-from storage.checksum import Slots, check
+from storage.checksum import Slots, check, label_digest, split
 from storage.errors import NotAStoreError, StoreError, access_error, verify_hint
 from storage.group import unfinished_groups
 from storage.paths import LOCK_NAME, StoreLike, describe, open_store, publish
@@ -345,6 +347,7 @@ class _GroupCheck:
         self.restored: set[str] = set()
         self.restore: dict[int, int] = {}  # slot -> the status its checksum verifies
         self.keep: set[int] = set()  # slots repair leaves as they are (load case lost)
+        self.relabel: dict[int, str] = {}  # slot -> the id its checksum was signed with
 
     def report(self, reserved: int = 0, checked: int = 0, unverifiable: int = 0) -> GroupReport:
         return GroupReport(self.group, reserved, checked, unverifiable, tuple(self.damage),
@@ -527,11 +530,40 @@ class _GroupCheck:
         for i in bad:
             if i in positions:
                 self._experiment(ids[i], i, "its checksum chunk does not decode")
-        slots = self._slots(ids, status, params, ["" if i in bad else str(s)
-                                                  for i, s in enumerate(sums)])
-        for i, reason in check(slots, [i for i in positions if i not in bad]).items():
+        texts = ["" if i in bad else str(s) for i, s in enumerate(sums)]
+        slots = self._slots(ids, status, params, texts)
+        failed = check(slots, [i for i in positions if i not in bad])
+        moved = self._moved_ids(ids, status, params, texts, list(failed))
+        for i, reason in failed.items():
+            if i in moved:
+                self.relabel[i] = moved[i]
+                reason = (f"its id is {ids[i]!r} but its checksum was signed as {moved[i]!r} "
+                          "(ids swapped or moved; its data are intact)")
             self._experiment(ids[i], i, reason + self._missing_chunks(i, status[i]))
         return 0
+
+    def _moved_ids(self, ids: list, status: np.ndarray, params: dict, sums: list[str],
+                   failed: list[int]) -> dict[int, str]:
+        """Failed slots whose checksum verifies, data included, under another failed
+        slot's id, when those ids are a permutation of each other (issue 26: two swapped
+        ids cost two experiments, and resume could not restore them)."""
+        if len(failed) < 2:
+            return {}
+        candidates = {ids[i] for i in failed if ids[i]}
+        found: dict[int, str] = {}
+        for i in failed:
+            label = (split(sums[i]) or ("", ""))[0]
+            mine = {n: float(a[i]) for n, a in params.items()}
+            match = [e for e in candidates - {ids[i]} if label_digest(e, mine) == label]
+            if len(match) == 1:
+                found[i] = match[0]
+        if sorted(found.values()) != sorted(ids[i] for i in found):
+            return {}  # not a permutation among these slots: nothing is proven
+        trial = list(ids)
+        for i, e in found.items():
+            trial[i] = e
+        wrong = check(self._slots(trial, status, params, sums), list(found))
+        return {} if wrong else found
 
     def _lost_load_cases(self, ids: list, positions: list[int], params: dict,
                          bad_params: dict[int, str]) -> set[int]:
@@ -649,11 +681,17 @@ class _GroupCheck:
                 status[i] = state
             self.repaired.append(f"{self.group}: {len(self.restore)} slot(s) given back the "
                                  "status their checksum verifies")
+        if self.relabel:
+            experiment = self._writable("experiment")
+            for i, e in sorted(self.relabel.items()):
+                experiment[i] = e
+            self.repaired.append(f"{self.group}: {len(self.relabel)} id(s) put back where "
+                                 "their checksums were signed")
         if self.keep:
             self.repaired.append(f"{self.group}: {len(self.keep)} slot(s) kept as they are: "
                                  "their load case is lost; `farm sweep resume STUDY` restores "
                                  "it from the study")
-        skip = set(self.restore) | self.keep
+        skip = set(self.restore) | self.keep | set(self.relabel)
         marked = sorted({d.index for d in self.damage
                          if d.index is not None and d.index not in skip})
         if not marked:

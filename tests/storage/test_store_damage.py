@@ -501,3 +501,30 @@ def test_an_edited_load_case_is_restored_by_resume_from_the_signed_label(built, 
     # a load case no signature proves is still a conflict
     with pytest.raises(storage.ParameterConflictError, match="deflection"):
         storage.reserve(built, GROUP, ["e0"], {"deflection": [12.0], "pressure": PRESSURE})
+
+
+def test_swapped_ids_are_put_back_where_their_checksums_were_signed(built, capsys):
+    """Before: two swapped ids cost both experiments (marked pending, and resume could
+    not re-reserve them with their load cases). Their checksums name the true ids."""
+    import zarr
+
+    ids = zarr.open_array(str(built / GROUP / "experiment"), mode="r+")
+    ids[1], ids[2] = "e2", "e1"
+    report = verify(built)
+    assert report.damaged_ids == {"e1", "e2"}
+    assert "its checksum was signed as 'e1'" in "\n".join(report.lines())
+    _cli("sweep", "verify", str(built), "--repair")
+    assert "id(s) put back" in capsys.readouterr().out
+    assert verify(built).ok
+    ds = storage.done(storage.open_dataset(built, GROUP))
+    assert set(ds["experiment"].values) == set(DONE_IDS)
+    _exact(ds)
+
+
+def test_a_single_wrong_id_proves_nothing_and_goes_pending(built, capsys):
+    import zarr
+
+    zarr.open_array(str(built / GROUP / "experiment"), mode="r+")[1] = "e9"
+    _cli("sweep", "verify", str(built), "--repair")
+    capsys.readouterr()
+    assert storage.statuses(built, GROUP, ["e9"]) == {"e9": storage.PENDING}
