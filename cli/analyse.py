@@ -29,7 +29,7 @@ from cli.options import (
     with_tls,
 )
 from jobs import validate
-from jobs.errors import StudyError
+from jobs.errors import ClusterError, StudyError
 
 REFERENCE_TOLERANCE_MM = 1e-6  # stored deflections are rounded to 1e-9 mm
 MAX_DRAWS = 10_000  # Monte Carlo draws per noise level
@@ -45,10 +45,19 @@ def dask_scheduler(address: str | None):
     """Where the reductions run: ``--scheduler``, else the scheduler the environment
     names (the order of :func:`jobs.cluster.resolve_scheduler`, as for sweeps), else
     dask's local threads."""
-    from analysis.cluster import scheduler
+    from analysis.cluster import CONNECT_TIMEOUT, scheduler
     from jobs.cluster import resolve_scheduler
+    from jobs.handshake import check_scheduler
 
-    return scheduler(resolve_scheduler(address))
+    address = resolve_scheduler(address)
+    if address:  # Client's timeout does not cover Dask's handshake (issue 26)
+        import dask
+
+        try:
+            check_scheduler(address, dask.utils.parse_timedelta(CONNECT_TIMEOUT))
+        except OSError as e:
+            raise ClusterError(f"cannot reach the Dask scheduler at {address!r}: {e}") from e
+    return scheduler(address)
 
 
 app = typer.Typer(

@@ -107,3 +107,18 @@ def test_the_cli_says_one_line_and_submits_nothing(make, silent_port, tmp_path, 
     assert info.value.code != 0 and err.count("\n") == 1, err
     assert ("no Dask handshake" if make == "silent" else "not supported") in err
     assert not (tmp_path / "s.zarr").exists()
+
+
+def test_analyse_with_a_silent_scheduler_is_one_line(silent_port, tmp_path, capsys,
+                                                      monkeypatch):
+    import analysis.cluster
+
+    monkeypatch.setattr(analysis.cluster, "CONNECT_TIMEOUT", "2s")
+    start = time.monotonic()
+    with pytest.raises(SystemExit) as info:
+        main(["analyse", "pca", str(tmp_path / "none.zarr"), "--scheduler",
+              f"tcp://127.0.0.1:{silent_port}"])
+    err = capsys.readouterr().err
+    assert info.value.code != 0 and err.count("\n") == 1, err
+    assert "accepted no Dask handshake within 2 s" in err  # the scheduler, before the store
+    assert time.monotonic() - start < 30.0
