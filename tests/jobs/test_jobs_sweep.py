@@ -10,6 +10,7 @@ import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -85,3 +86,50 @@ def test_killed_client_then_resume_solves_only_what_was_left(write_study, counti
     report = run_sweep(study, workers=2)
     assert report.ok and report.skipped == before["done"]
     assert ccx_runs(counting_ccx) - runs == before["pending"]
+
+
+def test_repair_then_resume_restores_every_promised_case(write_study, counting_ccx, capsys):
+    """Issue 26, end to end with the solver: each kind of damage is repaired, then the
+    study resumed; the runs it costs are exactly the experiments whose data were lost."""
+    import zarr
+
+    study = load_study(write_study())
+    assert run_sweep(study, workers=2).ok
+    group = Path(study.store) / study.group_name
+    ids = storage.statuses(study.store, study.group_name, None)
+
+    def round_trip(damage) -> int:
+        damage()
+        main_code = _cli_code(["sweep", "verify", study.store, "--repair"])
+        assert main_code == 1  # it was damaged
+        capsys.readouterr()
+        runs = ccx_runs(counting_ccx)
+        report = run_sweep(study, workers=2)
+        assert report.ok
+        assert storage.status_counts(study.store, study.group_name) == {
+            "pending": 0, "done": 6, "failed": 0}
+        assert storage.verify(study.store).ok
+        return ccx_runs(counting_ccx) - runs
+
+    def swap():
+        a = zarr.open_array(str(group / "experiment"), mode="r+")
+        a[1], a[2] = a[2], a[1]
+
+    def edit():
+        zarr.open_array(str(group / "deflection"), mode="r+")[3] = 99.5
+
+    def reset():
+        (group / "status" / "c" / "4").write_bytes(bytes([storage.PENDING]))
+
+    assert round_trip(lambda: (group / "pressure" / "c" / "0").unlink()) == 0  # lost load case
+    assert round_trip(swap) == 0  # ids put back where they were signed
+    assert round_trip(reset) == 0  # the status given back by its checksum
+    assert round_trip(edit) == 1  # its data went pending; the true load case is solved again
+    assert set(storage.statuses(study.store, study.group_name, None)) == set(ids)
+
+
+def _cli_code(argv) -> int:
+    with pytest.raises(SystemExit) as info:
+        main(argv)
+        raise SystemExit(0)
+    return int(info.value.code or 0)
