@@ -6,6 +6,7 @@ Every argument is checked before the solver starts (docs/limits.md), ``--out`` a
 
 from __future__ import annotations
 
+import json
 import os
 import time
 from pathlib import Path
@@ -60,6 +61,8 @@ def run(
                                   "along its lateral axis after the last deflection, mm."),
     tilt: float = typer.Option(0.0, "--tilt", help="Combined loads: road tilt about x "
                                "(camber, +y side up), degrees, -10 to 10."),
+    as_json: bool = typer.Option(False, "--json", help="Print the results as one JSON "
+                                 "document instead of the table."),
 ) -> None:
     """Solve one load path (one model, one pressure, several deflections) and print a table."""
     with usage():
@@ -73,7 +76,10 @@ def run(
         scratch = Path(f"farm-run-{time.strftime('%Y%m%d-%H%M%S')}").resolve()
         os.environ["FARM_SCRATCH_DIR"] = str(scratch)
     result = run_load_path(spec, path, settings)
-    _print_table(result, kpa, _patches(result))  # on stdout; the notes below on stderr
+    if as_json:
+        typer.echo(json.dumps(_document(result, kpa), indent=1))
+    else:
+        _print_table(result, kpa, _patches(result))  # on stdout; the notes on stderr
     if keep:
         Console(stderr=True).print(f"solver files kept in {scratch}")
     if out is not None:
@@ -107,6 +113,23 @@ def _checked(spec, kpa: float, deflection: str, threads: int, timeout: float, ke
     path = LoadPath(deflections, kpa / 1000.0, motion)
     path.check_against(spec)
     return path, SolverSettings(threads=threads, timeout=timeout, keep_scratch=keep)
+
+
+def _document(result: PathResult, kpa: float) -> dict:
+    """The run as plain JSON: model, load path, one entry per state, the cost."""
+    patches, growth = _patches(result)
+    states = []
+    for m, patch in zip(result.measurements, patches, strict=True):
+        state = {"deflection_mm": m.deflection, "force_n": m.total_force.tolist(),
+                 "moment_nm": (m.moment / 1e3).tolist(), "contact_nodes": m.contact_nodes,
+                 "patch": patch.to_dict(), "solve_s": m.solve_seconds}
+        if m.motion is not None:
+            state["motion"] = m.motion.to_dict()
+        states.append(state)
+    return {"model": result.model.to_dict(), "pressure_kpa": kpa, "states": states,
+            "inflation_growth_mm": growth, "ccx_runs": result.ccx_runs,
+            "increments": result.increments, "solve_s": result.solve_seconds,
+            "wall_s": result.wall_seconds, "solver": result.solver}
 
 
 def _patches(result: PathResult) -> tuple[list, float | None]:

@@ -7,6 +7,7 @@ deflection.
 
 from __future__ import annotations
 
+import json
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -16,6 +17,7 @@ import numpy as np
 
 from farm.ccx.runner import ccx_version
 from farm.measure.measurement import Measurement, measure
+from farm.measure.patch import inflation_growth, patch_metrics, tread_areas
 from farm.mesh import TyreMesh, mesh_for
 from farm.solve.contact import solve_contact_path
 from farm.solve.iterative import solve_iterative_path
@@ -44,17 +46,45 @@ class PathResult:
     solver: str
 
     def save(self, file: str | Path, mesh: TyreMesh) -> None:
-        """Write the arrays (and node ids/coordinates) to a ``.npz`` file."""
+        """Write every array the store would hold, one row per state, to a ``.npz``.
+
+        The load case (``deflection``, ``pressure`` and, for a combined path,
+        ``friction``, ``shift_x``, ``shift_y``, ``tilt``), the results
+        (:meth:`Measurement.arrays` and :meth:`Measurement.combined_arrays`), the
+        bookkeeping (``contact_nodes``, ``solve_seconds``), the contact patch
+        (``patch_*``, :mod:`farm.measure.patch`), node ids and reference coordinates
+        with their grid positions, and ``model_json``/``solver``. Issue 25: the file once
+        dropped every combined-load array, so both states of a slide read alike.
+        """
+        np.savez_compressed(file, **self.arrays(mesh))
+
+    def arrays(self, mesh: TyreMesh) -> dict[str, np.ndarray]:
+        """What :meth:`save` writes, by name."""
         m = self.measurements
-        np.savez_compressed(
-            file,
-            deflection=np.array([x.deflection for x in m]),
-            pressure=np.array([x.pressure for x in m]),
-            inner_node=mesh.inner_nodes, inner_xyz=mesh.xyz(mesh.inner_nodes),
-            tread_node=mesh.tread_nodes, tread_xyz=mesh.xyz(mesh.tread_nodes),
+        out: dict[str, np.ndarray] = {
+            "deflection": np.array([x.deflection for x in m]),
+            "pressure": np.array([x.pressure for x in m]),
+            "inner_node": mesh.inner_nodes, "inner_xyz": mesh.xyz(mesh.inner_nodes),
+            "tread_node": mesh.tread_nodes, "tread_xyz": mesh.xyz(mesh.tread_nodes),
             **{k: np.stack([x.arrays()[k] for x in m]) for k in m[0].arrays()},
-            model_spec=np.array(repr(self.model)), solver=np.array(self.solver),
-        )
+            "contact_nodes": np.array([x.contact_nodes for x in m]),
+            "solve_seconds": np.array([x.solve_seconds for x in m]),
+        }
+        if self.path.motion is not None:
+            for name in ("friction", "shift_x", "shift_y", "tilt"):
+                out[name] = np.array([getattr(x.motion, name) for x in m])
+            out.update({k: np.stack([x.combined_arrays()[k] for x in m])
+                        for k in m[0].combined_arrays()})
+        tilt = np.radians(self.path.motion.tilt) if self.path.motion else 0.0
+        normal = np.array([0.0, -np.sin(tilt), np.cos(tilt)])
+        areas = tread_areas(mesh)
+        patches = [patch_metrics(mesh, s, normal, areas).to_dict() for s in self.states]
+        out.update({f"patch_{k}": np.array([p[k] for p in patches]) for k in patches[0]})
+        if self.model.inflated:
+            out["inflation_growth"] = np.array(inflation_growth(mesh, self.reference))
+        out["model_json"] = np.array(json.dumps(self.model.to_dict(), sort_keys=True))
+        out["solver"] = np.array(self.solver)
+        return out
 
 
 def solve_path(model: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: SolverSettings,

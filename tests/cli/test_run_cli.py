@@ -64,6 +64,31 @@ def test_run_prints_the_force_table_and_saves_arrays(tmp_path, capsys):
         assert np.all(z["total_force"][:, 2] > 0)
 
 
+@pytest.mark.ccx
+def test_a_combined_run_keeps_every_array_and_prints_json(tmp_path, capsys):
+    """Issue 25: --out dropped every combined-load array (both states of a slide read
+    deflection 15 and nothing else); there was no --json."""
+    import json
+
+    out_file = tmp_path / "slide.npz"
+    full = ["--set", "mesh.tread=4", "--set", "mesh.sidewall=2", "--set", "mesh.bead=1",
+            "--set", "mesh.circumferential=16"]
+    code, out, err = _run(["run", "--model", "full", "--deflection", "15", *full,
+                           "--friction", "0.5", "--shift-y", "3", "--json",
+                           "--out", str(out_file)], capsys)
+    assert code == 0, err
+    doc = json.loads(out)
+    assert [s["motion"]["shift_y"] for s in doc["states"]] == [0.0, 3.0]
+    assert doc["states"][1]["force_n"][1] > 10.0 and doc["inflation_growth_mm"] > 0
+    assert doc["states"][0]["patch"]["nodes"] == doc["states"][0]["contact_nodes"]
+    with np.load(out_file) as z:
+        assert list(z["shift_y"]) == [0.0, 3.0] and list(z["friction"]) == [0.5, 0.5]
+        n = len(z["tread_node"])
+        assert z["contact_status"].shape == (2, n) and z["tread_slip"].shape == (2, n, 3)
+        assert z["road_reaction"].shape == (2, 3) and z["patch_area"].shape == (2,)
+        assert json.loads(str(z["model_json"]))["kind"] == "full"
+
+
 @pytest.mark.parametrize(
     "argv, needle",
     [
