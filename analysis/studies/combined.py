@@ -13,7 +13,9 @@ From one group of a combined-load study (load parameters ``friction``, ``shift_x
 - measurement noise at the T2Cam levels (1 mm on displacements; 0.04 % = 4e-4, the
   thesis' level, and 0.5 % = 5e-3, T2Cam's strain band) added to the held-out inputs
   (CV folds and test set), the models trained on the noise-free FE data, as
-  :mod:`analysis.studies.noise` does; the count is chosen again at each noise level;
+  :mod:`analysis.studies.noise` does, and again on noisy training inputs (column
+  ``training``: what a model trained on measurements sees; issue 25); the count is
+  chosen again at each noise level and training;
 - held-out RMSE per total as % of its range over all selected experiments (the design's
   load range: a test set of a few experiments has an arbitrary, often tiny range), per
   nodal component as % of the range of that component's nodal forces over all selected
@@ -177,41 +179,52 @@ def run(
                                     for v, b in zip(vars_, blocks, strict=True)])
             if scenario == "noise-free" or np.any(sigma > 0):
                 sigmas[scenario] = sigma
+        noisy_sigmas = {s: v for s, v in sigmas.items() if np.any(v > 0)}
         for target, Y, y_blocks in (("totals", Y_tot, [1] * 6), ("nodal", Y_map, [M, M, M])):
-            chosen = cross_validate(
-                X[train], Y[train], methods=methods, folds=folds,
-                max_components=max_components, sigmas=sigmas, draws=draws,
-                seed=seed, x_blocks=x_blocks, y_blocks=y_blocks,
-            )
-            for k, (scenario, sigma) in enumerate(sigmas.items()):
+            cv_args = dict(methods=methods, folds=folds, max_components=max_components,
+                           draws=draws, seed=seed, x_blocks=x_blocks, y_blocks=y_blocks)
+            chosen = {("noise-free", *k): v for k, v in cross_validate(
+                X[train], Y[train], sigmas=sigmas, **cv_args).items()}
+            if noisy_sigmas:  # issue 25: the same noise in training, as measured data have
+                chosen |= {("noisy", *k): v for k, v in cross_validate(
+                    X[train], Y[train], sigmas=noisy_sigmas, train_noise=True,
+                    **cv_args).items()}
+            for (training, method, scenario), (best, table) in chosen.items():
+                k = list(sigmas).index(scenario)
+                sigma = sigmas[scenario]
                 Xt, Yt = X[test], Y[test]
+                Xf, Yf = X[train], Y[train]
                 if np.any(sigma > 0):
                     rng = np.random.default_rng([seed, 2, k])
                     Xt = np.concatenate([add_noise(X[test], sigma, rng) for _ in range(draws)])
                     Yt = np.concatenate([Y[test]] * draws)
-                for method in methods:
-                    best, table = chosen[method, scenario]
-                    key = dict(inputs=name, scenario=scenario, method=method, target=target)
-                    cvs.append(table.assign(**key, chosen=table["n_components"] == best))
-                    model = BlockRegression(method, best, x_blocks, y_blocks).fit(X[train],
-                                                                                  Y[train])
-                    rows_models.append({**key, "n_components": model.n_components_,
-                                        "chosen_by": f"{folds}-fold CV on {train.size} "
-                                        "training experiments, "
-                                        + ("noisy held-out inputs" if np.any(sigma > 0)
-                                           else "noise-free")
-                                        + (" (the cap: the error still fell)"
-                                           if best == max_components else "")})
-                    P = model.predict(Xt)
-                    if target == "totals":
-                        totals.append(_total_errors(P, Yt, Y, key))
-                        if scenario == "noise-free" and method == "plsr":
-                            preds[name] = (Y[test], P)
-                    else:
-                        frame, node_rmse = _nodal_errors(P, Yt, Y, M, key)
-                        nodal.append(frame)
-                        if scenario == "noise-free" and method == "plsr":
-                            maps[name] = node_rmse
+                if training == "noisy":
+                    rng = np.random.default_rng([seed, 3, k])
+                    Xf = np.concatenate([add_noise(X[train], sigma, rng) for _ in range(draws)])
+                    Yf = np.concatenate([Y[train]] * draws)
+                key = dict(inputs=name, scenario=scenario, training=training, method=method,
+                           target=target)
+                cvs.append(table.assign(**key, chosen=table["n_components"] == best))
+                model = BlockRegression(method, best, x_blocks, y_blocks).fit(Xf, Yf)
+                rows_models.append({**key, "n_components": model.n_components_,
+                                    "chosen_by": f"{folds}-fold CV on {train.size} "
+                                    "training experiments, "
+                                    + ("noisy held-out inputs" if np.any(sigma > 0)
+                                       else "noise-free")
+                                    + (", noisy training inputs" if training == "noisy"
+                                       else "")
+                                    + (" (the cap: the error still fell)"
+                                       if best == max_components else "")})
+                P = model.predict(Xt)
+                if target == "totals":
+                    totals.append(_total_errors(P, Yt, Y, key))
+                    if scenario == "noise-free" and method == "plsr":
+                        preds[name] = (Y[test], P)
+                else:
+                    frame, node_rmse = _nodal_errors(P, Yt, Y, M, key)
+                    nodal.append(frame)
+                    if scenario == "noise-free" and method == "plsr":
+                        maps[name] = node_rmse
     report.csv("models", pd.DataFrame(rows_models))
     report.csv("cross_validation", pd.concat(cvs, ignore_index=True))
     report.csv("totals", pd.concat(totals, ignore_index=True))
@@ -367,10 +380,10 @@ def _summary(report, ds, varying, train, test, folds, draws, figures, cap) -> No
         f"Varying load parameters ({len(varying)}): {', '.join(ranges)}."
     )
     tot = report.tables["totals"]
-    wide = tot.pivot_table(index=["inputs", "method", "scenario"], columns="total",
+    wide = tot.pivot_table(index=["inputs", "method", "scenario", "training"], columns="total",
                            values="rmse_pct_range", sort=False).reset_index()
-    wide = wide[["inputs", "method", "scenario", *TOTALS]]
-    nod = report.tables["nodal"].pivot_table(index=["inputs", "method", "scenario"],
+    wide = wide[["inputs", "method", "scenario", "training", *TOTALS]]
+    nod = report.tables["nodal"].pivot_table(index=["inputs", "method", "scenario", "training"],
                                              columns="component", values="rmse_pct_range",
                                              sort=False).reset_index()
     links = "\n\n".join(markdown.figure(p, report.out, c) for c, p in figures)
@@ -391,11 +404,14 @@ def _summary(report, ds, varying, train, test, folds, draws, figures, cap) -> No
         ("Beside the published anchors and the issue's goal (noise-free)",
          report.tables["anchors"]),
         ("Models (component counts chosen by CV)", report.tables["models"]),
-        ("About", f"Models trained on the noise-free training part; noise N(0, sigma^2) on "
-         f"every input of the held-out experiments ({draws} draws each, also in each of the "
-         f"{folds} CV folds that choose the count). Displacement + strain: each set one "
-         "block, centred and divided by its total standard deviation. Moments Mx, My, Mz as "
-         "stored (about the contact centre, N mm)."),
+        ("About", f"Noise N(0, sigma^2) on every input of the held-out experiments "
+         f"({draws} draws each, also in each of the {folds} CV folds that choose the count). "
+         "Models trained on the noise-free training part (training = noise-free: a model "
+         "trained on FE data), and again on the same noise in training (training = noisy: "
+         f"{draws} noisy copies of each training experiment, as a model trained on "
+         "measurements sees them; its count chosen again by the same CV). Displacement + "
+         "strain: each set one block, centred and divided by its total standard "
+         "deviation. Moments Mx, My, Mz as stored (about the contact centre, N mm)."),
         ("Figures", links),
     ]
     report.files.append(markdown.write(report.out / "summary.md",
