@@ -3,19 +3,13 @@
 import json
 
 import pytest
+from cli_helpers import COARSE_FULL, run_cli
 
-from cli import main
-
-COARSE = ["--set", "mesh.tread=4", "--set", "mesh.sidewall=2", "--set", "mesh.bead=1",
-          "--set", "mesh.circumferential=16"]
+COARSE = COARSE_FULL
 
 
 def _run(argv, capsys):
-    with pytest.raises(SystemExit) as info:
-        main(argv)
-        raise SystemExit(0)
-    out = capsys.readouterr()
-    return info.value.code, out.out, out.err
+    return run_cli(argv, capsys)
 
 
 @pytest.mark.parametrize(("argv", "needle"), [

@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from cli_helpers import COARSE_FULL, run_cli
 
 from cli import main
 
@@ -10,11 +11,7 @@ COARSE = ["--set", "mesh.tread=4", "--set", "mesh.sidewall=2", "--set", "mesh.be
 
 
 def _run(argv, capsys):
-    with pytest.raises(SystemExit) as info:
-        main(argv)
-        raise SystemExit(0)
-    out = capsys.readouterr()
-    return info.value.code, out.out, out.err
+    return run_cli(argv, capsys)
 
 
 @pytest.mark.parametrize(
@@ -71,9 +68,7 @@ def test_a_combined_run_keeps_every_array_and_prints_json(tmp_path, capsys):
     import json
 
     out_file = tmp_path / "slide.npz"
-    full = ["--set", "mesh.tread=4", "--set", "mesh.sidewall=2", "--set", "mesh.bead=1",
-            "--set", "mesh.circumferential=16"]
-    code, out, err = _run(["run", "--model", "full", "--deflection", "15", *full,
+    code, out, err = _run(["run", "--model", "full", "--deflection", "15", *COARSE_FULL,
                            "--friction", "0.5", "--shift-y", "3", "--json",
                            "--out", str(out_file)], capsys)
     assert code == 0, err
