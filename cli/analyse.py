@@ -53,10 +53,14 @@ def dask_scheduler(address: str | None):
     if address:  # Client's timeout does not cover Dask's handshake (issue 26)
         import dask
 
+        from analysis.errors import SchedulerError
+
         try:
             check_scheduler(address, dask.utils.parse_timedelta(CONNECT_TIMEOUT))
         except OSError as e:
-            raise ClusterError(f"cannot reach the Dask scheduler at {address!r}: {e}") from e
+            raise SchedulerError(f"cannot reach the Dask scheduler at {address}: {e}") from e
+        except ClusterError as e:
+            raise SchedulerError(str(e)) from e
     return scheduler(address)
 
 

@@ -61,8 +61,12 @@ def check_scheduler(address: str, timeout: float, connection_args: dict[str, Any
     seconds when ``address`` does not answer as a Dask scheduler, and ``OSError`` when
     nothing can be reached there (refused, unroutable, a TLS handshake refused)."""
     _check_listening(address, timeout)
+    if connection_args is None:  # TLS files set in dask's config, as a Client reads them
+        from distributed.security import Security
+
+        connection_args = Security().get_connection_args("client")
     with concurrent.futures.ThreadPoolExecutor(1) as pool:  # own event loop, any caller
-        future = pool.submit(asyncio.run, _identity(address, timeout, connection_args or {}))
+        future = pool.submit(asyncio.run, _identity(address, timeout, connection_args))
         try:
             reply = future.result(timeout + 5.0)
         except (TimeoutError, concurrent.futures.TimeoutError) as e:

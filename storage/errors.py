@@ -136,11 +136,10 @@ def names_the_store(func: F) -> F:
 
 
 def _where(store: Any) -> str:
+    """The store as the user named it (a path, a URL, or a zarr store's root)."""
     if isinstance(store, str | os.PathLike):
         return os.fspath(store)
-    from storage.paths import describe
-
-    return describe(store)
+    return str(getattr(store, "root", None) or getattr(store, "path", None) or store)
 
 
 def verify_hint(store: str = "STORE") -> str:
