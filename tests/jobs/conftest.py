@@ -69,15 +69,16 @@ SESSION_MARK = ("FARM_TEST_SESSION",
                 os.environ.setdefault("FARM_TEST_SESSION", uuid.uuid4().hex))
 
 
-def ccx_processes() -> list:
-    """Live ccx processes started by this test session (psutil)."""
+def ccx_processes(mark: tuple[str, str] = SESSION_MARK) -> list:
+    """Live ccx processes started by this test session (psutil), or by the processes
+    whose environment holds ``mark`` (one client of a test)."""
     import psutil
 
     found = []
     for p in psutil.process_iter(["name", "status"]):
         try:
             if (p.info["name"] == "ccx" and p.info["status"] != psutil.STATUS_ZOMBIE
-                    and p.environ().get(SESSION_MARK[0]) == SESSION_MARK[1]):
+                    and p.environ().get(mark[0]) == mark[1]):
                 found.append(p)
         except (psutil.NoSuchProcess, psutil.AccessDenied):
             continue
