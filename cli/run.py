@@ -134,19 +134,8 @@ def _document(result: PathResult, kpa: float) -> dict:
 
 def _patches(result: PathResult) -> tuple[list, float | None]:
     """Each state's contact patch, and the inflation growth of an inflated model."""
-    import math
-
-    import numpy as np
-
-    from farm.measure.patch import inflation_growth, patch_metrics, tread_areas
-
     mesh = mesh_for(result.model)
-    areas = tread_areas(mesh)
-    tilt = math.radians(result.path.motion.tilt) if result.path.motion else 0.0
-    normal = np.array([0.0, -math.sin(tilt), math.cos(tilt)])
-    patches = [patch_metrics(mesh, s, normal, areas) for s in result.states]
-    growth = inflation_growth(mesh, result.reference) if result.model.inflated else None
-    return patches, growth
+    return result.patches(mesh), result.growth(mesh) if result.model.inflated else None
 
 
 def _print_table(result: PathResult, kpa: float,

@@ -17,7 +17,7 @@ import numpy as np
 
 from farm.ccx.runner import ccx_version
 from farm.measure.measurement import Measurement, measure
-from farm.measure.patch import inflation_growth, patch_metrics, tread_areas
+from farm.measure.patch import PatchMetrics, inflation_growth, patch_metrics, tread_areas
 from farm.mesh import TyreMesh, mesh_for
 from farm.solve.contact import solve_contact_path
 from farm.solve.iterative import solve_iterative_path
@@ -58,6 +58,15 @@ class PathResult:
         """
         np.savez_compressed(file, **self.arrays(mesh))
 
+    def patches(self, mesh: TyreMesh) -> list[PatchMetrics]:
+        """The contact patch of each state (:mod:`farm.measure.patch`)."""
+        areas = tread_areas(mesh)
+        return [patch_metrics(mesh, s, areas) for s in self.states]
+
+    def growth(self, mesh: TyreMesh) -> float:
+        """Inflation growth of the reference state, mm (0 for an uninflated model)."""
+        return inflation_growth(mesh, self.reference)
+
     def arrays(self, mesh: TyreMesh) -> dict[str, np.ndarray]:
         """What :meth:`save` writes, by name."""
         m = self.measurements
@@ -75,13 +84,10 @@ class PathResult:
                 out[name] = np.array([getattr(x.motion, name) for x in m])
             out.update({k: np.stack([x.combined_arrays()[k] for x in m])
                         for k in m[0].combined_arrays()})
-        tilt = np.radians(self.path.motion.tilt) if self.path.motion else 0.0
-        normal = np.array([0.0, -np.sin(tilt), np.cos(tilt)])
-        areas = tread_areas(mesh)
-        patches = [patch_metrics(mesh, s, normal, areas).to_dict() for s in self.states]
+        patches = [p.to_dict() for p in self.patches(mesh)]
         out.update({f"patch_{k}": np.array([p[k] for p in patches]) for k in patches[0]})
         if self.model.inflated:
-            out["inflation_growth"] = np.array(inflation_growth(mesh, self.reference))
+            out["inflation_growth"] = np.array(self.growth(mesh))
         out["model_json"] = np.array(json.dumps(self.model.to_dict(), sort_keys=True))
         out["solver"] = np.array(self.solver)
         return out

@@ -438,6 +438,12 @@ class RoadMotion:
         return bool(self.shift_x or self.shift_y)
 
     @property
+    def normal(self) -> tuple[float, float, float]:
+        """The tilted road's upward unit normal (0, -sin tilt, cos tilt), TYDEX C."""
+        a = math.radians(self.tilt)
+        return (0.0, -math.sin(a), math.cos(a))
+
+    @property
     def is_identity(self) -> bool:
         """No friction, tilt or shift: the vertical experiment itself."""
         return not (self.friction or self.moves or self.tilt or self.stick_slope is not None)

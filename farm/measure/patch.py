@@ -92,12 +92,13 @@ def window_rms(mesh: TyreMesh, field: np.ndarray, half_angle: float) -> float:
     return float(np.sqrt(np.sum(w * squared) / w.sum()))
 
 
-def patch_metrics(mesh: TyreMesh, state: SolvedState, normal: np.ndarray | None = None,
+def patch_metrics(mesh: TyreMesh, state: SolvedState,
                   areas: np.ndarray | None = None) -> PatchMetrics:
-    """Metrics of the patch of ``state``; ``normal`` is the road's upward unit normal
-    (default +z, a level road); ``areas`` may pass :func:`tread_areas` computed once."""
+    """Metrics of the patch of ``state``, normal forces along its road's normal (the
+    state's tilt; +z for a level road); ``areas`` may pass :func:`tread_areas` computed
+    once."""
     areas = tread_areas(mesh) if areas is None else areas
-    n = np.array([0.0, 0.0, 1.0]) if normal is None else np.asarray(normal, dtype=float)
+    n = np.array(state.motion.normal if state.motion is not None else (0.0, 0.0, 1.0))
     force = state.tread_force
     loaded = np.linalg.norm(force, axis=1) > LOADED_N
     if not loaded.any():

@@ -12,7 +12,6 @@ import math
 from typing import Any
 
 from farm.experiment import run_load_path
-from farm.measure.patch import inflation_growth, patch_metrics
 from farm.mesh import mesh_for
 from farm.specs import LoadPath, ModelSpec, SolverSettings
 from jobs.calibrate.statements import CURVE_MM, STATEMENTS, Statement, mean_stiffness
@@ -31,13 +30,13 @@ def solve_curve(model: ModelSpec, pressure: float, settings: SolverSettings | No
     if isinstance(result, Failed):
         return {"pressure": pressure, "failed": result.reason}
     mesh = mesh_for(model)
-    patches = [patch_metrics(mesh, s) for s in result.states]
+    patches = result.patches(mesh)
     return {"pressure": pressure, "deflection": list(CURVE_MM),
             "Fz": [float(m.total_force[2]) for m in result.measurements],
             "nodal_mean": [p.nodal_mean for p in patches],
             "nodal_std": [p.nodal_std for p in patches],
             "contact_nodes": [p.nodes for p in patches],
-            "growth": inflation_growth(mesh, result.reference),
+            "growth": result.growth(mesh),
             "solve_s": result.solve_seconds}
 
 

@@ -8,15 +8,12 @@ is a record with its reason, never a crash of the study.
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
-import numpy as np
-
 from farm.experiment import run_load_path
-from farm.measure.patch import inflation_growth, patch_metrics, tread_areas, window_rms
+from farm.measure.patch import window_rms
 from farm.mesh import mesh_for
 from farm.presets import default_model
 from farm.specs import ModelSpec, SolverSettings
@@ -44,22 +41,19 @@ def solve_case(model: ModelSpec, case: Case, settings: SolverSettings | None = N
         return {"status": "failed", "reason": result.reason[:600],
                 "wall_s": time.perf_counter() - start}
     mesh = mesh_for(model)
-    areas = tread_areas(mesh)
-    tilt = math.radians(case.motion.tilt) if case.motion else 0.0
-    normal = np.array([0.0, -math.sin(tilt), math.cos(tilt)])  # the road's, TYDEX C
     states = []
-    for m, state in zip(result.measurements, result.states, strict=True):
+    for m, patch in zip(result.measurements, result.patches(mesh), strict=True):
         label = f"{m.deflection:g} mm" if m.motion is None or not m.motion.moves else "slid"
         states.append({
             "state": label, "Fx": float(m.total_force[0]), "Fy": float(m.total_force[1]),
             "Fz": float(m.total_force[2]), "Mz": float(m.moment[2]) / 1000.0,
-            "patch": patch_metrics(mesh, state, normal, areas).to_dict(),
+            "patch": patch.to_dict(),
             "U_rms": window_rms(mesh, m.displacement, WINDOW_DEG),
             "strain_rms": window_rms(mesh, m.surface_strain, WINDOW_DEG),
             "solver_strain_rms": window_rms(mesh, m.strain, WINDOW_DEG),
         })
     return {"status": "done", "states": states, "nodes": mesh.n_nodes,
-            "elements": mesh.n_elements, "growth": inflation_growth(mesh, result.reference),
+            "elements": mesh.n_elements, "growth": result.growth(mesh),
             "ccx_runs": result.ccx_runs, "solve_s": result.solve_seconds,
             "wall_s": time.perf_counter() - start}
 

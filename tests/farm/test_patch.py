@@ -93,3 +93,19 @@ def test_window_rms_of_a_uniform_field_is_its_size(mesh):
     field = np.zeros((*mesh.inner_grid.shape, 3))
     field[:, outside] = 7.0
     assert window_rms(mesh, field.reshape(-1, 3), 20.0) == 0.0
+
+
+def test_a_tilted_road_s_pressure_is_along_its_own_normal(mesh):
+    """The normal comes from the state's motion: a force along the tilted normal is all
+    pressure, the same force read along z would be cos(tilt) of it."""
+    import dataclasses
+
+    from farm.specs import RoadMotion
+
+    motion = RoadMotion(tilt=6.0)
+    force = np.zeros((len(mesh.tread_nodes), 3))
+    force[len(force) // 2] = 500.0 * np.array(motion.normal)
+    tilted = dataclasses.replace(_state(mesh, force), motion=motion)
+    assert patch_metrics(mesh, tilted).nodal_mean == pytest.approx(500.0)
+    assert patch_metrics(mesh, _state(mesh, force)).nodal_mean == pytest.approx(
+        500.0 * np.cos(np.radians(6.0)))
