@@ -10,11 +10,8 @@ working. ``LookupError`` rather than ``KeyError``: ``str(KeyError(msg))`` adds q
 from __future__ import annotations
 
 import errno
-import functools
-import os
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from contextlib import contextmanager
-from typing import Any, TypeVar
 
 
 class StoreError(Exception):
@@ -110,36 +107,6 @@ def access_error(e: BaseException, store: str = "the store") -> StoreAccessError
             continue
         return StoreAccessError(f"{store}: {why}")
     return None
-
-
-F = TypeVar("F", bound=Callable[..., Any])
-
-
-def names_the_store(func: F) -> F:
-    """Decorate a store API function whose first argument is the store: an error that
-    says the store cannot be reached or written (:func:`access_error`) leaves it as one
-    :class:`StoreAccessError` line naming that store."""
-
-    @functools.wraps(func)
-    def wrapper(store: Any, *args: Any, **kwargs: Any) -> Any:
-        try:
-            return func(store, *args, **kwargs)
-        except StoreError:
-            raise
-        except Exception as e:
-            access = access_error(e, f"the store at {_where(store)}")
-            if access is None:
-                raise
-            raise access from e
-
-    return wrapper  # type: ignore[return-value]
-
-
-def _where(store: Any) -> str:
-    """The store as the user named it (a path, a URL, or a zarr store's root)."""
-    if isinstance(store, str | os.PathLike):
-        return os.fspath(store)
-    return str(getattr(store, "root", None) or getattr(store, "path", None) or store)
 
 
 def verify_hint(store: str = "STORE") -> str:

@@ -15,13 +15,14 @@ from typing import Any
 import numpy as np
 import zarr
 
-from storage.errors import MeshMismatchError, SchemaError, names_the_store
+from storage.errors import MeshMismatchError, SchemaError
 from storage.lock import client_lock
 from storage.mesh import GroupAttrs, MeshNodes
 from storage.paths import (
     StoreLike,
     check_group_name,
     farm_entries_ignored,
+    names_the_store,
     open_group,
     open_store,
 )
@@ -63,6 +64,10 @@ def create_array(g: zarr.Group, var: Variable, shape: tuple[int, ...]) -> zarr.A
         attributes=var.attrs,
         compressors="auto" if var.compressed else None,
     )
+
+
+OUR_NAMES = frozenset(FIXED_VARIABLES) | frozenset(KNOWN_PARAMETER_UNITS)
+"""Every array name a group of ours can hold: a group holding others is not ours."""
 
 
 @names_the_store
@@ -112,8 +117,7 @@ def _is_complete(root: zarr.Group, group: str) -> bool:
         raise SchemaError(f"{group!r} is an array in this store, not a group: choose another name")
     if "schema_version" in node.attrs:
         return True
-    ours = set(FIXED_VARIABLES) | set(KNOWN_PARAMETER_UNITS)
-    foreign = sorted(set(node.keys()) - ours)
+    foreign = sorted(set(node.keys()) - OUR_NAMES)
     if foreign:
         raise SchemaError(
             f"group {group!r} exists but is not a tyre-farm group (it holds {foreign[0]!r}): "
@@ -189,10 +193,9 @@ def unfinished_groups(store: StoreLike) -> list[str]:
     again rebuilds them (:func:`create_group`)."""
     zs = open_store(store, read_only=True)
     root = _root_group(zs)
-    ours = set(FIXED_VARIABLES) | set(KNOWN_PARAMETER_UNITS)
     with farm_entries_ignored():
         return sorted(name for name, g in root.groups()
-                      if "schema_version" not in g.attrs and set(g.keys()) <= ours)
+                      if "schema_version" not in g.attrs and set(g.keys()) <= OUR_NAMES)
 
 
 def list_groups(store: StoreLike) -> list[str]:

@@ -21,13 +21,14 @@ and devices, system directories.
 from __future__ import annotations
 
 import contextlib
+import functools
 import os
 import re
 import stat
 import warnings
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import Any, TypeAlias
+from typing import Any, TypeAlias, TypeVar
 
 import zarr
 import zarr.errors
@@ -36,7 +37,13 @@ from zarr.errors import ZarrUserWarning
 from zarr.storage import FsspecStore, LocalStore
 
 from storage._zarr import consolidate, key_exists
-from storage.errors import GroupNotFoundError, NotAStoreError, SchemaError, StoreError
+from storage.errors import (
+    GroupNotFoundError,
+    NotAStoreError,
+    SchemaError,
+    StoreError,
+    access_error,
+)
 from storage.schema import GROUP_NAME, SCHEMA_VERSION
 
 StoreLike: TypeAlias = str | os.PathLike[str] | Store
@@ -161,6 +168,30 @@ def _check_url(text: str) -> None:
         raise StoreError(
             f"store URL {text[:80]!r} names no bucket: give {scheme}://bucket/path/farm.zarr"
         )
+
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+
+def names_the_store(func: F) -> F:
+    """Decorate a store API function whose first argument is the store: an error that
+    says the store cannot be reached or written (:func:`storage.errors.access_error`)
+    leaves it as one :class:`~storage.errors.StoreAccessError` line naming that store."""
+
+    @functools.wraps(func)
+    def wrapper(store: Any, *args: Any, **kwargs: Any) -> Any:
+        try:
+            return func(store, *args, **kwargs)
+        except StoreError:
+            raise
+        except Exception as e:
+            where = describe(store) if isinstance(store, Store) else os.fspath(store)
+            access = access_error(e, f"the store at {where}")
+            if access is None:
+                raise
+            raise access from e
+
+    return wrapper  # type: ignore[return-value]
 
 
 def describe(store: Store) -> str:

@@ -24,11 +24,10 @@ from storage.errors import (
     ConcurrentClientError,
     ParameterConflictError,
     SchemaError,
-    names_the_store,
 )
 from storage.group import create_array
 from storage.lock import client_lock
-from storage.paths import StoreLike, describe, open_group, open_store
+from storage.paths import StoreLike, describe, names_the_store, open_group, open_store
 from storage.paths import publish as _publish
 from storage.schema import (
     COMBINED_PARAMETERS,

@@ -59,9 +59,9 @@ from zarr.storage import LocalStore
 
 from storage._zarr import get_bytes, list_dir, set_bytes
 from storage.checksum import Slots, check, label_digest, split
-from storage.errors import NotAStoreError, StoreError, access_error, verify_hint
+from storage.errors import NotAStoreError, StoreError, verify_hint
 from storage.group import unfinished_groups
-from storage.paths import LOCK_NAME, StoreLike, describe, open_store, publish
+from storage.paths import LOCK_NAME, StoreLike, describe, names_the_store, open_store, publish
 from storage.schema import (
     CHECKED_NAMES,
     CLIENT_CHUNK,
@@ -186,6 +186,7 @@ def _damage_dict(d: Damage) -> dict[str, Any]:
             "experiment": d.experiment, "index": d.index}
 
 
+@names_the_store  # a store that cannot be reached is no damage: one line naming it
 def verify(store: StoreLike, group: str | None = None, *, repair: bool = False) -> VerifyReport:
     """Check a store (or one group of it) for damage; with ``repair``, mark and restore.
 
@@ -205,19 +206,6 @@ def verify(store: StoreLike, group: str | None = None, *, repair: bool = False) 
     """
     zs = open_store(store, read_only=not repair)
     where = describe(zs)
-    try:
-        return _verify(zs, where, store, group, repair)
-    except StoreError:
-        raise
-    except Exception as e:  # a store that cannot be reached is no damage: say which
-        access = access_error(e, f"the store at {where}")
-        if access is None:
-            raise
-        raise access from e
-
-
-def _verify(zs: Store, where: str, store: StoreLike, group: str | None, repair: bool
-            ) -> VerifyReport:
     if isinstance(zs, LocalStore) and not Path(zs.root).is_dir():
         raise NotAStoreError(f"no store at {where}: check the path")
     root_doc, root_damage = _root(zs)

@@ -31,10 +31,9 @@ from storage.errors import (
     MeshMismatchError,
     SchemaError,
     StoreError,
-    names_the_store,
 )
 from storage.handles import Handle, locate
-from storage.paths import StoreLike, open_store
+from storage.paths import StoreLike, names_the_store, open_store
 from storage.schema import (
     COMBINED_NAMES,
     DONE,
