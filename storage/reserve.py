@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 import zarr
 
-from storage.checksum import label_digest
+from storage.checksum import label_digest, split
 from storage.errors import (
     ConcurrentClientError,
     ParameterConflictError,
@@ -255,7 +255,7 @@ def _signed(g: zarr.Group, ids: list[str], slots: np.ndarray,
         return np.array([], dtype=np.int64)
     sums = g["checksum"].get_coordinate_selection(slots).tolist()
     match = [k for k, (e, s) in enumerate(zip(ids, sums, strict=True))
-             if s and str(s).split(":")[0] == label_digest(
+             if (split(s) or ("",))[0] == label_digest(
                  e, {n: float(v[k]) for n, v in values.items()})]
     return np.array(match, dtype=np.int64)
 

@@ -584,20 +584,27 @@ class _GroupCheck:
         holds a whole, verified experiment; repair gives it its status back."""
         if "checksum" not in self.arrays or any(n not in self.arrays for n in CHECKED_NAMES):
             return
+        for i, state in self._verified_states(ids, params, pending).items():
+            self.restore[i] = state
+            self.damage.append(Damage(
+                self.group, "status", f"its status is pending but its checksum matches it "
+                f"{STATUS_NAMES[state]} (the status chunk was lost or reset, or a write "
+                "stopped before its status)", ids[i], i))
+
+    def _verified_states(self, ids: list, params: dict, slots) -> dict[int, int]:
+        """Slot -> done or failed, for those of ``slots`` (with an id and a readable,
+        non-empty checksum) whose checksum verifies them with that status."""
         sums, bad = self._read_1d("checksum", len(ids))
-        candidates = [i for i in pending if i not in bad and sums[i]]
+        candidates = [i for i in slots if ids[i] and i not in bad and sums[i]]
+        found: dict[int, int] = {}
         for state in (DONE, FAILED):
             if not candidates:
                 break
             trial = np.full(len(ids), state, dtype=np.int64)
             wrong = check(self._slots(ids, trial, params, [str(s) for s in sums]), candidates)
-            for i in (i for i in candidates if i not in wrong):
-                self.restore[i] = state
-                self.damage.append(Damage(
-                    self.group, "status", f"its status is pending but its checksum matches it "
-                    f"{STATUS_NAMES[state]} (the status chunk was lost or reset, or a write "
-                    "stopped before its status)", ids[i], i))
+            found.update({i: state for i in candidates if i not in wrong})
             candidates = list(wrong)
+        return found
 
     def _slots(self, ids, status, params, sums) -> Slots:
         names = checked_names(self.arrays)
@@ -625,16 +632,8 @@ class _GroupCheck:
             self.repaired.append(f"{self.group}/status: restored, every experiment pending "
                                  "(no checksums to recover done ones from)")
             return status
-        sums, bad = self._read_1d("checksum", len(ids))
-        candidates = [i for i in range(used) if ids[i] and i not in bad and sums[i]]
-        for state in (DONE, FAILED):
-            trial = np.full(len(ids), state, dtype=np.int64)
-            slots = self._slots(ids, trial, params, [str(s) for s in sums])
-            wrong = check(slots, candidates)
-            for i in candidates:
-                if i not in wrong:
-                    status[i] = state
-            candidates = list(wrong)
+        for i, state in self._verified_states(ids, params, range(used)).items():
+            status[i] = state
         found = np.flatnonzero(status != PENDING)
         if found.size:
             self._writable("status").set_coordinate_selection(found, status[found].astype(np.int8))
