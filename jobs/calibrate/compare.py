@@ -54,7 +54,7 @@ def ours(statement: Statement, curves: dict[float, dict[str, Any]]) -> float:
         return math.nan
     if statement.quantity == "stiffness ratio":
         k = {p: mean_stiffness(c["deflection"], c["Fz"]) for p, c in curves.items()}
-        return k[0.2] / k[0.08]
+        return k[PRESSURES[1]] / k[PRESSURES[0]]
     curve = curves[statement.pressure]
     if statement.quantity == "growth":
         return float(curve["growth"])

@@ -161,3 +161,19 @@ def test_the_shipped_thesis_calibrated_preset_meets_the_thesis_points(kind):
         result = run_load_path(spec, LoadPath((point.deflection,), point.pressure))
         fz = result.measurements[0].total_force[2]
         assert fz == pytest.approx(point.force, rel=0.10), point
+
+
+def test_both_readings_of_the_thesis_4475_point_and_a_bad_one():
+    """§3.3.2 puts the 4475.5 N experiment at 80 kPa, chapter 5 at 200 kPa (issue 24):
+    the default keeps what calibrations always used; the other is one flag away."""
+    from farm.errors import SpecError
+
+    def points(reading):
+        return [(p.deflection, round(1000 * p.pressure), p.force)
+                for p in thesis_points("full", reading)]
+
+    assert points("200kPa") == [(25.0, 80, 3933.0), (30.0, 200, 4476.0)]
+    assert points("80kPa") == [(25.0, 80, 3933.0), (30.0, 80, 4475.5)]
+    assert thesis_points("reduced", "80kPa") == thesis_points("reduced")
+    with pytest.raises(SpecError, match="unknown reading '50kPa'"):
+        thesis_points("full", "50kPa")
