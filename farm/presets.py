@@ -80,6 +80,11 @@ MESH_PRESETS: dict[str, dict[str, MeshDensity]] = {
 }
 
 
+def mesh_presets(kind: str) -> list[str]:
+    """Names of the mesh presets the ``kind`` model has."""
+    return [name for name, kinds in MESH_PRESETS.items() if kind in kinds]
+
+
 def default_model(kind: str, materials: str = "table-3.1", mesh: str | MeshDensity = "thesis",
                   **overrides: Any) -> ModelSpec:
     """The thesis' model of ``kind`` ("reduced" or "full") with a material and a mesh
@@ -98,10 +103,9 @@ def default_model(kind: str, materials: str = "table-3.1", mesh: str | MeshDensi
         )
     if isinstance(mesh, MeshDensity):
         density = mesh
-    elif mesh not in MESH_PRESETS or kind not in MESH_PRESETS[mesh]:
-        names = [name for name, kinds in MESH_PRESETS.items() if kind in kinds]
+    elif mesh not in mesh_presets(kind):
         raise SpecError(f"unknown mesh preset {mesh!r} for the {kind} model: choose one of "
-                        f"{', '.join(names)}")
+                        f"{', '.join(mesh_presets(kind))}")
     else:
         density = MESH_PRESETS[mesh][kind]
     base = ModelSpec(

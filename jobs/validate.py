@@ -61,7 +61,7 @@ from pathlib import Path
 from typing import Any
 
 from farm.errors import SpecError
-from farm.presets import MATERIAL_PRESETS, MESH_PRESETS, default_model
+from farm.presets import MATERIAL_PRESETS, default_model, mesh_presets
 from farm.specs import TIMEOUT_S, ModelSpec, SolverSettings
 from jobs.errors import StudyError
 from storage import open_store
@@ -428,10 +428,9 @@ def model(data: Any, where: str = "model") -> ModelSpec:
         raise fail(f"{where}.materials", f"unknown preset {shown(materials)}; presets: "
                    f"{', '.join(MATERIAL_PRESETS)} (or give a table per region)")
     mesh = t.get("mesh", "thesis")
-    if isinstance(mesh, str) and kind not in MESH_PRESETS.get(mesh, {}):
-        names = [name for name, kinds in MESH_PRESETS.items() if kind in kinds]
+    if isinstance(mesh, str) and mesh not in mesh_presets(kind):
         raise fail(f"{where}.mesh", f"unknown mesh preset {shown(mesh)} for the {kind} model; "
-                   f"presets: {', '.join(names)} (or give a table of counts)")
+                   f"presets: {', '.join(mesh_presets(kind))} (or give a table of counts)")
     base = default_model(kind, materials if isinstance(materials, str) else "table-3.1",
                          mesh if isinstance(mesh, str) else "thesis")
     overrides = {k: v for k, v in t.items()
