@@ -9,8 +9,8 @@
 - :class:`BlockRegression`: PLSR (SIMPLS) or PCR between block-scaled X and Y.
 - :func:`cross_validate`: k-fold CV of the component count, with measurement noise
   added to the held-out inputs, and with ``train_noise`` to the training inputs too (a
-  model trained on measurements sees noise in training as well; issue 25 found errors
-  1.5-2x larger that way, so the analysis reports both).
+  model trained on measurements sees noise in training as well; issue 25 reports an
+  independent run with errors 1.5-2x larger that way, so the analysis reports both).
 """
 
 from __future__ import annotations
