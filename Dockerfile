@@ -29,12 +29,12 @@ print('\n'.join(p['dependencies'] + [d for e in sys.argv[1:] for d in extras[e]]
       $FARM_EXTRAS > /tmp/requirements.txt \
  && pip install -r /tmp/requirements.txt && rm /tmp/requirements.txt
 
-# Every package of the project (the `farm` console script is cli:main) and the examples.
+# Every package of the project (the `farm` console script is tyre_farm_cli:main) and the examples.
 COPY farm farm
 COPY jobs jobs
 COPY storage storage
 COPY analysis analysis
-COPY cli cli
+COPY tyre_farm_cli tyre_farm_cli
 COPY examples examples
 RUN pip install --no-deps . && rm -rf build *.egg-info && pip check
 

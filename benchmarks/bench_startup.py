@@ -32,7 +32,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeat", type=int, default=7, help="processes per command")
     args = parser.parse_args()
-    farm = shutil.which("farm") or f"{sys.executable} -m cli"
+    farm = shutil.which("farm") or f"{sys.executable} -m farm"
     cases = {
         "python -c pass (baseline)": [sys.executable, "-c", "pass"],
         "python -c 'import typer'": [sys.executable, "-c", "import typer"],

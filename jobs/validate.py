@@ -1,7 +1,7 @@
 """Validation of user input, one rule per kind of value: study files and the CLI.
 
 Every study kind (sweeps in :mod:`jobs.study`, inverse studies in
-:mod:`jobs.inverse.study`) and the command line (:mod:`cli.params`) check their input
+:mod:`jobs.inverse.study`) and the command line (:mod:`tyre_farm_cli.params`) check their input
 with these functions, so a range, a model table or a solver table means the same
 wherever it is written. Each function takes the value and ``where``, the key path it
 came from (``loads.deflection_mm.step``, ``conditions[1].repeats``), and raises one

@@ -5,7 +5,7 @@ mutations of valid study files, inverse studies, reference tables and command li
 huge, tiny, negative, NaN and infinite numbers, wrong types, missing and unknown keys,
 deep nesting, bytes that are not UTF-8, oversized files and grids, odd paths and URLs,
 FIFOs, devices and directories given as files, bad scheduler addresses and worker counts.
-Every case runs in-process through :func:`cli.main` in a folder of its own, under a
+Every case runs in-process through :func:`tyre_farm_cli.main` in a folder of its own, under a
 deadline, against a fake cluster and a fake solver, and is checked for what the CLI
 promises (docs/architecture.md "CLI shape", docs/limits.md):
 
@@ -42,7 +42,7 @@ from typing import Any
 
 import pytest
 
-from cli import main
+from tyre_farm_cli import main
 
 SEED = 14
 DEADLINE_S = 5.0  # per in-process case
@@ -686,7 +686,7 @@ def command():
     of introspection, most of a rejected case's time); the command is the same."""
     import typer.main
 
-    import cli
+    import tyre_farm_cli as cli
 
     return typer.main.get_command(cli.app)
 
@@ -696,9 +696,9 @@ def recorder(monkeypatch, fake_ccx, command) -> Recorder:
     """Fake cluster and fake load-path solver: they record a submission and refuse it."""
     import typer.main
 
-    import cli
-    import cli.run
     import jobs.cluster
+    import tyre_farm_cli as cli
+    import tyre_farm_cli.run
     from farm.errors import FarmError
     from jobs.errors import ClusterError
 
@@ -724,7 +724,7 @@ def recorder(monkeypatch, fake_ccx, command) -> Recorder:
 
 ISOLATED_RUNNER = """
 import contextlib, io, json, sys
-from cli import main
+from tyre_farm_cli import main
 results = {}
 for name, argv in json.loads(sys.stdin.read()):
     err = io.StringIO()

@@ -12,9 +12,9 @@ import time
 
 import pytest
 
-from cli import main
 from jobs.errors import ClusterError
 from jobs.handshake import check_scheduler
+from tyre_farm_cli import main
 
 
 @pytest.fixture

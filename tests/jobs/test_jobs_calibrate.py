@@ -7,7 +7,6 @@ import json
 import numpy as np
 import pytest
 
-from cli import main
 from farm.experiment import run_load_path
 from farm.presets import default_model
 from farm.specs import LoadPath, Material, Materials, MeshDensity
@@ -16,6 +15,7 @@ from jobs.calibrate.params import Parameters, default_parameters
 from jobs.calibrate.references import ReferencePoint, read_points, thesis_points
 from jobs.calibrate.run import run_calibration
 from jobs.errors import StudyError
+from tyre_farm_cli import main
 
 COARSE = default_model("reduced", mesh=MeshDensity(tread=4, sidewall=2, bead=1,
                                                    circumferential=8))

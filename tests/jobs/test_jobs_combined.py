@@ -160,7 +160,7 @@ def test_motion_values_count_against_the_experiment_limit(tmp_path, monkeypatch)
 ])
 def test_farm_run_refuses_bad_combined_options_in_one_line(argv, needle, capsys, monkeypatch):
     import farm.experiment
-    from cli import main
+    from tyre_farm_cli import main
 
     monkeypatch.setattr(farm.experiment, "run_load_path", None)  # nothing may be solved
     with pytest.raises(SystemExit) as info:
@@ -230,7 +230,7 @@ def test_quick_combined_study_end_to_end(tmp_path, counting_ccx, capsys):
     """2 combined experiments of examples/combined_quick.toml (the smallest that has two
     paths on two workers; shallow deflections, the cheapest) through `farm sweep submit`:
     store complete and balanced; resume and a second submit solve nothing."""
-    from cli import main
+    from tyre_farm_cli import main
 
     path = _quick_study(tmp_path, 2, "[10, 13]")
     with pytest.raises(SystemExit) as info:
@@ -250,7 +250,7 @@ def test_quick_combined_study_end_to_end(tmp_path, counting_ccx, capsys):
 @pytest.mark.slow
 def test_examples_combined_quick_in_full(tmp_path, counting_ccx, capsys):
     """The whole quick example (10 experiments), as a user runs it."""
-    from cli import main
+    from tyre_farm_cli import main
 
     path = _quick_study(tmp_path, 10)
     with pytest.raises(SystemExit) as info:

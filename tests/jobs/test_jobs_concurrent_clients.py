@@ -76,7 +76,7 @@ def test_two_embedded_clusters_on_one_store_solve_each_experiment_once(write_stu
     path = write_study(deflections=DEFLECTIONS)
     study = load_study(path)
     ensure_group(study, f"CalculiX {ccx_version()}")  # an existing group, as on a resume
-    clients = [subprocess.Popen([sys.executable, "-m", "cli", "sweep", "submit", str(path),
+    clients = [subprocess.Popen([sys.executable, "-m", "farm", "sweep", "submit", str(path),
                                  "--workers", "1"], stdout=subprocess.PIPE,
                                 stderr=subprocess.STDOUT, text=True, env=os.environ.copy())
                for _ in range(2)]

@@ -99,4 +99,4 @@ def test_two_levels_solve_on_a_dask_cluster_and_balance():
         assert 0 < r["growth"] < 30.0  # table-3.1 grows ~16 mm at 200 kPa
     # refining the window adds contact nodes
     assert records[1]["states"][0]["patch"]["nodes"] > records[0]["states"][0]["patch"]["nodes"]
-    assert QUICK_CASES  # the CLI's quick study is a superset (tests/cli)
+    assert QUICK_CASES  # the CLI's quick study is a superset (tests/tyre_farm_cli)

@@ -221,7 +221,7 @@ EXAMPLE = Path(__file__).parents[2] / "examples" / "model_space_quick.toml"
 
 
 def _cli(args, capsys) -> tuple[int, dict]:
-    from cli import main
+    from tyre_farm_cli import main
 
     with pytest.raises(SystemExit) as info:
         main(args)

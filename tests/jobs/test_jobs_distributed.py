@@ -17,9 +17,9 @@ import pytest
 from conftest import ccx_processes
 
 import storage
-from cli import main
 from jobs.study import load_study
 from jobs.sweep import run_sweep
+from tyre_farm_cli import main
 
 pytestmark = pytest.mark.ccx
 DASK = str(Path(sys.executable).with_name("dask"))

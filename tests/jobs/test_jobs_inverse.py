@@ -456,7 +456,7 @@ def test_farm_invert_reports_from_the_stored_group(stored, tmp_path):
 
     from rich.console import Console
 
-    from cli.invert import _report
+    from tyre_farm_cli.invert import _report
 
     study = stored[0]
     out = io.StringIO()

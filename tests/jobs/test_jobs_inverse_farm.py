@@ -18,12 +18,12 @@ import pytest
 import xarray as xr
 from conftest import ccx_processes, ccx_runs
 
-from cli import main
 from jobs.inverse.objective import Objective
 from jobs.inverse.run import run_inverse
 from jobs.inverse.study import load_inverse_study
 from jobs.loops.cache import EvaluationCache
 from jobs.loops.evaluator import Evaluator
+from tyre_farm_cli import main
 
 pytestmark = pytest.mark.ccx
 
@@ -152,7 +152,7 @@ def test_a_killed_client_resumes_to_the_same_result(solved, tmp_path, counting_c
     _, clean = solved
     path = write(tmp_path, LSQ, cache="resume-cache")
     scratch = tmp_path / "scratch"  # to tell this test's solvers from any other's
-    client = subprocess.Popen([sys.executable, "-m", "cli", "invert", path, "--workers", "2"],
+    client = subprocess.Popen([sys.executable, "-m", "farm", "invert", path, "--workers", "2"],
                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                               env={**os.environ, "FARM_SCRATCH_DIR": str(scratch)})
     try:

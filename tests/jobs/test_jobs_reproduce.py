@@ -98,4 +98,4 @@ def test_jobs_reproduce_imports_neither_analysis_nor_the_cli():
     assert {p.stem for p in files} >= {"__init__", "options", "validation", "inverse"}
     for path in files:
         imported = _imports(path)
-        assert not imported & {"analysis", "cli", "typer", "rich"}, path.name
+        assert not imported & {"analysis", "tyre_farm_cli", "typer", "rich"}, path.name

@@ -77,8 +77,8 @@ def test_a_study_without_options_keeps_its_store_text(tmp_path):
 def test_sweep_status_and_pca_on_s3(bucket, s3_endpoint, tmp_path, capsys):
     from analysis import data
     from analysis.studies import crosscov
-    from cli import main
     from jobs.sweep import run_sweep
+    from tyre_farm_cli import main
 
     url = f"s3://{bucket}/farm.zarr"
     path = tmp_path / "study.toml"

@@ -7,9 +7,9 @@ from conftest import study_text
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
-from cli import main
 from jobs.errors import StudyError
 from jobs.study import load_study, parse_study
+from tyre_farm_cli import main
 
 EXAMPLES = sorted(Path(__file__).parents[2].joinpath("examples").glob("*.toml"))
 

@@ -17,9 +17,9 @@ import pytest
 from conftest import ccx_processes, ccx_runs
 
 import storage
-from cli import main
 from jobs.study import load_study
 from jobs.sweep import run_sweep
+from tyre_farm_cli import main
 
 pytestmark = pytest.mark.ccx
 
@@ -71,7 +71,7 @@ def test_killed_client_then_resume_solves_only_what_was_left(write_study, counti
     # the client's solvers carry a mark of their own: a solver another test left behind
     # is not this client's (a CI run once counted one)
     mark = ("FARM_TEST_KILLED_CLIENT", str(os.getpid()))
-    client = subprocess.Popen([sys.executable, "-m", "cli", "sweep", "submit", str(path),
+    client = subprocess.Popen([sys.executable, "-m", "farm", "sweep", "submit", str(path),
                                "--workers", "2"], stdout=subprocess.DEVNULL,
                               stderr=subprocess.DEVNULL, env={**os.environ, mark[0]: mark[1]})
     try:

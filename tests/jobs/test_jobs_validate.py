@@ -12,8 +12,6 @@ from conftest import study_text
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from cli import main
-from cli.params import build_model, parse_range
 from farm.errors import SpecError
 from farm.presets import default_model
 from farm.specs import SolverSettings
@@ -21,6 +19,8 @@ from jobs import validate as v
 from jobs.errors import StudyError
 from jobs.inverse.study import parse_inverse_study
 from jobs.study import parse_study
+from tyre_farm_cli import main
+from tyre_farm_cli.params import build_model, parse_range
 
 ROOT = Path(__file__).parents[2]
 INVERSE = '[study]\nname = "t"\nstore = "out/inverse.zarr"\n[model]\nkind = "reduced"\n'
@@ -210,7 +210,7 @@ def test_a_bad_value_in_an_inverse_study_names_the_key(extra, needle):
 
 
 @pytest.mark.parametrize("module", ["jobs/study.py", "jobs/inverse/study.py", "jobs/validate.py",
-                                    "cli/params.py"])
+                                    "tyre_farm_cli/params.py"])
 def test_study_parsers_import_nothing_private(module):
     tree = ast.parse((ROOT / module).read_text())
     private = [f"{node.module}.{alias.name}" for node in ast.walk(tree)

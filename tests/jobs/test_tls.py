@@ -13,12 +13,12 @@ import pytest
 
 import jobs.cluster
 import storage
-from cli import main
 from jobs.cluster import DaskCluster, connect
 from jobs.errors import ClusterError
 from jobs.tls import TlsFiles, check_file
 from tests.jobs.conftest import study_text
 from tests.jobs.tls_certs import make_certificates
+from tyre_farm_cli import main
 
 
 @pytest.fixture(scope="module")

@@ -9,8 +9,8 @@ import errno
 
 import pytest
 
-from cli import main
 from storage.errors import StoreAccessError, access_error
+from tyre_farm_cli import main
 
 
 def _botocore():

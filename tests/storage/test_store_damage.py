@@ -20,8 +20,8 @@ import numpy as np
 import pytest
 from store_helpers import GROUP, make_attrs, make_info, make_mesh, make_result
 
-import cli
 import storage
+import tyre_farm_cli as cli
 from analysis import data
 from analysis.errors import EmptySelectionError
 from storage.paths import publish
@@ -429,7 +429,7 @@ def test_garbage_group_metadata_is_one_line_in_a_fresh_process(built):
 
     (built / GROUP / "zarr.json").write_text("garbage{")
     for command in ("list", "status"):
-        run = subprocess.run([sys.executable, "-m", "cli", "sweep", command, str(built)],
+        run = subprocess.run([sys.executable, "-m", "farm", "sweep", command, str(built)],
                              capture_output=True, text=True, timeout=120)
         assert run.returncode == 1
         assert _one_line(run.stderr).startswith("farm: error:"), run.stderr

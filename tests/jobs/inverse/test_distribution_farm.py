@@ -10,7 +10,6 @@ map stands for the inverse problem's truth up to scale.
 import numpy as np
 import pytest
 
-from cli import main
 from jobs.errors import StudyError
 from jobs.inverse.distribution import check_mesh, fit_distribution, guess_from, training_set
 from jobs.inverse.run import Inverse
@@ -19,6 +18,7 @@ from jobs.reproduce import validation
 from jobs.reproduce.options import Options
 from jobs.study import parse_study
 from jobs.sweep import run_sweep
+from tyre_farm_cli import main
 
 pytestmark = pytest.mark.ccx
 

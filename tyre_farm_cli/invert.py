@@ -9,11 +9,11 @@ import typer
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from cli.errors import usage
-from cli.frames import print_frame
-from cli.options import SCHEDULER, WORKERS, with_cluster
-from cli.progress import LogLines, interactive
-from cli.progress import console as stderr_console
+from tyre_farm_cli.errors import usage
+from tyre_farm_cli.frames import print_frame
+from tyre_farm_cli.options import SCHEDULER, WORKERS, with_cluster
+from tyre_farm_cli.progress import LogLines, interactive
+from tyre_farm_cli.progress import console as stderr_console
 
 STUDY = typer.Argument(..., help="Inverse study file (TOML), e.g. examples/inverse_thesis.toml.")
 OUT = typer.Option(None, "--out", help="Folder for the tables (CSV) and histograms (PNG) "

@@ -7,7 +7,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from cli import main
+from tyre_farm_cli import main
 
 pytestmark = pytest.mark.ccx
 

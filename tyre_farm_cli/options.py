@@ -149,10 +149,10 @@ def cluster_spec(kind: ClusterKind, scheduler: str | None, workers: int | None,
                  tls: tuple[Path | None, Path | None, Path | None], slurm: dict[str, Any]):
     """The :class:`jobs.cluster.ClusterSpec` of the options, checked; bad combinations
     and bad values are usage errors (one line, exit 2)."""
-    from cli.errors import usage
     from jobs.cluster import DaskCluster
     from jobs.errors import ClusterError
     from jobs.tls import TlsFiles
+    from tyre_farm_cli.errors import usage
 
     with usage():
         files = TlsFiles.from_options(*tls)
@@ -231,8 +231,8 @@ def with_tls(command: Callable[..., Any]) -> Callable[..., Any]:
     def call(kwargs: dict[str, Any], extra: dict[str, Any]) -> Any:
         import dask
 
-        from cli.errors import usage
         from jobs.tls import TlsFiles, check_address
+        from tyre_farm_cli.errors import usage
 
         with usage():
             files = TlsFiles.from_options(*extra.values())

@@ -15,14 +15,14 @@ from pathlib import Path
 import typer
 from rich.console import Console
 
-from cli.errors import usage
-from cli.invert import loop_progress
-from cli.options import SCHEDULER, WORKERS, with_cluster
-from cli.params import check_materials
-from cli.progress import LogLines, interactive
-from cli.progress import console as stderr_console
-from cli.sweep import sweep_progress
 from jobs.cluster import resolve_scheduler
+from tyre_farm_cli.errors import usage
+from tyre_farm_cli.invert import loop_progress
+from tyre_farm_cli.options import SCHEDULER, WORKERS, with_cluster
+from tyre_farm_cli.params import check_materials
+from tyre_farm_cli.progress import LogLines, interactive
+from tyre_farm_cli.progress import console as stderr_console
+from tyre_farm_cli.sweep import sweep_progress
 
 
 @with_cluster

@@ -13,9 +13,9 @@ from pathlib import Path
 
 import typer
 
-from cli.errors import usage
-from cli.options import SCHEDULER, WORKERS, with_cluster
-from cli.params import MATERIALS_HELP, MESH_HELP, build_model
+from tyre_farm_cli.errors import usage
+from tyre_farm_cli.options import SCHEDULER, WORKERS, with_cluster
+from tyre_farm_cli.params import MATERIALS_HELP, MESH_HELP, build_model
 
 
 @with_cluster

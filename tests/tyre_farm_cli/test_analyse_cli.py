@@ -21,7 +21,7 @@ from analysis.errors import (
     TooFewExperimentsError,
 )
 from analysis.synthetic import make_store
-from cli.analyse import app
+from tyre_farm_cli.analyse import app
 
 PNG = b"\x89PNG\r\n\x1a\n"
 SMALL = {"rows": 8, "cols": 16, "tread_rows": 6, "tread_cols": 12}
@@ -198,7 +198,7 @@ def test_noise_chooses_components_by_cross_validation(thesis_store, tmp_path):
 def test_analysis_never_imports_farm_or_jobs():
     """Layering rule (docs/architecture.md): analysis (studies and report included) reads the store
     only: no import of farm or jobs, in its source or at run time."""
-    forbidden = ("farm", "jobs", "cli")
+    forbidden = ("farm", "jobs", "tyre_farm_cli")
     root = Path(__file__).resolve().parents[2] / "analysis"
     files = list(root.rglob("*.py"))
     assert any(p.parent.name == "studies" for p in files)

@@ -8,8 +8,8 @@ from typer.testing import CliRunner
 
 from analysis.errors import NoVarianceError, ParameterError
 from analysis.synthetic import make_combined_store, make_store
-from cli import main
-from cli.analyse import app
+from tyre_farm_cli import main
+from tyre_farm_cli.analyse import app
 
 TINY = {"rows": 5, "cols": 10, "tread_rows": 4, "tread_cols": 8}
 runner = CliRunner()

@@ -15,9 +15,9 @@ from typer.testing import CliRunner
 
 from analysis.errors import IncompleteDesignError, ParameterError
 from analysis.synthetic import make_store
-from cli.analyse import app
 from jobs.design import model_design
 from jobs.study import load_study
+from tyre_farm_cli.analyse import app
 
 PNG = b"\x89PNG\r\n\x1a\n"
 E, T = "materials.tread.youngs_modulus", "geometry.sidewall_thickness"
@@ -157,7 +157,7 @@ def test_bad_input_is_one_error_before_anything_is_written(sobol_study, tmp_path
 
 
 def test_exit_codes_through_the_farm_command(sobol_study, tmp_path, capsys):
-    from cli import main
+    from tyre_farm_cli import main
 
     path, _ = sobol_study
     for args, code, text in (
@@ -178,7 +178,7 @@ def test_sensitivity_of_the_quick_model_space_study_on_ccx(tmp_path, monkeypatch
     Sobol' analysis over the real store: every output read, Fz indices finite."""
     from pathlib import Path
 
-    from cli import main
+    from tyre_farm_cli import main
 
     monkeypatch.setenv("FARM_CACHE_DIR", str(tmp_path / "cache"))
     example = Path(__file__).parents[2] / "examples" / "model_space_quick.toml"

@@ -18,7 +18,7 @@ from rich.progress import (
 )
 from rich.table import Table
 
-from cli.options import (
+from tyre_farm_cli.options import (
     APP_SETTINGS,
     SCHEDULER,
     STORAGE_OPTION,
@@ -26,8 +26,8 @@ from cli.options import (
     open_target,
     with_cluster,
 )
-from cli.progress import LogLines, interactive
-from cli.progress import console as stderr_console
+from tyre_farm_cli.progress import LogLines, interactive
+from tyre_farm_cli.progress import console as stderr_console
 
 app = typer.Typer(help="Sweeps of virtual experiments on Dask: submit, resume, status, list, "
                   "verify.", no_args_is_help=True, **APP_SETTINGS)
@@ -297,8 +297,8 @@ def list_experiments(
 ) -> None:
     """Experiment ids with their load case (deflection mm, pressure kPa, ...), status and
     error: the ids `farm export --experiment` takes."""
-    from cli.listing import experiments
     from storage.errors import reading
+    from tyre_farm_cli.listing import experiments
 
     store, names, where, expected = _target(target, group, storage_option)
     with reading("the store's experiments", where):

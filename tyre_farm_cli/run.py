@@ -15,8 +15,6 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from cli.errors import usage
-from cli.params import MATERIALS_HELP, MESH_HELP, build_model, parse_range
 from farm.ccx.runner import find_ccx
 from farm.errors import SpecError
 from farm.experiment import PathResult, run_load_path
@@ -31,6 +29,8 @@ from farm.specs import (
 )
 from jobs import validate
 from jobs.errors import StudyError
+from tyre_farm_cli.errors import usage
+from tyre_farm_cli.params import MATERIALS_HELP, MESH_HELP, build_model, parse_range
 
 
 def run(

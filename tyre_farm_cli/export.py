@@ -9,8 +9,8 @@ import numpy as np
 import typer
 from rich.console import Console
 
-from cli.errors import usage
 from farm.errors import SpecError
+from tyre_farm_cli.errors import usage
 
 
 def export(

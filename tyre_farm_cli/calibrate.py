@@ -9,17 +9,17 @@ from pathlib import Path
 import typer
 from rich.console import Console
 
-from cli.errors import usage
-from cli.frames import print_frame
-from cli.options import SCHEDULER, WORKERS, with_cluster
-from cli.progress import LogLines, interactive
-from cli.progress import console as stderr_console
+from tyre_farm_cli.errors import usage
+from tyre_farm_cli.frames import print_frame
+from tyre_farm_cli.options import SCHEDULER, WORKERS, with_cluster
+from tyre_farm_cli.progress import LogLines, interactive
+from tyre_farm_cli.progress import console as stderr_console
 
 
 class CalibrationLines:
     """Progress of a calibration (:class:`jobs.driver.Progress`) on stderr: one line per
     new parameter set - budget, rounds, best cost, worst point. On a terminal every one;
-    elsewhere timestamped and rate-limited (:class:`cli.progress.LogLines`)."""
+    elsewhere timestamped and rate-limited (:class:`tyre_farm_cli.progress.LogLines`)."""
 
     def __init__(self, console: Console | None = None, lines: LogLines | None = None) -> None:
         self.last = -1
@@ -87,7 +87,6 @@ def calibrate(
     the fitted values and each point's residual;
     writes tables, a force-deflection figure and fitted.json to --out.
     """
-    from cli.params import build_model
     from farm.ccx.runner import find_ccx
     from farm.errors import SpecError
     from jobs import validate
@@ -95,6 +94,7 @@ def calibrate(
     from jobs.calibrate.params import Parameters, default_parameters
     from jobs.calibrate.references import read_points, thesis_points
     from jobs.calibrate.run import run_calibration
+    from tyre_farm_cli.params import build_model
 
     with usage():
         if model not in ("reduced", "full"):
@@ -104,7 +104,7 @@ def calibrate(
         names = (tuple(s.strip() for s in parameters.split(",") if s.strip()) if parameters
                  else default_parameters(model, thickness))
         params = Parameters(names, base)
-    # the references file's content is data, not usage (exit 1, see cli's docstring)
+    # the references file's content is data, not usage (exit 1, see tyre_farm_cli's docstring)
     with usage():
         default_points = thesis_points(model, reading)
     points = read_points(references, base) if references else default_points

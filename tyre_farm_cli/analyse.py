@@ -1,6 +1,6 @@
 """``farm analyse pca|pcr|plsr|noise|combined STORE``: one command per chapter-5 analysis.
 
-The ``farm`` CLI (:mod:`cli`) mounts :data:`app` as ``farm analyse`` and turns
+The ``farm`` CLI (:mod:`tyre_farm_cli`) mounts :data:`app` as ``farm analyse`` and turns
 :class:`~analysis.errors.AnalysisError` and :class:`storage.StoreError` into one line on
 stderr; the commands here raise those errors and never exit themselves. Options are
 checked before the analysis runs: ``--out`` must be a folder that can be written,
@@ -19,8 +19,10 @@ import numpy as np
 import typer
 
 from analysis.errors import ParameterError
-from cli.errors import usage
-from cli.options import (
+from jobs import validate
+from jobs.errors import ClusterError, StudyError
+from tyre_farm_cli.errors import usage
+from tyre_farm_cli.options import (
     APP_SETTINGS,
     SCHEDULER_HELP,
     STORAGE_OPTION_HELP,
@@ -28,8 +30,6 @@ from cli.options import (
     open_target,
     with_tls,
 )
-from jobs import validate
-from jobs.errors import ClusterError, StudyError
 
 REFERENCE_TOLERANCE_MM = 1e-6  # stored deflections are rounded to 1e-9 mm
 MAX_DRAWS = 10_000  # Monte Carlo draws per noise level

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from cli import main
+from tyre_farm_cli import main
 
 #: --set overrides of the smallest full-model mesh (jobs/reproduce COARSE_MESH)
 COARSE_FULL = ["--set", "mesh.tread=4", "--set", "mesh.sidewall=2", "--set", "mesh.bead=1",

@@ -14,10 +14,10 @@ from pathlib import Path
 import typer
 from rich.console import Console
 
-from cli.errors import usage
-from cli.options import SCHEDULER, WORKERS, with_cluster
-from cli.params import check_materials
-from cli.progress import LogLines
+from tyre_farm_cli.errors import usage
+from tyre_farm_cli.options import SCHEDULER, WORKERS, with_cluster
+from tyre_farm_cli.params import check_materials
+from tyre_farm_cli.progress import LogLines
 
 
 @with_cluster

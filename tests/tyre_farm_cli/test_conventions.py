@@ -14,8 +14,8 @@ import typer
 
 import storage
 from analysis.synthetic import make_store
-from cli import app, main
-from cli.progress import LogLines
+from tyre_farm_cli import app, main
+from tyre_farm_cli.progress import LogLines
 
 SMALL = {"rows": 4, "cols": 8, "tread_rows": 3, "tread_cols": 6}
 STAMP = r"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d"
@@ -198,7 +198,7 @@ def test_log_lines_are_timestamped_rate_limited_and_keep_the_last():
 def test_sweep_progress_off_a_terminal_is_lines_on_stderr(capsys):
     from types import SimpleNamespace as NS
 
-    from cli.sweep import SweepLines, sweep_progress
+    from tyre_farm_cli.sweep import SweepLines, sweep_progress
 
     progress = sweep_progress("ch5")  # stderr is captured: not a terminal
     assert isinstance(progress, SweepLines)

@@ -1,4 +1,4 @@
-"""``--cluster local|slurm``, ``--slurm-*`` and ``--tls-*`` (cli/options.py): on every
+"""``--cluster local|slurm``, ``--slurm-*`` and ``--tls-*`` (tyre_farm_cli/options.py): on every
 command that runs on a cluster, defaults those of :class:`jobs.slurm.SlurmOptions`,
 bad combinations one usage line (exit 2) before anything starts."""
 
@@ -11,11 +11,11 @@ import pytest
 
 import jobs.cluster
 import jobs.slurm
-from cli import main
-from cli.options import CLUSTER_OPTIONS, ClusterKind, cluster_spec
 from jobs.cluster import DaskCluster
 from jobs.slurm import SlurmOptions
 from tests.jobs.conftest import study_text
+from tyre_farm_cli import main
+from tyre_farm_cli.options import CLUSTER_OPTIONS, ClusterKind, cluster_spec
 
 COMMANDS = [["sweep", "submit"], ["sweep", "resume"], ["invert"], ["calibrate"],
             ["reproduce"]]

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from cli_helpers import COARSE_FULL, run_cli
 
-from cli import main
+from tyre_farm_cli import main
 
 COARSE = ["--set", "mesh.tread=4", "--set", "mesh.sidewall=2", "--set", "mesh.bead=1",
           "--set", "mesh.circumferential=8"]
@@ -100,9 +100,9 @@ def test_a_combined_run_keeps_every_array_and_prints_json(tmp_path, capsys):
     ],
 )
 def test_absurd_values_are_refused_before_solving(argv, needle, capsys, monkeypatch):
-    import cli.run
+    import tyre_farm_cli.run
 
-    monkeypatch.setattr(cli.run, "run_load_path", lambda *a, **k: pytest.fail("solved"))
+    monkeypatch.setattr(tyre_farm_cli.run, "run_load_path", lambda *a, **k: pytest.fail("solved"))
     code, _, err = _run(["run", "--model", "reduced", *COARSE, *argv], capsys)
     assert code == 2 and err.count("\n") == 1 and needle in err, err  # usage (cli docstring)
 
@@ -110,12 +110,13 @@ def test_absurd_values_are_refused_before_solving(argv, needle, capsys, monkeypa
 @pytest.mark.parametrize("out", ["missing/x.npz", "folder", "afile/x.npz"])
 def test_out_is_checked_before_the_solve_not_after(out, tmp_path, capsys, monkeypatch):
     """A path that cannot be written once cost a finished solve: now nothing is solved."""
-    import cli.run
 
     (tmp_path / "folder").mkdir()
     (tmp_path / "afile").write_text("x")
     monkeypatch.chdir(tmp_path)
-    monkeypatch.setattr(cli.run, "run_load_path", lambda *a, **k: pytest.fail("solved"))
+    import tyre_farm_cli.run
+
+    monkeypatch.setattr(tyre_farm_cli.run, "run_load_path", lambda *a, **k: pytest.fail("solved"))
     code, _, err = _run(["run", "--model", "reduced", *COARSE, "--out", out], capsys)
     assert code == 2 and err.startswith("farm: error: --out: ") and err.count("\n") == 1, err
 
@@ -125,9 +126,9 @@ def test_the_combined_table_never_cuts_a_number_on_a_narrow_console(capsys):
     # squeezed to "3511…" for Fz (seen in `farm run ... --friction 0.5 --shift-y 2 --tilt 2`)
     from types import SimpleNamespace
 
-    from cli.run import _print_table
     from farm.presets import default_model
     from farm.specs import RoadMotion
+    from tyre_farm_cli.run import _print_table
 
     motion = RoadMotion(friction=0.5, shift_y=2.0, tilt=2.0)
     states = [SimpleNamespace(deflection=20.0, motion=m, total_force=np.array(f),

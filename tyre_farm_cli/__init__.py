@@ -10,11 +10,11 @@ non-zero exit code; ``--debug`` shows the traceback instead. Exit codes:
 - 2: usage: an unknown command or option, a missing argument, or a value typed on the
   command line that was refused (``--workers -3``, ``--model bogus``, ``--pressure nan``,
   an ``--out`` that cannot be written) - click's rule, extended to the farm's own checks
-  of option values (:func:`cli.errors.usage` marks their errors);
+  of option values (:func:`tyre_farm_cli.errors.usage` marks their errors);
 - 130: interrupted.
 
 Streams: results (tables, summaries, ``--json`` documents) on stdout; progress,
-dashboard addresses and errors on stderr (:mod:`cli.progress`). Pressure is kPa in every
+dashboard addresses and errors on stderr (:mod:`tyre_farm_cli.progress`). Pressure is kPa in every
 option and table (the store keeps MPa; the CLI converts at its edge).
 """
 
@@ -27,7 +27,7 @@ import warnings
 
 import typer
 
-from cli import (
+from tyre_farm_cli import (
     analyse,
     calibrate,
     compare,
@@ -38,8 +38,8 @@ from cli import (
     run,
     sweep,
 )
-from cli.errors import USER_ERRORS, exit_code, fail
-from cli.options import APP_SETTINGS
+from tyre_farm_cli.errors import USER_ERRORS, exit_code, fail
+from tyre_farm_cli.options import APP_SETTINGS
 
 app = typer.Typer(
     name="farm",
