@@ -33,7 +33,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from analysis.noise import monte_carlo, totals_operator  # noqa: E402
-from analysis.synthetic import geometry, inner_fields, make_store, tread_forces  # noqa: E402
+from tests.synthetic import geometry, inner_fields, make_store, tread_forces  # noqa: E402
 
 
 def thesis_sized(rows=20, cols=50, tread_rows=16, tread_cols=25, noise=1e-3, seed=0):

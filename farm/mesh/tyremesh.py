@@ -9,13 +9,13 @@ from the -y bead to the +y bead, circumferential column ``j`` in increasing angl
 
 from __future__ import annotations
 
-import os
-import uuid
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+
+from farm.atomic import replacing
 
 REGIONS = ("tread", "sidewall", "bead")
 """Material regions; ``element_region`` holds indices into this tuple."""
@@ -125,10 +125,9 @@ class TyreMesh:
                               repr(self.tread_rows)]),
         }
         arrays.update({f"set_{k}": v for k, v in self.node_sets.items()})
-        path = Path(path)
-        tmp = path.with_name(f"{path.name}.{os.getpid()}.{uuid.uuid4().hex}.tmp.npz")
-        np.savez_compressed(tmp, **arrays)
-        tmp.replace(path)  # atomic: concurrent workers never read a half-written file
+        # atomic: concurrent workers never read a half-written file
+        with replacing(path, suffix=".npz") as tmp:
+            np.savez_compressed(tmp, **arrays)
 
     @classmethod
     def load(cls, path: str | Path) -> TyreMesh:

@@ -24,11 +24,11 @@ from __future__ import annotations
 import contextlib
 import json
 import math
-import os
 from collections.abc import Callable
 
 import numpy as np
 
+from farm.atomic import write_text
 from farm.ccx import deck as D
 from farm.ccx.frd import FrdFile, read_frd
 from farm.ccx.runner import CcxRun, ccx_version, run_ccx, scratch_dir
@@ -96,9 +96,8 @@ def touch_height(spec: ModelSpec, mesh: TyreMesh, pressure: float, settings: Sol
     run, z = inflate(spec, mesh, pressure, settings, should_stop)
     with contextlib.suppress(OSError):  # a read-only cache only costs a re-run
         path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")
-        tmp.write_text(json.dumps({"touch_z": z}))
-        tmp.replace(path)
+        # a unique temporary name: threads of one worker may write the same entry
+        write_text(path, json.dumps({"touch_z": z}))
     return z, run
 
 

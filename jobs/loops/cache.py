@@ -19,12 +19,12 @@ from __future__ import annotations
 import dataclasses
 import os
 import re
-import uuid
 from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
 
+from farm.atomic import replacing
 from farm.measure.measurement import Measurement
 from jobs.errors import JobError
 from jobs.guard import Failed, Result, Solved
@@ -140,9 +140,10 @@ class EvaluationCache:
         path = self._path(key)
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
-            tmp = path.with_name(f"{path.name}.{os.getpid()}.{uuid.uuid4().hex}.tmp.npz")
-            np.savez(tmp, **arrays)
-            tmp.replace(path)
+            # durable: a loop resumes by replaying this cache, so an entry lost to a
+            # machine crash costs a solve
+            with replacing(path, suffix=".npz", durable=True) as tmp:
+                np.savez(tmp, **arrays)
         except OSError as e:
             raise CacheError(f"cannot write the evaluation cache at {self.directory}: "
                              f"{e.strerror or e}") from e

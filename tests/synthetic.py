@@ -2,6 +2,14 @@
 
 Writes one group that follows ``docs/schema.md`` (variables, dims, dtypes, units,
 status flags, one chunk per experiment along ``experiment``) with xarray's ``to_zarr``.
+
+Why here and not in ``analysis/``, and why not through ``storage.write_experiment``
+(issue 25): the store has one writer in the product, ``storage/``. This is test data:
+it makes groups ``storage`` deliberately cannot (no strain arrays, the shape of older
+stores that the analysis must still name a missing variable in), and the out-of-core
+benchmark's 10,000-experiment group in dask blocks, where one ``write_experiment`` per
+experiment would time the writer instead of the analysis. Tests and benchmarks import
+it as ``tests.synthetic`` (the project root is on their path).
 The physics is a caricature of the thesis' chapter 5 dataset, not a tyre model:
 
 - the single latent variable is the deflection d (the thesis' 10..40 mm at 200 kPa);
@@ -256,7 +264,7 @@ def _skeleton(geo, d, p, status, forces, group, seed) -> xr.Dataset:
             "schema_version": 1,
             "model_spec": json.dumps({"synthetic": True, "seed": seed}),
             "mesh_key": f"synthetic-{len(geo.inner_s)}-{len(geo.tread_s)}",
-            "solver": "synthetic (analysis.synthetic)",
+            "solver": "synthetic (tests.synthetic)",
             "package_versions": json.dumps({"numpy": np.__version__, "xarray": xr.__version__}),
         },
     )
