@@ -41,15 +41,16 @@ def reproduce(
     """Run the thesis study (chapters 3-5) on the farm and write OUT/report.md."""
     from analysis.report import reproduction
     from farm.ccx.runner import ccx_version, find_ccx
-    from jobs import validate
     from jobs.cluster import DaskCluster
     from jobs.reproduce import Options
+    from jobs.validate import locations
+    from tyre_farm_cli.checks import output_folder
 
     with usage():
         check_materials(materials)
-        validate.output_folder(out, "--out")
+        output_folder(out, "--out")
         if store is not None:
-            store = validate.store_location(store, "--store")
+            store = locations.store_location(store, "--store")
     find_ccx()
     out = out.resolve()
     opts = Options(out=out, store=store or str(out / "thesis.zarr"), quick=quick,
@@ -123,14 +124,14 @@ def _inverse(opts):
         ds = open_solves(study.store, study.group)
         stage.tables.update(_ch4_tables(ch4, ds))
         stage.tables["Initial guesses: evaluations to converge, nodal errors of the guess and "
-                     "of the solution, N (issue 16)"] = ch4_extra.guesses(ds).round(4)
+                     "of the solution, N"] = ch4_extra.guesses(ds).round(4)
         groups = {name.removeprefix("ch4-"): open_solves(s.store, s.group)
                   for name, s in run.studies.items()
                   if name != "ch4" and run.reports[name].results}
         if groups:  # the regularised studies, beside the same noise draws unregularised
             baseline = {"none": ch4_extra.same_solves(ds, groups)}
             stage.tables["Regularisation, weights by the discrepancy principle: nodal errors "
-                         "and total force, ours beside the thesis' (issue 16)"] = \
+                         "and total force, ours beside the thesis'"] = \
                 ch4_extra.regularisation(baseline | groups).round(4)
         for path in ch4.histograms(ds, opts.out / "ch4"):
             stage.figures[f"Nodal force errors, {path.stem.removeprefix('nodal_errors_')} "

@@ -33,6 +33,7 @@ from matplotlib.figure import Figure
 
 from analysis.errors import MissingVariableError
 from analysis.report import ch4_thesis as thesis
+from analysis.report.readable import MISSING
 from storage.solves import DIRECTIONS, KIND, VARIABLES
 
 KEYS = ["condition", "method", "optimizer"]
@@ -153,7 +154,7 @@ def tables(ds: xr.Dataset) -> dict[str, pd.DataFrame]:
 
 def _pm(mean: float, std: float | None, digits: int = 5) -> str:
     if mean is None or (isinstance(mean, float) and np.isnan(mean)):
-        return "-"
+        return MISSING
     if std is None or (isinstance(std, float) and np.isnan(std)) or std == 0:
         return f"{mean:.{digits}g}"
     return f"{mean:.{digits}g} ± {std:.2g}"

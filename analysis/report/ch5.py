@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from analysis.report.reproduction import StageResult
+from analysis.report.stage import StageResult
 
 PRESSURE_MPA = 0.2
 DEFLECTIONS_MM = (10.0, 40.0)  # the thesis' dataset: 7 deflections of 10-40 mm (§5.3)

@@ -10,14 +10,14 @@ import os
 import platform
 import re
 import time
-from dataclasses import dataclass, field
 from importlib import metadata
 from pathlib import Path
 
 import pandas as pd
 
-from analysis.report import thesis
-from analysis.report.markdown import table as md_table
+from analysis.report import findings, readable, table_5_1
+from analysis.report.readable import table as md_table
+from analysis.report.stage import StageResult  # where the chapters and the CLI take it from
 
 PACKAGES = ("tyre-farm", "numpy", "scipy", "gmsh", "zarr", "xarray", "dask", "distributed",
             "scikit-learn", "pandas", "matplotlib")
@@ -27,7 +27,7 @@ CH5_TABLES = [
     ("pca/importance", "Importance of each measurement direction (Figs. 5.1-5.4)"),
     ("plsr/thesis_comparison", "Cumulative % of output variance, modes 1-3: PCR (Fig. 5.7) "
                                "and PLSR (Fig. 5.10), measured vs thesis"),
-    ("noise/totals", "Totals predicted by PLSR with and without noise (Table 5.1)"),
+    ("noise/totals", table_5_1.CAPTION),  # shown through table_5_1.beside_thesis
 ]
 CH5_FIGURES = [
     ("pca/singular_values_displacement", "Singular values, displacement (Fig. 5.1)"),
@@ -44,20 +44,6 @@ CH5_FIGURES = [
     ("noise/nodes_strain", "Noise: mean error and std per node, strain (Fig. 5.11)"),
     ("noise/sweep", "Total force and std over noise levels (Fig. 5.12)"),
 ]
-
-
-@dataclass
-class StageResult:
-    """Tables, figures and notes of one stage, with what it cost."""
-
-    name: str
-    tables: dict[str, pd.DataFrame] = field(default_factory=dict)
-    figures: dict[str, Path] = field(default_factory=dict)
-    notes: list[str] = field(default_factory=list)
-    wall_seconds: float = 0.0
-    ccx_runs: int = 0
-    solver_seconds: float = 0.0
-    studies: dict[str, str] = field(default_factory=dict)
 
 
 def provenance(*, solver: str, store: str, quick: bool, meshes: str, materials: str,
@@ -97,6 +83,7 @@ def write(out: Path, stages: list[StageResult], provenance: pd.DataFrame,
     lines = [f"# Reproduction of the thesis study ({'quick' if quick else 'full'})", "",
              "Every number below was computed by this run (or by an earlier run whose "
              "experiments the store already held); thesis values are quoted beside them.", "",
+             readable.NOTE, "", *_findings(stages),
              "## Provenance", "", md_table(provenance), "",
              "## Run", "", md_table(_costs(stages)), ""]
     by_name = {s.name: s for s in stages}
@@ -123,6 +110,13 @@ def write(out: Path, stages: list[StageResult], provenance: pd.DataFrame,
     return path
 
 
+def _findings(stages: list[StageResult]) -> list[str]:
+    table = findings.findings(stages)
+    if table.empty:
+        return []
+    return ["## Findings", "", findings.summary(table), "", md_table(table), ""]
+
+
 def _costs(stages: list[StageResult]) -> pd.DataFrame:
     rows = [{"stage": s.name, "wall s": round(s.wall_seconds, 1), "ccx runs": s.ccx_runs,
              "solver s": round(s.solver_seconds, 1)} for s in stages]
@@ -136,9 +130,10 @@ def _chapter3(stage: StageResult, out: Path) -> list[str]:
     lines = ["## Chapter 3: the models and their validation", ""]
     for key, frame in stage.tables.items():
         lines += [f"### {key}", "", md_table(frame), ""]
-    lines += [_figure(stage.figures["force-deflection"], out,
-                      "Force-deflection curves, thesis reference points as stars (Fig. 3.3)"),
-              "", *(f"- {n}" for n in stage.notes), ""]
+    if "force-deflection" in stage.figures:
+        lines += [_figure(stage.figures["force-deflection"], out, "Force-deflection curves, "
+                          "thesis reference points as stars (Fig. 3.3)"), ""]
+    lines += [*(f"- {n}" for n in stage.notes), ""]
     return lines
 
 
@@ -147,11 +142,12 @@ def _chapter5(stage: StageResult, out: Path) -> list[str]:
              ""]
     for key, caption in CH5_TABLES:
         if key in stage.tables:
-            lines += [f"### {caption}", "", md_table(stage.tables[key]), ""]
+            frame = stage.tables[key]
             if key == "noise/totals":
-                lines += ["Thesis Table 5.1 (Fz N, Mx N m, My N m, nodal-average std N):", "",
-                          md_table(pd.DataFrame(thesis.TABLE_5_1, columns=[
-                              "case", "Fz", "Mx", "My", "nodal_avg_std"])), ""]
+                frame = table_5_1.beside_thesis(frame)
+            lines += [f"### {caption}", "", md_table(frame), ""]
+            if key == "noise/totals":
+                lines += [table_5_1.NOTE, ""]
     for key, caption in CH5_FIGURES:
         if key in stage.figures:
             lines += [_figure(stage.figures[key], out, caption), ""]

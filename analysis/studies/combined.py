@@ -24,6 +24,8 @@ From one group of a combined-load study (load parameters ``friction``, ``shift_x
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -44,7 +46,7 @@ from analysis.errors import (
     ParameterError,
     TooFewExperimentsError,
 )
-from analysis.report import markdown, plots
+from analysis.render import markdown, plots
 from analysis.studies.common import Report
 
 #: load parameters of a combined-load group (docs/combined-loads.md, RoadMotion.to_dict)
@@ -145,6 +147,77 @@ def run(
         Noise draws per held-out experiment (test set and each CV fold).
     """
     varying = check_combined(ds)
+    train, test = _checked_split(ds, test_fraction, folds, seed)
+    if draws < 1:
+        raise ParameterError(f"draws must be >= 1, got {draws}")
+    report = Report(Path(out))
+    sets = _input_sets(ds, inputs)
+    targets = _targets(ds)
+    setup = _Setup(train, test, folds, max_components, draws, seed, methods,
+                   targets["nodal"][0].shape[1] // 3)
+    tread = data.tread_index(ds)
+    report.csv("pca", _pca_table(ds, sets, varying))
+    results = _Results()
+    for name in sets:
+        _study_input_set(ds, name, targets, setup, results)
+    results.write(report)
+    figures = _figures(report, tread, sets, results)
+    report.files += [p for _, p in figures]
+    cap = min(max_components, train.size - int(np.ceil(train.size / folds)) - 1)
+    _summary(report, ds, varying, train, test, folds, draws, figures, cap)
+    return report
+
+
+@dataclass(frozen=True)
+class _Setup:
+    """What every fit of one run shares: the split, the CV and noise settings."""
+
+    train: np.ndarray
+    test: np.ndarray
+    folds: int
+    max_components: int
+    draws: int
+    seed: int
+    methods: Sequence[str]
+    tread_nodes: int  # M: the nodal map's columns are Fx, Fy, Fz of M nodes each
+
+
+@dataclass
+class _Results:
+    """Rows of the tables as the fits produce them; the noise-free PLSR ones for figures."""
+
+    models: list[dict] = field(default_factory=list)
+    cvs: list[pd.DataFrame] = field(default_factory=list)
+    totals: list[pd.DataFrame] = field(default_factory=list)
+    nodal: list[pd.DataFrame] = field(default_factory=list)
+    maps: dict[str, np.ndarray] = field(default_factory=dict)
+    preds: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+
+    def record(self, key: dict, P: np.ndarray, Yt: np.ndarray, Y: np.ndarray,
+               setup: _Setup) -> None:
+        """The held-out errors of one model's predictions ``P`` of ``Yt``."""
+        shown = key["scenario"] == "noise-free" and key["method"] == "plsr"
+        if key["target"] == "totals":
+            self.totals.append(_total_errors(P, Yt, Y, key))
+            if shown:
+                self.preds[key["inputs"]] = (Y[setup.test], P)
+        else:
+            frame, node_rmse = _nodal_errors(P, Yt, Y, setup.tread_nodes, key)
+            self.nodal.append(frame)
+            if shown:
+                self.maps[key["inputs"]] = node_rmse
+
+    def write(self, report: Report) -> None:
+        report.csv("models", pd.DataFrame(self.models))
+        report.csv("cross_validation", pd.concat(self.cvs, ignore_index=True))
+        report.csv("totals", pd.concat(self.totals, ignore_index=True))
+        report.csv("nodal", pd.concat(self.nodal, ignore_index=True))
+        report.csv("anchors", anchors(report.tables["totals"]))
+
+
+def _checked_split(ds: xr.Dataset, test_fraction: float, folds: int,
+                   seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`split`, refused when the training part is too small for ``folds``-fold CV."""
     K = ds.sizes["experiment"]
     train, test = split(K, test_fraction, seed)
     need = max(folds, 3)
@@ -155,96 +228,112 @@ def run(
             f"({train.size} after holding out {test.size} for testing): run more load cases "
             "or lower --folds / --test-fraction"
         )
-    if draws < 1:
-        raise ParameterError(f"draws must be >= 1, got {draws}")
-    report = Report(Path(out))
-    sets = _input_sets(ds, inputs)
+    return train, test
+
+
+def _targets(ds: xr.Dataset) -> dict[str, tuple[np.ndarray, list[int]]]:
+    """What the models predict, with its block sizes: the six totals, the nodal force map
+    (Fx of every tread node, then Fy, then Fz)."""
     forces = np.asarray(ds["reaction_force"].transpose("experiment", "tread_node",
                                                        "component").values, dtype=float)
     M = forces.shape[1]
     Y_map = np.concatenate([forces[:, :, j] for j in range(3)], axis=1)
-    Y_tot = _totals(ds)
-    tread = data.tread_index(ds)
+    return {"totals": (_totals(ds), [1] * 6), "nodal": (Y_map, [M, M, M])}
 
-    report.csv("pca", _pca_table(ds, sets, varying))
-    rows_models, cvs, totals, nodal, maps, preds = [], [], [], [], {}, {}
-    for name in sets:
-        vars_ = INPUT_SETS[name]
-        blocks = [_field(ds, v) for v in vars_]
-        X = np.concatenate(blocks, axis=1)
-        x_blocks = [b.shape[1] for b in blocks]
-        sigmas = {}
-        for scenario in SCENARIOS:
-            sigma = np.concatenate([np.full(b.shape[1], _sigma(v, scenario))
-                                    for v, b in zip(vars_, blocks, strict=True)])
-            if scenario == "noise-free" or np.any(sigma > 0):
-                sigmas[scenario] = sigma
-        noisy_sigmas = {s: v for s, v in sigmas.items() if np.any(v > 0)}
-        for target, Y, y_blocks in (("totals", Y_tot, [1] * 6), ("nodal", Y_map, [M, M, M])):
-            cv_args = dict(methods=methods, folds=folds, max_components=max_components,
-                           draws=draws, seed=seed, x_blocks=x_blocks, y_blocks=y_blocks)
-            chosen = {("noise-free", *k): v for k, v in cross_validate(
-                X[train], Y[train], sigmas=sigmas, **cv_args).items()}
-            if noisy_sigmas:  # issue 25: the same noise in training, as measured data have
-                chosen |= {("noisy", *k): v for k, v in cross_validate(
-                    X[train], Y[train], sigmas=noisy_sigmas, train_noise=True,
-                    **cv_args).items()}
-            for (training, method, scenario), (best, table) in chosen.items():
-                k = list(sigmas).index(scenario)
-                sigma = sigmas[scenario]
-                Xt, Yt = X[test], Y[test]
-                Xf, Yf = X[train], Y[train]
-                if np.any(sigma > 0):
-                    rng = np.random.default_rng([seed, 2, k])
-                    Xt = np.concatenate([add_noise(X[test], sigma, rng) for _ in range(draws)])
-                    Yt = np.concatenate([Y[test]] * draws)
-                if training == "noisy":
-                    rng = np.random.default_rng([seed, 3, k])
-                    Xf = np.concatenate([add_noise(X[train], sigma, rng) for _ in range(draws)])
-                    Yf = np.concatenate([Y[train]] * draws)
-                key = dict(inputs=name, scenario=scenario, training=training, method=method,
-                           target=target)
-                cvs.append(table.assign(**key, chosen=table["n_components"] == best))
-                model = BlockRegression(method, best, x_blocks, y_blocks).fit(Xf, Yf)
-                rows_models.append({**key, "n_components": model.n_components_,
-                                    "chosen_by": f"{folds}-fold CV on {train.size} "
-                                    "training experiments, "
-                                    + ("noisy held-out inputs" if np.any(sigma > 0)
-                                       else "noise-free")
-                                    + (", noisy training inputs" if training == "noisy"
-                                       else "")
-                                    + (" (the cap: the error still fell)"
-                                       if best == max_components else "")})
-                P = model.predict(Xt)
-                if target == "totals":
-                    totals.append(_total_errors(P, Yt, Y, key))
-                    if scenario == "noise-free" and method == "plsr":
-                        preds[name] = (Y[test], P)
-                else:
-                    frame, node_rmse = _nodal_errors(P, Yt, Y, M, key)
-                    nodal.append(frame)
-                    if scenario == "noise-free" and method == "plsr":
-                        maps[name] = node_rmse
-    report.csv("models", pd.DataFrame(rows_models))
-    report.csv("cross_validation", pd.concat(cvs, ignore_index=True))
-    report.csv("totals", pd.concat(totals, ignore_index=True))
-    report.csv("nodal", pd.concat(nodal, ignore_index=True))
-    report.csv("anchors", anchors(report.tables["totals"]))
+
+def _scenario_sigmas(vars_: tuple[str, ...], blocks: list[np.ndarray]) -> dict[str, np.ndarray]:
+    """Per noise scenario the sigma of every input column (a scenario that adds no noise
+    to these inputs is left out, except the noise-free one)."""
+    sigmas = {}
+    for scenario in SCENARIOS:
+        sigma = np.concatenate([np.full(b.shape[1], _sigma(v, scenario))
+                                for v, b in zip(vars_, blocks, strict=True)])
+        if scenario == "noise-free" or np.any(sigma > 0):
+            sigmas[scenario] = sigma
+    return sigmas
+
+
+def _study_input_set(ds: xr.Dataset, name: str, targets: dict, setup: _Setup,
+                     results: _Results) -> None:
+    """Every model of one input set: per target, training and scenario, choose the count
+    by CV, fit, predict the held-out experiments and record the errors."""
+    vars_ = INPUT_SETS[name]
+    blocks = [_field(ds, v) for v in vars_]
+    X = np.concatenate(blocks, axis=1)
+    x_blocks = [b.shape[1] for b in blocks]
+    sigmas = _scenario_sigmas(vars_, blocks)
+    for target, (Y, y_blocks) in targets.items():
+        chosen = _choose_counts(X, Y, sigmas, x_blocks, y_blocks, setup)
+        for (training, method, scenario), (best, table) in chosen.items():
+            key = dict(inputs=name, scenario=scenario, training=training, method=method,
+                       target=target)
+            k = list(sigmas).index(scenario)
+            Xf, Yf, Xt, Yt = _noisy_parts(X, Y, sigmas[scenario], training, k, setup)
+            results.cvs.append(table.assign(**key, chosen=table["n_components"] == best))
+            model = BlockRegression(method, best, x_blocks, y_blocks).fit(Xf, Yf)
+            results.models.append({**key, "n_components": model.n_components_,
+                                   "chosen_by": _chosen_by(setup, sigmas[scenario], training,
+                                                           best)})
+            results.record(key, model.predict(Xt), Yt, Y, setup)
+
+
+def _choose_counts(X, Y, sigmas: dict, x_blocks, y_blocks, setup: _Setup) -> dict:
+    """(training, method, scenario) -> (chosen count, CV table): trained noise-free, and
+    again on the same noise in training (issue 25: as measured data have it)."""
+    cv_args = dict(methods=setup.methods, folds=setup.folds,
+                   max_components=setup.max_components, draws=setup.draws, seed=setup.seed,
+                   x_blocks=x_blocks, y_blocks=y_blocks)
+    train = setup.train
+    chosen = {("noise-free", *k): v for k, v in cross_validate(
+        X[train], Y[train], sigmas=sigmas, **cv_args).items()}
+    noisy_sigmas = {s: v for s, v in sigmas.items() if np.any(v > 0)}
+    if noisy_sigmas:
+        chosen |= {("noisy", *k): v for k, v in cross_validate(
+            X[train], Y[train], sigmas=noisy_sigmas, train_noise=True, **cv_args).items()}
+    return chosen
+
+
+def _noisy_parts(X, Y, sigma: np.ndarray, training: str, k: int, setup: _Setup):
+    """(X, Y) to fit on and (X, Y) to test on: ``draws`` noisy copies of the held-out
+    experiments when the scenario adds noise, and of the training ones when the model is
+    trained on noise. Seeded by the scenario's position ``k``."""
+    train, test, draws = setup.train, setup.test, setup.draws
+    Xf, Yf, Xt, Yt = X[train], Y[train], X[test], Y[test]
+    if np.any(sigma > 0):
+        rng = np.random.default_rng([setup.seed, 2, k])
+        Xt = np.concatenate([add_noise(X[test], sigma, rng) for _ in range(draws)])
+        Yt = np.concatenate([Y[test]] * draws)
+    if training == "noisy":
+        rng = np.random.default_rng([setup.seed, 3, k])
+        Xf = np.concatenate([add_noise(X[train], sigma, rng) for _ in range(draws)])
+        Yf = np.concatenate([Y[train]] * draws)
+    return Xf, Yf, Xt, Yt
+
+
+def _chosen_by(setup: _Setup, sigma: np.ndarray, training: str, best: int) -> str:
+    """How a model's count was chosen, for the ``models`` table."""
+    return (f"{setup.folds}-fold CV on {setup.train.size} training experiments, "
+            + ("noisy held-out inputs" if np.any(sigma > 0) else "noise-free")
+            + (", noisy training inputs" if training == "noisy" else "")
+            + (" (the cap: the error still fell)" if best == setup.max_components else ""))
+
+
+def _figures(report: Report, tread: pd.DataFrame, sets: list[str],
+             results: _Results) -> list[tuple[str, Path]]:
+    """(caption, path) of the noise-free PLSR figures per input set."""
     figures = []
     for name in sets:
-        if name in preds:
+        if name in results.preds:
             figures.append((f"Predicted vs true totals, PLSR from {name}, noise-free test set",
-                            _pred_figure(report, name, *preds[name])))
-        if name in maps:
+                            _pred_figure(report, name, *results.preds[name])))
+        if name in results.maps:
+            maps = results.maps[name]
             figures.append((f"Nodal RMSE on the unrolled tread, PLSR from {name}, noise-free",
-                            plots.node_maps(tread, {f"RMSE F{c} [N]": maps[name][j]
+                            plots.node_maps(tread, {f"RMSE F{c} [N]": maps[j]
                                                     for j, c in enumerate("xyz")},
                                             report.out / f"error_map_{name}.png",
                                             f"Held-out nodal RMSE, PLSR from {name}")))
-    report.files += [p for _, p in figures]
-    cap = min(max_components, train.size - int(np.ceil(train.size / folds)) - 1)
-    _summary(report, ds, varying, train, test, folds, draws, figures, cap)
-    return report
+    return figures
 
 
 def _input_sets(ds: xr.Dataset, spec: str | None) -> list[str]:

@@ -9,7 +9,7 @@ import xarray as xr
 
 from analysis import data
 from analysis.crosscov import CrossCovariancePCA, direction_importance
-from analysis.report import markdown, plots, tables
+from analysis.render import markdown, plots, tables
 from analysis.studies.common import Report, Selection
 
 

@@ -10,6 +10,7 @@ levels (Fig. 5.12), each with the exact (analytic) std beside the Monte Carlo on
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -19,7 +20,7 @@ import xarray as xr
 from analysis import data
 from analysis.noise import THESIS_SIGMA, monte_carlo, totals_operator
 from analysis.pls import SIMPLSRegression
-from analysis.report import markdown, plots, tables
+from analysis.render import markdown, plots, tables
 from analysis.selection import cross_validate_simpls, default_folds, describe_cv
 from analysis.studies.common import Report, Selection, directions_of, fit_simpls, model_inputs
 
@@ -78,44 +79,85 @@ def run(
     )
     report = Report(Path(out))
     levels = np.unique(np.append(np.asarray(multipliers, dtype=float), 1.0))
-    at_thesis = int(np.flatnonzero(levels == 1.0)[0])
     G = totals_operator(sel.tread[["x", "y"]].to_numpy())
-    y_ref = sel.y_ref
-    totals, nodes, sweeps, figures, models, cvs = [], [], [], [], [], []
-    for k, name in enumerate(model_inputs(ds, inputs)):
-        model, chosen_by, cv_table = _model(sel, name, n_components, cv, seed)
-        models.append((name, model.n_components, chosen_by, thesis_sigma(name)))
-        if cv_table is not None:
-            cvs.append(cv_table)
-        result = monte_carlo(
-            model,
-            sel.x_ref(name),
-            levels * thesis_sigma(name),
-            totals=G,
-            n_draws=draws,
-            seed=seed + k,
-            sampling=sampling,
-        )
-        label = f"SIMPLS, {model.n_components} components"
-        totals.append(tables.noise_totals(name, result, at_thesis, y_ref, G, label))
-        nodes.append(tables.noise_nodes(name, sel.tread, result, at_thesis, y_ref))
-        sweeps.append(tables.noise_sweep(name, result, levels, y_ref))
-        figures.append(
-            (f"Mean error and std over the tread, {name}", _node_figure(report, nodes[-1], name))
-        )
-    cols = ["inputs", "n_components", "chosen_by", "thesis_sigma"]
-    report.csv("models", pd.DataFrame(models, columns=cols))
-    if cvs:
-        report.csv("cross_validation", pd.concat(cvs, ignore_index=True))
-    report.csv("totals", _merge_reference(totals))
-    report.csv("table_5_1", tables.table_5_1(report.tables["totals"]))
-    report.csv("nodes", pd.concat(nodes, ignore_index=True))
-    report.csv("sweep", pd.concat(sweeps, ignore_index=True))
+    sweep = _Sweep(levels, G, draws, seed, sampling)
+    parts = [_input_set(report, sel, name, sweep, n_components, cv, seed + k)
+             for k, name in enumerate(model_inputs(ds, inputs))]
+    _write_tables(report, parts)
+    figures = [(p.caption, p.figure) for p in parts]
     path = plots.noise_sweep(report.tables["sweep"], report.out / "sweep.png")
     figures.append(("Noise sweep (Fig. 5.12)", path))
     report.files += [p for _, p in figures]
     _summary(report, sel, f"{draws} draws per level ({sampling} sampling)", figures)
     return report
+
+
+@dataclass(frozen=True)
+class _Sweep:
+    """The Monte Carlo settings every input set shares."""
+
+    levels: np.ndarray  # multiples of the thesis' sigma, 1.0 among them
+    totals: np.ndarray  # G: nodal forces -> Fz, Mx, My
+    draws: int
+    seed: int
+    sampling: str
+
+    @property
+    def at_thesis(self) -> int:
+        return int(np.flatnonzero(self.levels == 1.0)[0])
+
+
+@dataclass(frozen=True)
+class _Part:
+    """One input set's rows of every table, and its node figure."""
+
+    model: tuple
+    cv: pd.DataFrame | None
+    totals: pd.DataFrame
+    nodes: pd.DataFrame
+    sweep: pd.DataFrame
+    caption: str
+    figure: Path
+
+
+def _input_set(report: Report, sel: Selection, name: str, sweep: _Sweep,
+               n_components: int | None, cv: int | None, draw_seed: int) -> _Part:
+    """Fit one input set's model, run its Monte Carlo sweep (draws seeded ``draw_seed``),
+    tabulate the result and draw its node figure."""
+    model, chosen_by, cv_table = _model(sel, name, n_components, cv, sweep.seed)
+    result = monte_carlo(
+        model,
+        sel.x_ref(name),
+        sweep.levels * thesis_sigma(name),
+        totals=sweep.totals,
+        n_draws=sweep.draws,
+        seed=draw_seed,
+        sampling=sweep.sampling,
+    )
+    label = f"SIMPLS, {model.n_components} components"
+    y_ref, at = sel.y_ref, sweep.at_thesis
+    nodes = tables.noise_nodes(name, sel.tread, result, at, y_ref)
+    return _Part(
+        model=(name, model.n_components, chosen_by, thesis_sigma(name)),
+        cv=cv_table,
+        totals=tables.noise_totals(name, result, at, y_ref, sweep.totals, label),
+        nodes=nodes,
+        sweep=tables.noise_sweep(name, result, sweep.levels, y_ref),
+        caption=f"Mean error and std over the tread, {name}",
+        figure=_node_figure(report, nodes, name),
+    )
+
+
+def _write_tables(report: Report, parts: list[_Part]) -> None:
+    cols = ["inputs", "n_components", "chosen_by", "thesis_sigma"]
+    report.csv("models", pd.DataFrame([p.model for p in parts], columns=cols))
+    cvs = [p.cv for p in parts if p.cv is not None]
+    if cvs:
+        report.csv("cross_validation", pd.concat(cvs, ignore_index=True))
+    report.csv("totals", _merge_reference([p.totals for p in parts]))
+    report.csv("table_5_1", tables.table_5_1(report.tables["totals"]))
+    report.csv("nodes", pd.concat([p.nodes for p in parts], ignore_index=True))
+    report.csv("sweep", pd.concat([p.sweep for p in parts], ignore_index=True))
 
 
 def _experiments_needed(n_components: int | None) -> tuple[int, str]:

@@ -8,7 +8,7 @@ import pandas as pd
 import xarray as xr
 
 from analysis.pcr import PCRegression
-from analysis.report import markdown, plots, tables
+from analysis.render import markdown, plots, tables
 from analysis.studies.common import Report, Selection, model_inputs
 
 

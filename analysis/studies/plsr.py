@@ -11,7 +11,7 @@ from sklearn.cross_decomposition import PLSRegression
 
 from analysis.pcr import PCRegression
 from analysis.pls import SIMPLSRegression, pctvar_from_scores
-from analysis.report import markdown, plots, tables
+from analysis.render import markdown, plots, tables
 from analysis.selection import select_n_components
 from analysis.studies.common import Report, Selection, fit_simpls, model_inputs
 

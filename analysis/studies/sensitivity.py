@@ -25,8 +25,8 @@ import numpy as np
 import pandas as pd
 
 from analysis.errors import ParameterError, UndefinedVarianceWarning
-from analysis.report import markdown
-from analysis.report.plots import DPI, _figure
+from analysis.render import markdown
+from analysis.render.plots import DPI, _figure
 from analysis.sensitivity import MIN_SWAPPED_ROWS, MorrisScreening, SobolIndices
 from analysis.sensitivity_data import OutputRequest, read_outputs
 from analysis.studies.common import Report

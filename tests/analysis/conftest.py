@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from analysis import data
-from analysis.synthetic import make_store
+from tests.synthetic import make_store
 
 SMALL = {"rows": 8, "cols": 16, "tread_rows": 6, "tread_cols": 12}
 

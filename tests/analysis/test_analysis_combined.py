@@ -9,7 +9,7 @@ from analysis import data
 from analysis.combined import BlockRegression, BlockScaler, cross_validate, latent_count
 from analysis.errors import NoVarianceError, ParameterError, TooFewExperimentsError
 from analysis.studies import combined
-from analysis.synthetic import make_combined_store, make_store
+from tests.synthetic import make_combined_store, make_store
 
 TINY = {"rows": 6, "cols": 12, "tread_rows": 5, "tread_cols": 10}
 

@@ -20,7 +20,7 @@ from analysis.errors import (
 )
 from analysis.moments import compute_moments
 from analysis.pls import SIMPLSRegression
-from analysis.synthetic import make_store
+from tests.synthetic import make_store
 
 SCHEMA_DIMS = {
     "inner_xyz": ("inner_node", "component"),

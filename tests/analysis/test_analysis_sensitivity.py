@@ -24,7 +24,7 @@ from analysis.errors import (
 )
 from analysis.sensitivity import NOT_ESTIMABLE, MorrisScreening, SobolIndices, ci_width
 from analysis.sensitivity_data import OutputRequest, read_outputs, tread_areas
-from analysis.synthetic import make_store
+from tests.synthetic import make_store
 
 PI = np.pi
 ISHIGAMI = {"num_vars": 3, "names": ["x1", "x2", "x3"], "bounds": [[-PI, PI]] * 3}

@@ -15,7 +15,7 @@ from analysis import data
 from analysis.errors import AnalysisError
 from analysis.pls import SIMPLSRegression
 from analysis.studies import noise
-from analysis.synthetic import make_store
+from tests.synthetic import make_store
 
 STUDIES = ("crosscov", "pcr", "plsr", "noise")
 

@@ -1,6 +1,6 @@
 """Chapter 3 of the reproduction drawn from a synthetic store (no ccx): the force table,
-the differences to the thesis' reference points, Table 3.1 from the groups' model specs;
-and the reporting room's imports (storage only, never farm or jobs)."""
+the differences to the thesis' reference points, the nodal forces at the thesis' §3.3.1 and
+§3.3.2 points, Table 3.1 from the groups' model specs."""
 
 from __future__ import annotations
 
@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import xarray as xr
 
 import storage
 from analysis.report import ch3
@@ -90,6 +91,28 @@ def test_reduced_model_at_30_mm_counts_the_pushed_nodes(stage):
     # nodal Fz 10, 20, 30, 0, -5: three nodes pushed by the road
     np.testing.assert_allclose(table["measured"], [55.0, 3, 20.0, np.sqrt(200 / 3)])
     assert list(table["thesis"]) == [359.0, 14, 25.68, 7.27]
+
+
+def test_the_full_models_nodal_forces_at_30_mm_80_kpa_stand_beside_the_thesis():
+    """§3.3.2: 263.3 N mean and 227.4 N std over the loaded nodes, at 30 mm / 80 kPa only
+    (the 200 kPa experiment at 30 mm and the unloaded nodes must not be read)."""
+    fz = np.array([[0.0, 1.0, 1.0, 1.0], [100.0, 300.0, 0.0, -4.0], [9.0, 9.0, 9.0, 9.0]])
+    ds = xr.Dataset(
+        {"reaction_force": (("experiment", "tread_node", "component"),
+                            np.stack([np.zeros_like(fz), np.zeros_like(fz), fz], axis=-1))},
+        coords={"deflection": ("experiment", [25.0, 30.0, 30.0]),
+                "pressure": ("experiment", [0.08, 0.08, 0.2]),
+                "component": ["x", "y", "z"]})
+    table = ch3.full_30_80(ds).set_index("quantity")
+    assert list(table.index) == ["mean nodal force N", "std nodal force N"]
+    np.testing.assert_allclose(table["measured"], [200.0, 100.0])
+    assert list(table["thesis"]) == [263.3, 227.4]
+    assert ch3.full_30_80(ds.isel(experiment=[0, 2])).empty  # no such experiment: no table
+
+
+def test_a_full_group_without_the_80_kpa_30_mm_point_has_no_nodal_table(stage):
+    assert ch3.FULL_NODAL not in stage.tables
+    assert next(iter(stage.tables)) == ch3.REDUCED_30  # the thesis' order: §3.3.1 first
 
 
 def test_table_3_1_reads_the_groups_model_specs(stage):

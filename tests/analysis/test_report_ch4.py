@@ -130,7 +130,7 @@ def test_views_put_ours_beside_the_thesis(ds):
     forces = v["forces"].set_index("condition")
     assert forces.loc["noise", "Fz N"] == "70 ± 1.4"
     assert forces.loc["noise", "thesis Fz"] == "358.28 ± 0.4"
-    assert forces.loc["reference", "Fz N"] == "70.5" and forces.loc["mine", "Fz N"] == "-"
+    assert forces.loc["reference", "Fz N"] == "70.5" and forces.loc["mine", "Fz N"] == "n/a"
     assert v["rmse"].set_index("condition").loc["noise", "Ux (thesis)"] == "0.02 (0.01)"
     assert set(v) == {"forces", "rmse", "nodal_errors", "cost"}
 

@@ -16,6 +16,8 @@ import pandas as pd
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from analysis import data
+
 DPI = 120
 
 
@@ -168,25 +170,40 @@ def node_maps(
 
 
 def noise_sweep(sweep: pd.DataFrame, path: Path) -> Path:
-    """Fig. 5.12: nodal-average std (blue) and mean total force (orange) per noise level."""
+    """Fig. 5.12: nodal-average std (blue) and mean total force (orange) per noise level,
+    over σ in its unit (mm, or µstrain for strains) and, on top, in multiples of the
+    thesis' level."""
     groups = list(sweep.groupby("inputs", sort=False))
     fig, axes = _figure(len(groups), 1, 7, 3.5 * len(groups))
     for ax, (inputs, part) in zip(axes[:, 0], groups, strict=True):
-        ax.plot(
-            part["sigma"], part["Fz_nodal_avg_std"], "o-", color="tab:blue", label="Monte Carlo"
-        )
-        ax.plot(part["sigma"], part["Fz_nodal_avg_std_analytic"], "k:", label="analytic")
-        ax.set(xlabel=f"noise σ ({inputs})", ylabel="nodal average std [N]", title=inputs)
+        scale, unit = noise_unit(inputs)
+        sigma = part["sigma"].to_numpy() * scale
+        ax.plot(sigma, part["Fz_nodal_avg_std"], "o-", color="tab:blue", label="Monte Carlo")
+        ax.plot(sigma, part["Fz_nodal_avg_std_analytic"], "k:", label="analytic")
+        ax.set(xlabel=f"noise σ on the {inputs} inputs [{unit}]",
+               ylabel="nodal average std of Fz [N]", title=inputs)
         ax.legend(loc="upper left", fontsize=8)
+        per = _per_multiple(part, scale)
+        if per:
+            top = ax.secondary_xaxis("top", functions=(lambda s, p=per: s / p,
+                                                       lambda m, p=per: m * p))
+            top.set_xlabel("noise (× thesis σ)")
         twin = ax.twinx()
-        twin.errorbar(
-            part["sigma"],
-            part["Fz_mean"],
-            yerr=part["Fz_total_std"],
-            color="tab:orange",
-            fmt="s-",
-            ms=3,
-            capsize=2,
-        )
+        twin.errorbar(sigma, part["Fz_mean"], yerr=part["Fz_total_std"], color="tab:orange",
+                      fmt="s-", ms=3, capsize=2)
         twin.set_ylabel("mean total Fz ± std of the total [N]", color="tab:orange")
     return _save(fig, path)
+
+
+def noise_unit(inputs: str) -> tuple[float, str]:
+    """(factor, unit) that print an input set's noise σ: mm as stored, strains in µstrain."""
+    family = data.family(data.expand_inputs(inputs.split("+"))[0])
+    return (1.0, "mm") if family == "displacement" else (1e6, "µstrain")
+
+
+def _per_multiple(part: pd.DataFrame, scale: float) -> float | None:
+    """σ (in the axis' unit) of one multiple of the thesis' level, None if not known."""
+    ok = part["multiplier"].to_numpy() > 0
+    if not ok.any():
+        return None
+    return float(part["sigma"].to_numpy()[ok][0] * scale / part["multiplier"].to_numpy()[ok][0])
