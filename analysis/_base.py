@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 from numbers import Integral
+from typing import TYPE_CHECKING
 
 import dask.array as da
 import numpy as np
 from sklearn.utils.validation import validate_data
 
 from analysis.errors import ComponentsError, ParameterError
-from analysis.moments import check_finite, compute_moments
+from analysis.moments import Moments, check_finite, compute_moments
 
 
 def check_xy(estimator, X, y):
@@ -51,12 +52,11 @@ def check_n_components(n_components, *, allow_none: bool, name: str = "n_compone
 
 def too_many_components(asked: int, available: int, n_samples: int, why: str) -> ComponentsError:
     """The one-line error for asking more components than the data supports."""
-    error = ComponentsError(
+    return ComponentsError(
         f"{asked} components asked but only {available} available: {why} "
-        f"({n_samples} experiments support at most {n_samples - 1} after centring)"
+        f"({n_samples} experiments support at most {n_samples - 1} after centring)",
+        available,  # lets a caller asking for "all" fall back to the maximum
     )
-    error.available = available  # lets a caller asking for "all" fall back to the maximum
-    return error
 
 
 class MomentsFitMixin:
@@ -67,6 +67,11 @@ class MomentsFitMixin:
     """
 
     _n_components_may_be_none = True
+
+    if TYPE_CHECKING:  # what the estimator that mixes this in provides
+        n_components: int | None
+
+        def fit_moments(self, moments: Moments) -> object: ...
 
     def fit(self, X, y):
         """Fit on X of shape (K, N) and y of shape (K,) or (K, M); numpy or dask arrays.

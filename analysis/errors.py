@@ -80,7 +80,15 @@ class NonFiniteError(AnalysisError, ValueError):
 
 
 class ComponentsError(AnalysisError, ValueError):
-    """More components were asked for than the data can support."""
+    """More components were asked for than the data can support.
+
+    ``available``: how many the data do support, where the raiser knows (else None); a
+    caller asking for "all" falls back to it.
+    """
+
+    def __init__(self, message: str, available: int | None = None) -> None:
+        super().__init__(message)
+        self.available = available
 
 
 class ParameterError(AnalysisError, ValueError):

@@ -103,6 +103,7 @@ class SIMPLSRegression(
     """
 
     _n_components_may_be_none = False
+    n_components: int  # never None here (the mixin's may be)
 
     def __init__(self, n_components=2):
         self.n_components = n_components

@@ -108,7 +108,9 @@ def _check_common(est) -> None:
     if isinstance(r, bool) or not isinstance(r, Integral) or r < 2:
         raise ParameterError(f"num_resamples must be an integer >= 2, got {r!r}")
     c = est.conf_level
-    if isinstance(c, bool) or not isinstance(c, Real) or not 0 < c < 1:
+    # c <= 0 or not c < 1: not 0 < c < 1 (NaN too), in the two comparisons that
+    # numbers.Real declares
+    if isinstance(c, bool) or not isinstance(c, Real) or c <= 0 or not c < 1:
         raise ParameterError(f"conf_level must be a number in (0, 1), got {c!r}")
     s = est.seed
     if s is not None and (isinstance(s, bool) or not isinstance(s, Integral) or s < 0):

@@ -356,6 +356,7 @@ def _field_scores(chosen: dict, unique: list[str], row_of: np.ndarray,
     """First m PCA scores (rows, m) of the field across the rows, and their variance
     fractions (m,). Signs: the largest loading of each mode is positive."""
     name = request.field
+    assert name is not None  # the caller scores a field only when the request names one
     shapes = {g: _var(chosen[g], name).shape[1:] for g in unique}
     grids = {g: _grid(chosen[g]) for g in unique}
     first = unique[0]

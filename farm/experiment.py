@@ -56,7 +56,9 @@ class PathResult:
         with their grid positions, and ``model_json``/``solver``. Issue 25: the file once
         dropped every combined-load array, so both states of a slide read alike.
         """
-        np.savez_compressed(file, **self.arrays(mesh))
+        # allow_pickle is numpy's default, named so that the type checker knows that no
+        # array of **arrays takes its place
+        np.savez_compressed(file, allow_pickle=True, **self.arrays(mesh))
 
     def patches(self, mesh: TyreMesh) -> list[PatchMetrics]:
         """The contact patch of each state (:mod:`farm.measure.patch`)."""

@@ -23,19 +23,28 @@ theta`` along the meridian (Clark (ed.), "Mechanics of Pneumatic Tires", NHTSA 1
 ch. 7 on cord-rubber laminates; Gough's netting analysis). The pair's in-plane shear
 stiffness (``sin^2 cos^2``) is not represented: edges carry axial force only. Radial
 carcass cords (``theta = 90``) need none of this: they lie on the meridional edges.
+
+Opt-in (issue 24, docs/reinforcement.md): ``belt_layout = "cords"`` lays each belt ply
+along its own cord direction (:mod:`farm.ccx.belt_cords`), which restores the pair's
+shear stiffness and puts the belts outboard of the cavity when the wall is layered;
+``tension_only = True`` lets the cords go slack in compression. At their defaults both
+fields are absent from :meth:`Reinforcement.canonical`, so every existing id stays.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
-from typing import ClassVar
+from dataclasses import asdict, dataclass, field
+from typing import Any, ClassVar
 
 from farm.errors import SpecError
 
 MODULUS_GPA = (1e-9, 500.0)  # up to steel wire; ~0 allowed for "no cords" checks
 DIAMETER_MM = (0.05, 5.0)
 MAX_PLIES = 8
+BELT_LAYOUTS = ("edges", "cords")
+"""``edges``: belts on the hexahedra's edges (issue 15, no in-plane shear stiffness);
+``cords``: members along each ply's cord direction (issue 24, :mod:`farm.ccx.belt_cords`)."""
 
 
 @dataclass(frozen=True)
@@ -96,14 +105,37 @@ class Reinforcement:
 
     Defaults: two radial polyester carcass plies and two steel belts at +-20 degrees,
     typical of a radial tyre of this size (Clark 1981, ch. 1).
+
+    ``belt_layout`` chooses the belt members (:data:`BELT_LAYOUTS`); ``tension_only``
+    makes every cord member (carcass and belt) slack in compression (ccx ``*SPRING,
+    NONLINEAR``, :mod:`farm.ccx.reinforcement`). Both are opt-in (issue 24).
     """
 
     _prefix: ClassVar[str] = "reinforcement"
     carcass: Cords = field(default_factory=_polyester_carcass)
     belt: Cords = field(default_factory=_steel_belts)
+    belt_layout: str = "edges"
+    tension_only: bool = False
 
     def __post_init__(self) -> None:
         for name in ("carcass", "belt"):
             if not isinstance(getattr(self, name), Cords):
                 raise SpecError(f"reinforcement.{name} must be a cord layer, "
                                 f"got {getattr(self, name)!r}")
+        if self.belt_layout not in BELT_LAYOUTS:
+            raise SpecError(f"reinforcement.belt_layout must be one of "
+                            f"{', '.join(map(repr, BELT_LAYOUTS))}, got {self.belt_layout!r} "
+                            f"(e.g. --set reinforcement.belt_layout=cords)")
+        if not isinstance(self.tension_only, bool):
+            raise SpecError(f"reinforcement.tension_only must be true or false, got "
+                            f"{self.tension_only!r} (e.g. --set reinforcement.tension_only=true)")
+
+    def canonical(self) -> dict[str, Any]:
+        """The layers as hashed in ids: the issue-24 options only when they are used, so
+        the ids of every reinforced model from before them stay (as ``mesh.window``)."""
+        data = asdict(self)
+        if self.belt_layout == "edges":
+            del data["belt_layout"]
+        if not self.tension_only:
+            del data["tension_only"]
+        return data

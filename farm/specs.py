@@ -109,7 +109,7 @@ class TyreGeometry:
             )
         walls = {n: getattr(self, n) for n in
                  ("tread_thickness", "sidewall_thickness", "bead_thickness")}
-        thickest = max(walls, key=walls.get)
+        thickest = max(walls, key=walls.__getitem__)
         if not walls[thickest] < self.section_height / 4:
             raise SpecError(
                 f"geometry.{thickest} ({walls[thickest]} mm) is too large a wall thickness "
@@ -338,7 +338,7 @@ class ModelSpec:
     def node_estimate(self) -> int:
         """Nodes of the structured mesh: ``through + 1`` layers of
         (meridional + 1) x (circumferential + 1) nodes, the full tyre's seam shared.
-        Arithmetic only: the bound of :mod:`jobs.validate` needs no mesh."""
+        Arithmetic only: the bound of :mod:`jobs.validate.spec_tables` needs no mesh."""
         rings = self.mesh.circumferential + (0 if self.is_full else 1)
         return (self.mesh.through + 1) * (self.mesh.meridional + 1) * rings
 
@@ -350,6 +350,8 @@ class ModelSpec:
         data = dataclasses.asdict(self)
         if self.reinforcement is None:  # the cordless model's ids predate the field
             del data["reinforcement"]
+        else:  # so do the issue-24 belt options at their defaults
+            data["reinforcement"] = self.reinforcement.canonical()
         data["mesh"] = self.mesh.canonical()
         return data
 
@@ -357,8 +359,11 @@ class ModelSpec:
         """:meth:`to_dict` with every field a study or ``--set`` may change, including
         those ids omit at their default (``mesh.through = 1``): the table that
         ``--set`` overrides and study designs merge into and look swept paths up in
-        (``jobs.validate.override_model``, ``jobs.design``)."""
-        return {**self.to_dict(), "mesh": dataclasses.asdict(self.mesh)}
+        (``farm.overrides``, ``jobs.design``)."""
+        data = {**self.to_dict(), "mesh": dataclasses.asdict(self.mesh)}
+        if self.reinforcement is not None:
+            data["reinforcement"] = dataclasses.asdict(self.reinforcement)
+        return data
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> ModelSpec:
@@ -623,7 +628,7 @@ def _from_dict(cls: type, data: Any, where: str) -> Any:
     kwargs = {}
     for name, value in data.items():
         hint = _optional_dataclass(hints[name]) if value is not None else hints[name]
-        if dataclasses.is_dataclass(hint):
+        if isinstance(hint, type) and dataclasses.is_dataclass(hint):
             value = _from_dict(hint, value, f"{where}.{name}")
         elif typing.get_origin(hint) is tuple:
             if not isinstance(value, list | tuple):

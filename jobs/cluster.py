@@ -40,6 +40,7 @@ import dask
 from jobs.errors import ClusterError, StudyError
 from jobs.handshake import check_scheduler
 from jobs.tls import TlsFiles, check_address
+from jobs.wording import plural
 
 ALLOWED_FAILURES = 10  # the embedded scheduler's allowed-failures (Dask's default: 3)
 EMBEDDED_CONFIG = {
@@ -156,9 +157,10 @@ def connect(scheduler: str | None = None, workers: int | None = None,
             except TimeoutError as e:
                 have = len(client.scheduler_info().get("workers", {}))
                 raise ClusterError(
-                    f"the scheduler at {address} has {have} of the {workers} workers asked "
-                    f"for after {WAIT_FOR_WORKERS_SECONDS} s: start more with `dask worker "
-                    "ADDRESS`, or ask for fewer with --workers") from e
+                    f"the scheduler at {address} has {have} of the "
+                    f"{plural(workers, 'worker')} asked for after {WAIT_FOR_WORKERS_SECONDS} "
+                    "s: start more with `dask worker ADDRESS`, or ask for fewer with "
+                    "--workers") from e
         yield client
 
 
@@ -193,7 +195,7 @@ def _embedded(workers: int, dashboard: str, security: Any = None):
 def _check_address(address: str) -> None:
     """Refuse a malformed address before distributed sees it: for an unknown protocol it
     can fail deep in its event-loop start-up with a bare AssertionError."""
-    from jobs.validate import scheduler_address
+    from jobs.validate.addresses import scheduler_address
 
     try:
         scheduler_address(address, "scheduler")

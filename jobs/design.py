@@ -65,9 +65,10 @@ import numpy as np
 from scipy.stats import qmc
 
 from farm.specs import ModelSpec
-from jobs import validate as v
 from jobs.errors import StudyError
 from jobs.identity import DIGITS, model_hash
+from jobs.validate import limits, lists, scalars, spec_tables
+from jobs.validate.messages import fail, shown
 
 METHODS = ("grid", "lhs", "sobol", "morris")
 MODELS_KEYS = {"method", "n", "seed", "num_levels", "parameters"}
@@ -100,11 +101,23 @@ class Parameter:
         return self.levels is None or all(_is_number(x) for x in self.levels)
 
     @property
+    def span(self) -> tuple[float, float]:
+        """``(low, high)`` of a range parameter."""
+        assert self.low is not None and self.high is not None, f"{self.path} takes levels"
+        return self.low, self.high
+
+    @property
+    def choices(self) -> tuple[Any, ...]:
+        """The levels of a levels parameter (every parameter of a grid is one)."""
+        assert self.levels is not None, f"{self.path} is a range"
+        return self.levels
+
+    @property
     def bounds(self) -> tuple[float, float]:
         """The range the design's matrix spans: the range, or the levels' extremes
         (their index range for text levels)."""
         if self.levels is None:
-            return (self.low, self.high)
+            return self.span
         if not self.numeric:
             return (0.0, float(len(self.levels) - 1))
         return (float(min(self.levels)), float(max(self.levels)))
@@ -131,7 +144,7 @@ class ModelsSpec:
         """Rows of the design, counted without sampling."""
         d = len(self.parameters)
         if self.method == "grid":
-            return math.prod(len(p.levels) for p in self.parameters)
+            return math.prod(len(p.choices) for p in self.parameters)
         return {"lhs": self.n, "sobol": self.n * (d + 2), "morris": self.n * (d + 1)}[
             self.method]
 
@@ -182,10 +195,14 @@ def group_name(model: ModelSpec) -> str:
 
 class Designed(Protocol):
     """What :func:`model_design` reads of a :class:`jobs.study.Study` (jobs.study imports
-    this module: naming the class here would be an import cycle)."""
+    this module: naming the class here would be an import cycle). Read-only properties:
+    a study is a frozen dataclass."""
 
-    model: ModelSpec
-    models: ModelsSpec | None
+    @property
+    def model(self) -> ModelSpec: ...
+
+    @property
+    def models(self) -> ModelsSpec | None: ...
 
 
 def model_design(study: Designed) -> ModelDesign | None:
@@ -213,100 +230,100 @@ def _leaf(base: ModelSpec, path: str, where: str) -> Any:
                     f"; {here} is a value, not a table")
             extra = (" (a cordless model has no reinforcement: start from "
                      'materials = "cord-reinforced")') if part == "reinforcement" else ""
-            raise v.fail(where, f"names no model field{hint}{extra}")
+            raise fail(where, f"names no model field{hint}{extra}")
         node = node[part]
     if isinstance(node, dict):
-        raise v.fail(where, f"names a table, not a value: give one of its fields "
-                     f"({', '.join(sorted(node))})")
+        raise fail(where, f"names a table, not a value: give one of its fields "
+                   f"({', '.join(sorted(node))})")
     if not (_is_number(node) or isinstance(node, str)):
-        raise v.fail(where, f"names a field that cannot be swept (holds {v.shown(node)})")
+        raise fail(where, f"names a field that cannot be swept (holds {shown(node)})")
     return node
 
 
 def _levels(value: Any, where: str, current: Any) -> tuple[Any, ...]:
     """Distinct values of the field's type (int fields: integers, text: strings)."""
     if not isinstance(value, list) or not value:
-        raise v.fail(where, f"must be a non-empty list of values, got {v.shown(value)}")
-    if len(value) > v.MAX_VALUES:
-        raise v.fail(where, f"{len(value)} values is too many (at most {v.MAX_VALUES})")
-    out = []
+        raise fail(where, f"must be a non-empty list of values, got {shown(value)}")
+    if len(value) > limits.MAX_VALUES:
+        raise fail(where, f"{len(value)} values is too many (at most {limits.MAX_VALUES})")
+    out: list[str | int | float] = []
     for k, x in enumerate(value):
         at = f"{where}[{k}]"
         if isinstance(current, str):
-            out.append(v.string(x, at, "a text (the field is one)"))
+            out.append(scalars.string(x, at, "a text (the field is one)"))
         elif isinstance(current, int):
-            out.append(v.integer(x, at))
+            out.append(scalars.integer(x, at))
         else:
-            out.append(round(v.number(x, at), DIGITS))
+            out.append(round(scalars.number(x, at), DIGITS))
     if len(set(out)) != len(out):
-        raise v.fail(where, f"repeats a value: {v.shown(value)}")
+        raise fail(where, f"repeats a value: {shown(value)}")
     return tuple(out)
 
 
 def _parameter(path: Any, value: Any, method: str, base: ModelSpec) -> Parameter:
     where = f'models.parameters."{path}"'
     if path in FIXED_FIELDS:
-        raise v.fail(where, "cannot vary: a study has one model kind (write one study per kind)")
+        raise fail(where, "cannot vary: a study has one model kind (write one study per kind)")
     current = _leaf(base, path, where)
     if isinstance(value, dict) and set(value) == {"levels"}:
         return Parameter(path, levels=_levels(value["levels"], f"{where}.levels", current))
     if method == "grid":
         if isinstance(current, float):  # a list, a {start, stop, step} range or a number
-            return Parameter(path, levels=v.values(value, where))
+            return Parameter(path, levels=lists.values(value, where))
         if isinstance(current, int) and isinstance(value, dict):
-            steps = v.values(value, where)
+            steps = lists.values(value, where)
             if not all(float(x).is_integer() for x in steps):
-                raise v.fail(where, f"is an integer field; the range gives {list(steps)}")
+                raise fail(where, f"is an integer field; the range gives {list(steps)}")
             return Parameter(path, levels=tuple(int(x) for x in steps))
         return Parameter(path, levels=_levels(value, where, current))
     if not isinstance(current, float):
-        raise v.fail(where, f"is {'a text' if isinstance(current, str) else 'an integer'} "
-                     f"field: give {{ levels = [...] }} (sampled by index), got "
-                     f"{v.shown(value)}")
+        raise fail(where, f"is {'a text' if isinstance(current, str) else 'an integer'} "
+                   f"field: give {{ levels = [...] }} (sampled by index), got "
+                   f"{shown(value)}")
     if isinstance(value, dict):
-        v.table(value, where, {"levels"}, {"levels"})
+        scalars.table(value, where, {"levels"}, {"levels"})
     if not (isinstance(value, list) and len(value) == 2):
-        raise v.fail(where, f"must be [low, high] or {{ levels = [...] }}, got {v.shown(value)}")
-    low, high = (round(v.number(x, where), DIGITS) for x in value)
+        raise fail(where, f"must be [low, high] or {{ levels = [...] }}, got {shown(value)}")
+    low, high = (round(scalars.number(x, where), DIGITS) for x in value)
     if not low < high:
-        raise v.fail(where, f"needs low < high, got {v.shown(value)}")
+        raise fail(where, f"needs low < high, got {shown(value)}")
     return Parameter(path, low=low, high=high)
 
 
 def parse_models(data: Any, base: ModelSpec, where: str = "models") -> ModelsSpec:
     """Validate a ``[models]`` table over the study's ``base`` model (no model is made)."""
-    t = v.table(data, where, MODELS_KEYS, {"method", "parameters"})
-    method = v.choice(t["method"], f"{where}.method", METHODS)
+    t = scalars.table(data, where, MODELS_KEYS, {"method", "parameters"})
+    method = scalars.choice(t["method"], f"{where}.method", METHODS)
     if method == "grid":
         for key in ("n", "seed", "num_levels"):
             if key in t:
-                raise v.fail(f"{where}.{key}", "is for sampled designs; a grid takes every "
-                             "combination of the parameters' values")
+                raise fail(f"{where}.{key}", "is for sampled designs; a grid takes every "
+                           "combination of the parameters' values")
         n = 0
     else:
         if "n" not in t:
-            raise v.fail(f"{where}.n", f"is required for method = {method!r}")
-        n = v.integer(t["n"], f"{where}.n", low=1, high=MAX_ROWS)
+            raise fail(f"{where}.n", f"is required for method = {method!r}")
+        n = scalars.integer(t["n"], f"{where}.n", low=1, high=MAX_ROWS)
         if method == "sobol" and n & (n - 1):
-            raise v.fail(f"{where}.n", f"must be a power of 2 for Sobol' sequences (their "
-                         f"balance holds at 2^k points; SALib), got {n}")
+            raise fail(f"{where}.n", f"must be a power of 2 for Sobol' sequences (their "
+                       f"balance holds at 2^k points; SALib), got {n}")
     if "num_levels" in t and method != "morris":
-        raise v.fail(f"{where}.num_levels", "is Morris' grid; only for method = 'morris'")
-    num_levels = v.integer(t.get("num_levels", 4), f"{where}.num_levels", low=2, high=100)
+        raise fail(f"{where}.num_levels", "is Morris' grid; only for method = 'morris'")
+    num_levels = scalars.integer(t.get("num_levels", 4), f"{where}.num_levels", low=2, high=100)
     if num_levels % 2:  # Morris' jump p / (2 (p - 1)) keeps the levels symmetric only then
-        raise v.fail(f"{where}.num_levels", f"must be even (SALib: an odd grid biases the "
-                     f"sample), got {num_levels}")
-    seed = v.integer(t.get("seed", 0), f"{where}.seed", low=0, high=v.MAX_SEED)
-    params = v.table(t["parameters"], f"{where}.parameters", set(t["parameters"])
-                     if isinstance(t["parameters"], dict) else set())
+        raise fail(f"{where}.num_levels", f"must be even (SALib: an odd grid biases the "
+                   f"sample), got {num_levels}")
+    seed = scalars.integer(t.get("seed", 0), f"{where}.seed", low=0, high=limits.MAX_SEED)
+    params = scalars.table(t["parameters"], f"{where}.parameters", set(t["parameters"])
+                           if isinstance(t["parameters"], dict) else set())
     if not params:
-        raise v.fail(f"{where}.parameters", 'name at least one model field, e.g. '
-                     '"materials.tread.youngs_modulus" = [2.0, 12.0]')
+        raise fail(f"{where}.parameters", 'name at least one model field, e.g. '
+                   '"materials.tread.youngs_modulus" = [2.0, 12.0]')
     spec = ModelsSpec(method, n, seed,
                       tuple(_parameter(p, x, method, base) for p, x in params.items()),
                       num_levels)
     if spec.rows > MAX_ROWS:
-        raise v.fail(where, f"a design of {spec.rows} models is too many (at most {MAX_ROWS})")
+        raise fail(where, f"a design of {spec.rows} models is too many (at most {MAX_ROWS})")
     return spec
 
 
@@ -355,7 +372,7 @@ def level_strata(spec: ModelsSpec, j: int) -> np.ndarray:
 def _rows(spec: ModelsSpec) -> list[tuple[Any, ...]]:
     """Each row's values (the fields' own types), in the design's order."""
     if spec.method == "grid":
-        return list(itertools.product(*(p.levels for p in spec.parameters)))
+        return list(itertools.product(*(p.choices for p in spec.parameters)))
     unit = np.clip(unit_sample(spec), 0.0, 1.0)
     strata = {j: level_strata(spec, j) for j, p in enumerate(spec.parameters)
               if p.levels is not None and spec.method == "sobol"}
@@ -364,7 +381,8 @@ def _rows(spec: ModelsSpec) -> list[tuple[Any, ...]]:
         row = []
         for j, (p, u) in enumerate(zip(spec.parameters, u_row, strict=True)):
             if p.levels is None:
-                row.append(round(float(p.low + u * (p.high - p.low)), DIGITS))
+                low, high = p.span
+                row.append(round(float(low + u * (high - low)), DIGITS))
                 continue
             k = len(p.levels)
             if spec.method == "morris":
@@ -436,7 +454,7 @@ def check_swaps(spec: ModelsSpec, rows: list[tuple[Any, ...]]) -> None:
 
 
 def _overrides(names: tuple[str, ...], row: tuple[Any, ...]) -> dict:
-    """Dotted paths -> the nested tables :func:`jobs.validate.override_model` merges."""
+    """Dotted paths -> the nested tables :func:`jobs.validate.spec_tables.override_model` merges."""
     out: dict = {}
     for path, value in zip(names, row, strict=True):
         *tables, leaf = path.split(".")
@@ -468,11 +486,11 @@ def design(base: ModelSpec, spec: ModelsSpec) -> ModelDesign:
     for k, row in enumerate(rows):
         if row not in seen:
             try:
-                seen[row] = v.override_model(base, _overrides(names, row), "models")
+                seen[row] = spec_tables.override_model(base, _overrides(names, row), "models")
             except StudyError as e:
                 raise _invalid(spec, k, row, e) from e
         models.append(seen[row])
-    matrix = np.array([[x if p.numeric else p.levels.index(x)
+    matrix = np.array([[x if p.numeric else p.choices.index(x)
                         for p, x in zip(spec.parameters, row, strict=True)] for row in rows],
                       dtype=float).reshape(len(rows), len(names))
     matrix.flags.writeable = False  # shared by the cache: nobody may change it

@@ -33,7 +33,7 @@ import time
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Generic, TypeVar
 
 from farm.ccx.runner import ccx_version
 from jobs.cluster import ClusterSpec, DaskCluster, ResubmittingClient, dashboard_link
@@ -86,8 +86,12 @@ class Announce(Progress):
               file=sys.stderr, flush=True)
 
 
-class Strategy:
-    """One study kind on the driver (see the module docstring)."""
+R = TypeVar("R", bound=RunReport)
+
+
+class Strategy(Generic[R]):
+    """One study kind on the driver (see the module docstring), ending with a report
+    of type ``R``."""
 
     poll_seconds = 0.5
 
@@ -104,7 +108,7 @@ class Strategy:
     def cancel(self) -> None:
         """Stop everything in flight (called on interruption)."""
 
-    def finish(self, session: Session) -> RunReport:
+    def finish(self, session: Session) -> R:
         """The report, once :meth:`poll` said everything ended (cluster still up)."""
         raise NotImplementedError
 
@@ -133,10 +137,10 @@ def cluster_spec(cluster: ClusterSpec | None, scheduler: str | None,
     return cluster
 
 
-def drive(strategy: Strategy, *, cluster: ClusterSpec | None = None,
+def drive(strategy: Strategy[R], *, cluster: ClusterSpec | None = None,
           scheduler: str | None = None, workers: int | None = None,
           progress: Progress | None = None,
-          on_client: Callable[[Any], None] | None = None) -> RunReport:
+          on_client: Callable[[Any], None] | None = None) -> R:
     """Run ``strategy`` on ``cluster`` (default: :class:`DaskCluster` of ``scheduler``
     and ``workers``) to its end; return its report."""
     progress = progress or Announce()
@@ -165,7 +169,7 @@ def drive(strategy: Strategy, *, cluster: ClusterSpec | None = None,
     return report
 
 
-class LoopThreads(Strategy):
+class LoopThreads(Strategy[R]):
     """Optimisation loops in client threads, sharing one :class:`Evaluator`.
 
     Tasks never wait on tasks: a loop blocks only its own client thread while its
@@ -179,6 +183,12 @@ class LoopThreads(Strategy):
         self.evaluator: Evaluator | None = None
         self._pool: ThreadPoolExecutor | None = None
         self._pending: dict[Future, int] = {}
+
+    @property
+    def started_evaluator(self) -> Evaluator:
+        """The evaluator :meth:`start` made: the loops and :meth:`finish` run after it."""
+        assert self.evaluator is not None, "start() makes the evaluator"
+        return self.evaluator
 
     def loops(self, session: Session) -> list[Callable[[], Any]]:
         raise NotImplementedError

@@ -13,6 +13,7 @@ so Dask never runs the same path twice at once.
 from __future__ import annotations
 
 import itertools
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -56,6 +57,7 @@ def cases(study: Study) -> list[tuple[float, float, RoadMotion | None]]:
               "pressure": study.pressures or (None,),
               **dict(study.motions)}
     order = ("deflection", "pressure", *(n for n in MOTION_PARAMETERS if n in listed))
+    rows: list[dict[str, float]]
     if study.sampling is None:
         rows = [{}]
         names: list[str] = []
@@ -69,7 +71,8 @@ def cases(study: Study) -> list[tuple[float, float, RoadMotion | None]]:
                            [high for _, _, high in s.ranges])
         rows = [dict(zip(names, row, strict=True)) for row in points]
         order = (*order, *(n for n in names if n not in order))
-    out = []
+    out: list[tuple[float, float, RoadMotion | None]] = []
+    axes: list[tuple[str, Sequence[float | None]]]
     for values in rows:
         if study.sampling is None:
             # the grid of before: every pressure x every deflection (pressure outer)
@@ -79,11 +82,19 @@ def cases(study: Study) -> list[tuple[float, float, RoadMotion | None]]:
             axes = [(k, [values[k]] if k in values else listed[k]) for k in order]
         for combo in itertools.product(*(vals for _, vals in axes)):
             case = dict(zip((k for k, _ in axes), combo, strict=True))
-            motion = {n: round(float(case[n]), 9) + 0.0 for n in MOTION_PARAMETERS if n in case}
+            motion = {n: round(_value(case, n), 9) + 0.0 for n in MOTION_PARAMETERS if n in case}
             m = RoadMotion(**motion) if motion else None
-            out.append((round(float(case["deflection"]), 9), round(float(case["pressure"]), 12),
+            out.append((round(_value(case, "deflection"), 9), round(_value(case, "pressure"), 12),
                         None if m is None or m.is_identity else m))
     return out
+
+
+def _value(case: dict[str, float | None], name: str) -> float:
+    """The case's ``name``. None stands only for a load the study samples, and the
+    sampled value takes its place (jobs.study refuses a load neither listed nor sampled)."""
+    value = case[name]
+    assert value is not None, f"{name}: neither listed nor sampled"
+    return float(value)
 
 
 def load_cases(study: Study) -> list[tuple[float, float]]:

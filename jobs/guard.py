@@ -121,14 +121,15 @@ def cancellation_check() -> Callable[[], bool] | None:
         worker, key = get_worker(), thread_state.key
     except (ImportError, ValueError, AttributeError):
         return None
-    last = [0.0, False]
+    checked_at, cancelled = 0.0, False
 
     def stop() -> bool:
+        nonlocal checked_at, cancelled
         now = time.monotonic()
-        if now - last[0] > 1.0:  # reading worker state is cheap, but once a second is plenty
-            last[0] = now
+        if now - checked_at > 1.0:  # reading worker state is cheap, but once a second is plenty
+            checked_at = now
             ts = worker.state.tasks.get(key)
-            last[1] = ts is None or ts.state in ("cancelled", "released", "forgotten")
-        return last[1]
+            cancelled = ts is None or ts.state in ("cancelled", "released", "forgotten")
+        return cancelled
 
     return stop

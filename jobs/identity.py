@@ -24,6 +24,7 @@ old store skips what it has instead of solving it again.
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -50,7 +51,7 @@ def ingredients(model: ModelSpec, solver: str) -> dict:
 
 
 def _load(deflection: float, pressure: float, motion: RoadMotion | None = None) -> dict:
-    load = {"deflection_mm": round(float(deflection), 9),
+    load: dict[str, Any] = {"deflection_mm": round(float(deflection), 9),
             "pressure_mpa": round(float(pressure), 12)}
     # Combined loads (issue 13, docs/combined-loads.md): the motion's canonical dict joins
     # the load case only when there is a motion, as ModelSpec.reinforcement joins the

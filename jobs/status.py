@@ -24,7 +24,7 @@ class GroupStatus:
     failures: tuple[Failure, ...]
 
 
-def group_status(store: str, group: str) -> GroupStatus:
+def group_status(store: storage.StoreLike, group: str) -> GroupStatus:
     """Counts of pending/done/failed experiments and the failures' reasons."""
     counts = storage.status_counts(store, group)
     failures: list[Failure] = []
@@ -38,7 +38,8 @@ def group_status(store: str, group: str) -> GroupStatus:
     return GroupStatus(group, counts, tuple(failures))
 
 
-def store_status(store: str, group: str | None = None) -> list[GroupStatus]:
+def store_status(store: storage.StoreLike, group: str | None = None
+                 ) -> list[GroupStatus]:
     """Status of one group, or of every group of the store."""
     groups = [group] if group else storage.list_groups(store)
     return [group_status(store, g) for g in groups]

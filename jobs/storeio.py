@@ -49,7 +49,7 @@ def ensure_group(study: Study, solver: str) -> None:
     storage.create_group(study.store, group, mesh_nodes(mesh), attrs)
 
 
-def _groups(store: str) -> list[str]:
+def _groups(store: storage.StoreLike) -> list[str]:
     try:
         return storage.list_groups(store)
     except storage.NotAStoreError:

@@ -46,16 +46,17 @@ Every key is checked: an unknown key, a wrong type or an out-of-range value is o
 :class:`~jobs.errors.StudyError` naming the key, the value given and what is allowed.
 Storage options reach every storage call of the client and of the workers: the study's
 ``store`` is then the zarr store opened with them, which Dask pickles into each task,
-options included. Credentials are refused there (:data:`jobs.validate.SECRET_OPTIONS`):
+options included. Credentials are refused there (:data:`jobs.validate.locations.SECRET_OPTIONS`):
 they stay in the environment of the client and the workers (``AWS_ACCESS_KEY_ID``...).
 The study's experiment count is computed from its lists before anything is expanded and
-is at most :data:`jobs.validate.EXPERIMENTS` (docs/limits.md); with ``[models]`` the
+is at most :data:`jobs.validate.limits.EXPERIMENTS` (docs/limits.md); with ``[models]`` the
 design's model count times the load cases counts. Every model of a design is made and
 checked (fields, mesh size, the loads it must take) when the study is loaded.
 """
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -72,10 +73,11 @@ from farm.specs import (
     RoadMotion,
     SolverSettings,
 )
-from jobs import validate as v
 from jobs.design import ModelsSpec, design, parse_models
 from jobs.errors import StudyError
 from jobs.identity import model_hash
+from jobs.validate import limits, lists, locations, reading, scalars, spec_tables
+from jobs.validate.messages import fail, located, shown
 from storage.paths import describe
 
 SAMPLING_METHODS = ("lhs", "sobol")
@@ -140,7 +142,9 @@ class Study:
     @property
     def location(self) -> str:
         """Where the store is, as text (a path or URL), for messages and reports."""
-        return self.store if isinstance(self.store, str) else describe(self.store)
+        if isinstance(self.store, str | os.PathLike):
+            return os.fspath(self.store)
+        return describe(self.store)
 
     @property
     def group_name(self) -> str:
@@ -155,12 +159,12 @@ class Study:
 
 
 def _sampling(data: Any, where: str) -> Sampling:
-    t = v.table(data, where, {"method", "n", "seed", "deflection_mm", "pressure_kpa",
-                              *MOTION_KEYS}, {"method", "n"})
-    method = v.choice(t["method"], f"{where}.method", SAMPLING_METHODS)
-    n = v.integer(t["n"], f"{where}.n", low=1)
-    v.EXPERIMENTS.check(n, f"{where}.n", f"a design of n = {n} points")
-    seed = v.integer(t.get("seed", 0), f"{where}.seed", low=0, high=v.MAX_SEED)
+    t = scalars.table(data, where, {"method", "n", "seed", "deflection_mm", "pressure_kpa",
+                                    *MOTION_KEYS}, {"method", "n"})
+    method = scalars.choice(t["method"], f"{where}.method", SAMPLING_METHODS)
+    n = scalars.integer(t["n"], f"{where}.n", low=1)
+    limits.EXPERIMENTS.check(n, f"{where}.n", f"a design of n = {n} points")
+    seed = scalars.integer(t.get("seed", 0), f"{where}.seed", low=0, high=limits.MAX_SEED)
     ranges = []
     # the order of the design's dimensions: deflection, pressure as ever (a vertical
     # study draws the points it drew before), then the motion's fields
@@ -171,46 +175,46 @@ def _sampling(data: Any, where: str) -> Sampling:
         if key in t:
             r = t[key]
             if not (isinstance(r, list) and len(r) == 2):
-                raise v.fail(f"{where}.{key}", f"must be [low, high], got {v.shown(r)}")
-            low, high = (v.number(x, f"{where}.{key}", low=bottom, high=top) for x in r)
+                raise fail(f"{where}.{key}", f"must be [low, high], got {shown(r)}")
+            low, high = (scalars.number(x, f"{where}.{key}", low=bottom, high=top) for x in r)
             if not low < high:
-                raise v.fail(f"{where}.{key}", f"needs low < high, got {v.shown(r)}")
+                raise fail(f"{where}.{key}", f"needs low < high, got {shown(r)}")
             ranges.append((name, low * scale, high * scale))
     if not ranges:
-        raise v.fail(where, "give a range for deflection_mm, pressure_kpa or a combined-load "
-                     f"key ({', '.join(MOTION_KEYS)})")
+        raise fail(where, "give a range for deflection_mm, pressure_kpa or a combined-load "
+                   f"key ({', '.join(MOTION_KEYS)})")
     return Sampling(method, n, seed, tuple(ranges))
 
 
 def _loads(data: Any, model: ModelSpec):
-    t = v.table(data, "loads", LOAD_KEYS)
+    t = scalars.table(data, "loads", LOAD_KEYS)
     sampling = _sampling(t["sample"], "loads.sample") if "sample" in t else None
     sampled = {name for name, _, _ in sampling.ranges} if sampling else set()
     names = {"pressure_kpa": "pressure", "deflection_mm": "deflection",
              **{k: name for k, (name, _) in MOTION_KEYS.items()}}
     clash = sorted(k for k in names if k in t and names[k] in sampled)
     if clash:
-        raise v.fail(f"loads.{clash[0]}", "is both sampled and listed; give it in one place")
-    motions = tuple((name, v.values(t[key], f"loads.{key}", low=bounds[0], high=bounds[1]))
+        raise fail(f"loads.{clash[0]}", "is both sampled and listed; give it in one place")
+    motions = tuple((name, lists.values(t[key], f"loads.{key}", low=bounds[0], high=bounds[1]))
                     for key, (name, bounds) in MOTION_KEYS.items() if key in t)
     if (motions or sampled & set(MOTION_PARAMETERS)) and model.road != "contact":
         key = next(k for k, (name, _) in MOTION_KEYS.items()
                    if k in t or name in sampled)
         where = f"loads.{key}" if key in t else f"loads.sample.{key}"
-        raise v.fail(where, f"combined loads need the contact road (model.road = "
-                     f"\"contact\"), the model has road = {v.shown(model.road)}")
+        raise fail(where, f"combined loads need the contact road (model.road = "
+                   f"\"contact\"), the model has road = {shown(model.road)}")
     # an inflated model needs a pressure > 0; the reduced one takes 0 (checked later)
-    pressures = (tuple(p / 1000 for p in v.values(t["pressure_kpa"], "loads.pressure_kpa",
-                                                   low=0, high=MAX_KPA, strict=model.inflated))
+    pressures = (tuple(p / 1000 for p in lists.values(t["pressure_kpa"], "loads.pressure_kpa",
+                                                      low=0, high=MAX_KPA, strict=model.inflated))
                  if "pressure_kpa" in t else None)
-    deflections = (v.values(t["deflection_mm"], "loads.deflection_mm", low=0, strict=True)
+    deflections = (lists.values(t["deflection_mm"], "loads.deflection_mm", low=0, strict=True)
                    if "deflection_mm" in t else ())
     if not deflections and "deflection" not in sampled:
-        raise v.fail("loads.deflection_mm", "is required (a list, a {start, stop, step} range, "
-                     "or a range in [loads.sample])")
+        raise fail("loads.deflection_mm", "is required (a list, a {start, stop, step} range, "
+                   "or a range in [loads.sample])")
     if pressures is None and "pressure" not in sampled:
         if model.inflated:
-            raise v.fail("loads.pressure_kpa", "is required for the inflated full model")
+            raise fail("loads.pressure_kpa", "is required for the inflated full model")
         pressures = (0.0,)
     pressures = pressures or ()
     _check_count(pressures, deflections, sampling, motions=motions)
@@ -219,7 +223,7 @@ def _loads(data: Any, model: ModelSpec):
 
 def _check_count(pressures: tuple, deflections: tuple, sampling: Sampling | None,
                  models: ModelsSpec | None = None, motions: tuple = ()) -> None:
-    """At most :data:`jobs.validate.EXPERIMENTS` experiments, counted as
+    """At most :data:`jobs.validate.limits.EXPERIMENTS` experiments, counted as
     :func:`jobs.expand.load_cases` will make them: the grid, or each design point with
     every listed value of the loads it does not sample."""
     sampled = {name for name, _, _ in sampling.ranges} if sampling else set()
@@ -233,34 +237,35 @@ def _check_count(pressures: tuple, deflections: tuple, sampling: Sampling | None
     count = 1
     for _, n in factors:
         count *= n
-    v.EXPERIMENTS.check(count, "models" if models else "loads",
-                        " x ".join(text for text, _ in factors))
+    limits.EXPERIMENTS.check(count, "models" if models else "loads",
+                             " x ".join(text for text, _ in factors))
 
 
 def parse_study(text: str, source: str = "<study>") -> Study:
     """Validate the TOML text of a study (raises :class:`StudyError`)."""
-    data = v.parse_toml(text, source)
-    with v.located(source):
-        v.table(data, "study file", {"study", "model", "loads", "solver", "models"},
-                {"study", "model", "loads"})
-        head = v.table(data["study"], "study", {"name", "store", "group", "storage_options"},
-                       {"store"})
-        store = v.string(head["store"], "study.store", "a path or URL string", blank=False)
-        v.store_location(store, "study.store")  # checked here, resolved by load_study
-        options = (v.storage_options(head["storage_options"], "study.storage_options", store)
+    data = reading.parse_toml(text, source)
+    with located(source):
+        scalars.table(data, "study file", {"study", "model", "loads", "solver", "models"},
+                      {"study", "model", "loads"})
+        head = scalars.table(data["study"], "study", {"name", "store", "group", "storage_options"},
+                             {"store"})
+        store = scalars.string(head["store"], "study.store", "a path or URL string", blank=False)
+        locations.store_location(store, "study.store")  # checked here, resolved by load_study
+        options = (locations.storage_options(head["storage_options"], "study.storage_options",
+                                             store)
                    if "storage_options" in head else None)
         group = head.get("group")
         if group is not None:
-            v.identifier(group, "study.group")
-        name = v.string(head.get("name", Path(source).stem), "study.name")
-        model = v.model(data["model"])
+            scalars.identifier(group, "study.group")
+        name = scalars.string(head.get("name", Path(source).stem), "study.name")
+        model = spec_tables.model(data["model"])
         pressures, deflections, sampling, motions = _loads(data["loads"], model)
-        solver = v.solver(data.get("solver", {}))
+        solver = spec_tables.solver(data.get("solver", {}))
         models = None
         if "models" in data:
             if group is not None:
-                raise v.fail("study.group", "a study with [models] writes one group per model "
-                             "(<kind>-<model hash>): drop study.group")
+                raise fail("study.group", "a study with [models] writes one group per model "
+                           "(<kind>-<model hash>): drop study.group")
             models = parse_models(data["models"], model)
             _check_count(pressures, deflections, sampling, models, motions)
         study = Study(name, store, group, model, pressures, deflections, sampling,
@@ -277,7 +282,7 @@ def with_storage_options(study: Study) -> Study:
     try:
         opened = storage.open_store(study.location, storage_options=study.storage_options)
     except storage.StoreError as e:
-        raise v.fail("study.storage_options", str(e)) from e
+        raise fail("study.storage_options", str(e)) from e
     return replace(study, store=opened)
 
 
@@ -304,7 +309,7 @@ def _check_models(study: Study) -> None:
     """Make every model of the design (each checked by ``override_model``) and check the
     loads against each: a thinner tread or a lower section takes less deflection."""
     d = design(study.model, study.models)
-    first = {}
+    first: dict[ModelSpec, int] = {}  # each distinct model and its first row
     for k, model in enumerate(d.models):
         first.setdefault(model, k)
     for model, k in first.items():
@@ -321,8 +326,8 @@ def load_study(path: str | Path) -> Study:
     """Read and validate a study file; a relative store path is taken from the current
     directory, like any path given on the command line."""
     path = Path(path)
-    study = parse_study(v.read_text(path), str(path))
+    study = parse_study(reading.read_text(path), str(path))
     if not isinstance(study.store, str):  # a URL opened with its options: nothing to resolve
         return study
-    with v.located(str(path)):
-        return replace(study, store=v.store_location(study.store, "study.store"))
+    with located(str(path)):
+        return replace(study, store=locations.store_location(study.store, "study.store"))

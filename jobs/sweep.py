@@ -23,15 +23,17 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import storage
 from jobs.cluster import Attempts, ClusterSpec
 from jobs.design import model_design
-from jobs.driver import Progress, RunReport, Session, Strategy, drive
+from jobs.driver import Progress, RunReport, Session, Strategy, cluster_spec, drive, solver_version
 from jobs.expand import Experiment, PathPlan, experiments, parameters, plan
 from jobs.storeio import ensure_group
 from jobs.study import Study
 from jobs.tasks import PathOutcome, PathTask, run_path
+from jobs.wording import plural
 
 TASK_RETRIES = 2  # for exceptions raised by a task; lost workers: jobs.cluster.Attempts
 
@@ -50,6 +52,7 @@ class SweepReport(RunReport):
     ccx_runs: int = 0
     resubmitted: int = 0  # tasks resubmitted because their workers died
     group_of: dict[str, str] = field(default_factory=dict)  # experiment id -> its group
+    nothing_to_do: bool = False  # answered from the store alone, no cluster started
 
     @property
     def ok(self) -> bool:
@@ -57,11 +60,11 @@ class SweepReport(RunReport):
 
     def summary(self) -> str:
         """One line: experiments, solver runs, resubmissions (if any) and time."""
-        lost = (f", {self.resubmitted} tasks resubmitted after lost workers"
+        lost = (f", {plural(self.resubmitted, 'task')} resubmitted after lost workers"
                 if self.resubmitted else "")
-        return (f"{self.total} experiments ({self.skipped} already done, {len(self.done)} "
-                f"done now, {len(self.failed)} failed), {self.ccx_runs} ccx runs{lost}, "
-                f"{self.wall_seconds:.1f} s")
+        return (f"{plural(self.total, 'experiment')} ({self.skipped} already done, "
+                f"{len(self.done)} done now, {len(self.failed)} failed), "
+                f"{plural(self.ccx_runs, 'ccx run')}{lost}, {self.wall_seconds:.1f} s")
 
 
 @dataclass(frozen=True)
@@ -96,7 +99,23 @@ def _held(study: Study) -> frozenset[str]:
     return frozenset(storage.statuses(study.store, study.group_name))
 
 
-class Sweep(Strategy):
+def _account(report: SweepReport, study: Study, paths: list[PathPlan], status: dict[str, int],
+             todo: list[PathPlan]) -> set[str]:
+    """Count one group's experiments into ``report``: its total, and its experiments
+    that failed before and are not run again; return the ids done before."""
+    exps = experiments(paths)
+    ids = [e.id for e in exps]
+    report.total += len(exps)
+    report.experiments.update({e.id: e for e in exps})
+    report.group_of.update(dict.fromkeys(ids, study.group_name))
+    for p in paths:
+        if p not in todo:
+            report.failed.update({e.id: "failed before (use --retry-failed)"
+                                  for e in p.experiments if status[e.id] == storage.FAILED})
+    return {i for i, s in status.items() if s == storage.DONE}
+
+
+class Sweep(Strategy[SweepReport]):
     """The sweep strategy: one Dask task per load path still to do, over every group of
     the study (:func:`parts`)."""
 
@@ -105,15 +124,36 @@ class Sweep(Strategy):
     def __init__(self, study: Study, retry_failed: bool = False) -> None:
         self.study, self.retry_failed = study, retry_failed
         self.parts = parts(study)
-        self.report: SweepReport | None = None
+        self.report = SweepReport(study, 0)
         self._pending: dict[Attempts, tuple[Study, PathPlan]] = {}
         self._before: set[str] = set()
-        self._client = None
+        self._client: Any = None  # the session's dask client, from start()
         self._running, self._last = 0, 0.0
+        self._prepared: tuple[str, list[tuple[Study, PathPlan]]] | None = None
+
+    def made(self) -> bool:
+        """Whether every group of the study exists already (a sweep ran before)."""
+        try:
+            have = set(storage.list_groups(self.study.store))
+        except storage.NotAStoreError:
+            return False
+        return all(part.group_name in have for part in self.parts)
+
+    def prepare(self, solver: str) -> int:
+        """The client's part before any cluster: create and reserve every group, find
+        the paths still to do; how many there are (0: :func:`run_sweep` stops there)."""
+        todo = [(part, p) for part in self.parts for p in self._start_part(part, solver)]
+        self.report.skipped = len(self._before)
+        self._prepared = (solver, todo)
+        return len(todo)
 
     def start(self, session: Session) -> None:
         self._client = session.client
-        self.report = SweepReport(self.study, 0)
+        if self._prepared is not None and self._prepared[0] == session.solver:
+            for part, p in self._prepared[1]:
+                self._pending[self._submit(part, p)] = (part, p)
+            return
+        self.report, self._before = SweepReport(self.study, 0), set()  # prepared in vain
         for part in self.parts:  # a group's paths run while the next group is made
             for p in self._start_part(part, session.solver):
                 self._pending[self._submit(part, p)] = (part, p)
@@ -127,17 +167,8 @@ class Sweep(Strategy):
         ids = [e.id for e in exps]
         storage.reserve(study.store, study.group_name, ids, parameters(exps, study.combined))
         status = storage.statuses(study.store, study.group_name, ids)
-        report = self.report
-        report.total += len(exps)
-        report.experiments.update({e.id: e for e in exps})
-        report.group_of.update(dict.fromkeys(ids, study.group_name))
-        self._before |= {i for i, s in status.items() if s == storage.DONE}
         todo = _todo(paths, status, self.retry_failed)
-        for p in paths:
-            if p not in todo:
-                report.failed.update({e.id: "failed before (use --retry-failed)"
-                                      for e in p.experiments
-                                      if status[e.id] == storage.FAILED})
+        self._before |= _account(self.report, study, paths, status, todo)
         return todo
 
     def _submit(self, s: Study, path: PathPlan) -> Attempts:
@@ -195,12 +226,12 @@ class Sweep(Strategy):
         except Exception as e:  # cancelled futures raise here
             reason = f"task {fut.status}: {type(e).__name__}"
         status = storage.statuses(s.store, s.group_name, [e.id for e in path.experiments])
-        for e in path.experiments:
-            if status.get(e.id) == storage.DONE:
-                self.report.done.append(e.id)
+        for exp in path.experiments:
+            if status.get(exp.id) == storage.DONE:
+                self.report.done.append(exp.id)
                 continue
-            storage.write_failure(s.store, s.group_name, e.id, reason, {})
-            self.report.failed[e.id] = reason
+            storage.write_failure(s.store, s.group_name, exp.id, reason, {})
+            self.report.failed[exp.id] = reason
 
 
 def run_sweep(study: Study, *, scheduler: str | None = None, workers: int | None = None,
@@ -210,6 +241,24 @@ def run_sweep(study: Study, *, scheduler: str | None = None, workers: int | None
     """Run every experiment of ``study`` that is not done yet; return the report.
 
     ``cluster`` (:class:`jobs.cluster.ClusterSpec`, e.g. SLURM) replaces ``scheduler``
-    and ``workers``."""
-    return drive(Sweep(study, retry_failed), cluster=cluster, scheduler=scheduler,
-                 workers=workers, progress=progress, on_client=on_client)
+    and ``workers``.
+
+    A sweep of groups made before, on an embedded cluster, first does the client's part
+    (:meth:`Sweep.prepare`: groups, reservations, statuses); when the store holds every
+    experiment as done (or failed, without ``retry_failed``) it ends there, without
+    starting a cluster (``nothing_to_do``; issue 25: it took 16 s to learn that). A
+    remote cluster's workers may run another solver version than this machine, which
+    changes every id, so only they can tell what is left: the sweep connects first."""
+    sweep = Sweep(study, retry_failed)
+    spec = cluster_spec(cluster, scheduler, workers)
+    if spec.embedded and sweep.made():
+        start = time.perf_counter()
+        solver = solver_version(None, embedded=True)
+        if not sweep.prepare(solver):
+            report = sweep.report
+            report.nothing_to_do, report.solver = True, solver
+            report.wall_seconds = time.perf_counter() - start
+            if progress is not None:
+                progress.finished(report)
+            return report
+    return drive(sweep, cluster=spec, progress=progress, on_client=on_client)

@@ -72,11 +72,12 @@ class TlsFiles:
         given = [v is not None for v in (ca_file, cert, key)]
         if not any(given):
             return None
-        if not all(given):
+        if ca_file is None or cert is None or key is None:
             missing = [o for o, g in zip(OPTION_NAMES, given, strict=True) if not g]
             raise ClusterError(f"TLS needs all of {', '.join(OPTION_NAMES)}: "
                                f"{', '.join(missing)} missing; give all three or none")
-        return cls(ca_file, cert, key)
+        # __post_init__ checks each file (check_file: expanded and resolved)
+        return cls(Path(ca_file), Path(cert), Path(key))
 
     def dask_config(self) -> dict[str, Any]:
         """These files as dask configuration: a ``Client`` made inside

@@ -8,6 +8,7 @@ source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
 # This command installs ccx itself, so a test that needs ccx must never skip here.
 export FARM_REQUIRE_CCX=1
 ruff check .
+mypy  # [tool.mypy] in pyproject.toml names what it checks
 if [ "${1:-}" = "--slow" ]; then
     shift
     exec python -m pytest -m slow "$@"

@@ -19,7 +19,8 @@ Worker::
 Analysis::
 
     ds = done(open_dataset(store, group))
-    select(ds, pressure=0.2, deflection=slice(10, 40))
+    ds.sel(deflection=30, pressure=0.2)  # one index over the load case: exact labels
+    select(ds, pressure=0.2, deflection=slice(10, 40))  # within a relative 1e-9
 
 Several clients on one store take turns at metadata (``storage.lock``); a worker holds
 a claim on the unit of work it does, so that a second cluster waits instead of solving
@@ -53,6 +54,7 @@ from storage.mesh import GroupAttrs, MeshNodes, package_versions
 from storage.paths import URL_SCHEMES, StoreLike, open_store
 from storage.read import (
     done,
+    index_parameters,
     open_dataset,
     parameters,
     select,
@@ -94,6 +96,7 @@ __all__ = [
     "client_lock",
     "create_group",
     "done",
+    "index_parameters",
     "list_groups",
     "open_dataset",
     "open_solves",

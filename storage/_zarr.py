@@ -15,6 +15,10 @@ Why these are needed (zarr-python 3.1; checked against 3.1.6):
   buffer prototype (``zarr.core.buffer``, internal); ``farm sweep verify`` uses them to
   read metadata documents as bytes and to restore a damaged ``zarr.json`` from the
   root's consolidated copy (``storage.verify``).
+- zarr's type hints are wider than what the farm's stores hold: ``group[name]`` is an
+  array or a group, ``array[selection]`` any array-like or a scalar, and an array's
+  metadata v2 or v3. :func:`array`, :func:`read` and :func:`dimension_names` narrow them
+  once (the selection types come from ``zarr.core.indexing``, internal).
 - :func:`zarr.consolidate_metadata` warns on every call that consolidated metadata is
   not part of the v3 specification; the warning's text is matched to silence it.
 
@@ -42,15 +46,20 @@ import zarr
 from zarr import AsyncArray
 from zarr.abc.store import Store
 from zarr.core.buffer import default_buffer_prototype
+from zarr.core.indexing import CoordinateSelection, Selection
+from zarr.core.metadata import ArrayV3Metadata
 from zarr.core.sync import sync as _sync
+
+from storage.errors import DamagedStoreError, verify_hint
 
 T = TypeVar("T")
 
 #: One write: an array, the selection along its first axis, the values.
 Write = tuple[AsyncArray, slice, np.ndarray]
 
-__all__ = ["AsyncArray", "Write", "async_arrays", "consolidate", "get_bytes", "key_exists",
-           "list_dir", "read_item", "run", "set_bytes", "write_in_order"]
+__all__ = ["AsyncArray", "Write", "array", "async_arrays", "consolidate", "dimension_names",
+           "get_bytes", "key_exists", "list_dir", "read", "read_coordinates", "read_item",
+           "run", "set_bytes", "write_in_order"]
 
 
 def run(coroutine: Coroutine[Any, Any, T]) -> T:
@@ -83,9 +92,50 @@ def list_dir(store: Store, prefix: str) -> list[str]:
     return sorted(run(collect()))
 
 
+def array(group: zarr.Group, name: str) -> zarr.Array:
+    """The array ``name`` of ``group`` (KeyError when there is none).
+
+    Raises
+    ------
+    DamagedStoreError
+        ``name`` is a group: the farm never makes one there, so the store was edited.
+    """
+    node = group[name]
+    if not isinstance(node, zarr.Array):
+        where = f"{group.path}/{name}" if group.path else name
+        raise DamagedStoreError(
+            f"{where} is a group where the farm keeps an array: the store was modified by "
+            f"hand; {verify_hint()}"
+        )
+    return node
+
+
+def read(arr: zarr.Array, selection: Selection = ...) -> np.ndarray:
+    """``arr[selection]`` as a numpy array (a 0-d one for a single element).
+
+    zarr types the result as any array-like or a scalar; with zarr's default (numpy)
+    buffers it already is an ndarray, which ``np.asarray`` returns as it is (no copy).
+    """
+    return np.asarray(arr[selection])
+
+
+def read_coordinates(arr: zarr.Array, coordinates: CoordinateSelection) -> np.ndarray:
+    """``arr.get_coordinate_selection(coordinates)`` as a numpy array."""
+    return np.asarray(arr.get_coordinate_selection(coordinates))
+
+
+def dimension_names(arr: zarr.Array) -> tuple[str | None, ...]:
+    """The array's dimension names; () when it has none (or is a Zarr v2 array, whose
+    metadata cannot hold them)."""
+    meta = arr.metadata
+    if not isinstance(meta, ArrayV3Metadata):
+        return ()
+    return tuple(meta.dimension_names or ())
+
+
 def async_arrays(group: zarr.Group, names: Iterable[str]) -> dict[str, AsyncArray]:
     """The asynchronous views of arrays of ``group``, by name."""
-    return {name: group[name].async_array for name in names}
+    return {name: array(group, name).async_array for name in names}
 
 
 def read_item(array: AsyncArray, index: int) -> Any:

@@ -78,10 +78,11 @@ _CLIENT_CODES = {
 
 def _chain(e: BaseException) -> Iterator[BaseException]:
     seen: set[int] = set()
-    while e is not None and id(e) not in seen:
-        seen.add(id(e))
-        yield e
-        e = e.__cause__ or e.__context__
+    x: BaseException | None = e
+    while x is not None and id(x) not in seen:
+        seen.add(id(x))
+        yield x
+        x = x.__cause__ or x.__context__
 
 
 def access_error(e: BaseException, store: str = "the store") -> StoreAccessError | None:

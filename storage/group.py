@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 import zarr
 
+from storage._zarr import array, read
 from storage.errors import MeshMismatchError, SchemaError
 from storage.lock import client_lock
 from storage.mesh import GroupAttrs, MeshNodes
@@ -158,7 +159,7 @@ def _check_same_mesh(g: zarr.Group, group: str, mesh: MeshNodes, attrs: GroupAtt
             f"group {group!r} holds mesh {stored_key!r}, not {attrs.mesh_key!r}: use one group "
             "per mesh (a new group name for this mesh)"
         )
-    stored = {name: g[name][...] for name in mesh.arrays()}
+    stored = {name: read(array(g, name)) for name in mesh.arrays()}
     diff = mesh.difference(stored)
     if diff:
         raise MeshMismatchError(

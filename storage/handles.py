@@ -25,7 +25,7 @@ import numpy as np
 from zarr.abc.store import Store
 from zarr.storage import FsspecStore, LocalStore
 
-from storage._zarr import AsyncArray, async_arrays, read_item
+from storage._zarr import AsyncArray, array, async_arrays, read, read_item
 from storage.errors import NotReservedError, reading
 from storage.paths import describe, open_group
 from storage.reserve import read_ids
@@ -91,8 +91,8 @@ def _load(store: Store, group: str) -> Handle:
             arrays=async_arrays(g, names),
             index={e: i for i, e in enumerate(ids)},
             params=params,
-            inner_node=g["inner_node"][...],
-            tread_node=g["tread_node"][...],
+            inner_node=read(array(g, "inner_node")),
+            tread_node=read(array(g, "tread_node")),
             mesh_key=str(g.attrs.get("mesh_key")),
         )
 
@@ -117,9 +117,10 @@ def locate(store: Store, group: str, experiment_id: str, *, fresh: bool = False
         h = _HANDLES.get(key)
         if h is not None:
             _HANDLES.move_to_end(key)
-    i = h.index.get(experiment_id) if h is not None and not fresh else None
-    if i is not None and _verified(h, experiment_id, i):
-        return h, i
+    if h is not None and not fresh:
+        i = h.index.get(experiment_id)
+        if i is not None and _verified(h, experiment_id, i):
+            return h, i
     h = _load(store, group)
     with _LOCK:
         _HANDLES[key] = h

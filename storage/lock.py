@@ -134,9 +134,10 @@ def _try_flock(fd: int, path: Path) -> bool:
     except BlockingIOError:
         return False
     except OSError as e:  # ENOLCK, EOPNOTSUPP: a file system without locks
+        code = e.errno if e.errno is None else errno.errorcode.get(e.errno, e.errno)
         raise StoreError(
             f"cannot lock {path}: its file system does not support file locks "
-            f"({errno.errorcode.get(e.errno, e.errno)}: {e.strerror}); put the store on a local "
+            f"({code}: {e.strerror}); put the store on a local "
             "disk or an NFSv4 share, or use an s3:// store"
         ) from e
 

@@ -28,7 +28,7 @@ import stat
 import warnings
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import Any, TypeAlias, TypeVar
+from typing import Any, Literal, TypeAlias, TypeVar
 
 import zarr
 import zarr.errors
@@ -310,7 +310,7 @@ def root_group(store: Store, *, create: bool = False) -> zarr.Group:
             f"no Zarr v3 store at {describe(store)} (no zarr.json): check the URL, or "
             "create the store with storage.create_group(...)"
         )
-    mode = "r" if store.read_only else ("a" if create else "r+")
+    mode: Literal["r", "a", "r+"] = "r" if store.read_only else ("a" if create else "r+")
     try:
         root = zarr.open_group(store=store, mode=mode, use_consolidated=False)
     except (zarr.errors.NodeNotFoundError, FileNotFoundError) as e:

@@ -16,9 +16,10 @@ import numpy as np
 import xarray as xr
 import zarr
 
-from storage._zarr import list_dir
+from storage._zarr import array, list_dir, read, read_coordinates
 from storage.checksum import Slots, check
 from storage.errors import DamagedStoreError, NotReservedError, SchemaError, reading, verify_hint
+from storage.load_case_index import LoadCaseIndex
 from storage.paths import StoreLike, describe, open_group, open_store
 from storage.reserve import read_ids
 from storage.schema import (
@@ -77,16 +78,40 @@ def open_dataset(store: StoreLike, group: str, *, chunks: Any = _DEFAULT_CHUNKS)
         # decoded here: one flipped byte in a checksum chunk was a 145-line
         # UnicodeDecodeError from `farm analyse pca` (issue 26)
         ds = ds.assign({name: ds[name].astype(object) for name in text})
-    # The load case labels the experiments: coordinates along ``experiment`` (no index),
-    # so ``ds.where(ds.deflection == 30, drop=True)`` and, after
-    # ``ds.set_xindex("deflection")``, ``ds.sel(deflection=30)`` work (issue 12). Read
-    # now (8 bytes an experiment, which done() reads anyway): a lazy label cannot index.
-    names = parameters(ds)
+    # The load case labels the experiments: coordinates along ``experiment`` with one
+    # index over all of them (issue 25), so ``ds.sel(deflection=30, pressure=0.2)`` and
+    # ``ds.where(ds.deflection == 30, drop=True)`` work. Made here, at read time, so that
+    # groups written before issue 25 get it too. Read now (8 bytes an experiment, which
+    # done() reads anyway): a lazy label cannot index.
     with reading(f"the load cases of group {group!r}", where):
-        ds = ds.set_coords([n for n in names if n in ds.data_vars])
-        ds = ds.assign_coords({n: ds[n].load() for n in names})
+        ds = index_parameters(ds)
     ds.encoding.update(farm_store=where, farm_group=group)  # for the messages of done()
     return ds
+
+
+def index_parameters(ds: xr.Dataset) -> xr.Dataset:
+    """``ds`` with its load-case parameters as coordinates along ``experiment``, in memory,
+    under one :class:`~storage.load_case_index.LoadCaseIndex` (what :func:`open_dataset`
+    returns; a no-op on such a dataset).
+
+    Then ``ds.sel(deflection=30)``, ``ds.sel(deflection=30, pressure=0.2)``,
+    ``ds.sel(deflection=[10, 30])`` and ``ds.sel(deflection=slice(10, 30))`` select
+    experiments; the ``experiment`` dimension and its ids stay. Labels match exactly:
+    the farm stores parameters rounded to 9 decimals, so the numbers of a study file
+    match; :func:`select` matches within a relative 1e-9. The plain coordinates come
+    back with ``ds.drop_indexes(parameters(ds))`` (to overwrite one of them, or to
+    align datasets holding different experiments).
+    """
+    names = parameters(ds)
+    index = ds.xindexes.get(names[0]) if names else None
+    if not names or (isinstance(index, LoadCaseIndex) and index.names == tuple(names)):
+        return ds
+    ds = ds.set_coords([n for n in names if n in ds.data_vars])
+    # an index already there (``set_xindex("deflection")`` of issue 12), with its coordinates
+    held = {c for n in names if n in ds.xindexes for c in ds.xindexes.get_all_coords(n)}
+    ds = ds.drop_indexes(sorted(held, key=str))  # names are str in the farm's datasets
+    ds = ds.assign_coords({n: ds[n].load() for n in names})
+    return ds.set_xindex(names, LoadCaseIndex)
 
 
 def _fresh_arrays(zs, group: str, where: str) -> set[str]:
@@ -196,7 +221,9 @@ def _reading_ds(ds: xr.Dataset, what: str):
 def parameters(ds: xr.Dataset) -> list[str]:
     """Names of the load-case parameters of ``ds`` (coordinates along ``experiment`` in
     what :func:`open_dataset` returns; data variables in older in-memory datasets)."""
-    return sorted(n for n, v in ds.variables.items() if v.attrs.get("role") == "parameter")
+    # isinstance: xarray names are any Hashable; a zarr store's (the farm's) are str
+    return sorted(n for n, v in ds.variables.items()
+                  if isinstance(n, str) and v.attrs.get("role") == "parameter")
 
 
 def _matches(values: np.ndarray, want: Any, name: str) -> np.ndarray:
@@ -254,7 +281,7 @@ def statuses(
         g = open_group(zs, group)
         ids = read_ids(g)
     with reading(f"the 'status' array of group {group!r}", where):
-        status = g["status"]
+        status = array(g, "status")
     index = {e: i for i, e in enumerate(ids)}
     wanted = ids if experiment_ids is None else list(experiment_ids)
     missing = [e for e in wanted if e not in index]
@@ -272,9 +299,9 @@ def statuses(
     values = np.zeros(slots.size, dtype=np.int8)
     with reading(f"the 'status' array of group {group!r}", where):
         if experiment_ids is None:
-            values[inside] = status[...][slots[inside]]
+            values[inside] = read(status)[slots[inside]]
         elif inside.any():
-            values[inside] = status.get_coordinate_selection(slots[inside])
+            values[inside] = read_coordinates(status, slots[inside])
     return {e: int(v) for e, v in zip(wanted, values, strict=True)}
 
 
@@ -283,7 +310,7 @@ def _check_orphans(status: zarr.Array, n_ids: int, group: str, where: str) -> No
     if status.shape[0] <= n_ids:
         return
     with reading(f"the 'status' array of group {group!r}", where):
-        tail = status[n_ids:]
+        tail = read(status, slice(n_ids, None))
     orphans = np.flatnonzero(tail != PENDING) + n_ids
     if orphans.size:
         raise DamagedStoreError(

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 import zarr
 
+from storage._zarr import array, dimension_names, read, read_coordinates
 from storage.checksum import label_digest, split
 from storage.errors import (
     ConcurrentClientError,
@@ -102,7 +103,7 @@ def _check_params(
 
 def read_ids(g: zarr.Group) -> list[str]:
     """Reserved experiment ids in index order (surplus empty slots of a crash dropped)."""
-    raw = [str(e) for e in g["experiment"][...].tolist()]
+    raw = [str(e) for e in read(array(g, "experiment")).tolist()]
     used = next((i for i, e in enumerate(raw) if not e), len(raw))
     if any(raw[used:]):
         raise SchemaError(
@@ -170,8 +171,8 @@ def reserve(
         _grow(g, values, units, k_new)
         if new:
             for name, a in values.items():
-                g[name][k_old:k_new] = a[rows]
-            g["experiment"][k_old:k_new] = np.array(new, dtype=object)  # ids last: slot used
+                array(g, name)[k_old:k_new] = a[rows]
+            array(g, "experiment")[k_old:k_new] = np.array(new, dtype=object)  # ids last: slot used
             index.update({e: k_old + j for j, e in enumerate(new)})
             _check_written(zs, group, slice(k_old, k_new), new,
                            {name: a[rows] for name, a in values.items()})
@@ -183,7 +184,7 @@ def _check_written(zs, group: str, slots: slice, ids: list[str],
                    values: dict[str, np.ndarray]) -> None:
     """Read back the new slots: another client racing past the lock shows up here."""
     g = open_group(zs, group)
-    found = {"experiment": g["experiment"][slots]} | {n: g[n][slots] for n in values}
+    found = {n: read(array(g, n), slots) for n in ("experiment", *values)}
     theirs = np.flatnonzero(np.asarray(found["experiment"], dtype=object)
                             != np.array(ids, dtype=object))
     if theirs.size == 0:
@@ -212,7 +213,7 @@ def _check_known(
     slots = np.array([index[ids[j]] for j in rows])
     restore: list[tuple[str, np.ndarray, np.ndarray]] = []
     for name, a in values.items():
-        stored = g[name][...][slots] if name in g else np.full(len(rows), np.nan)
+        stored = read(array(g, name))[slots] if name in g else np.full(len(rows), np.nan)
         if name in COMBINED_PARAMETERS:
             # a vertical experiment reserved before its group became a combined one has
             # no friction, shift or tilt stored (NaN): it is the case where all are 0
@@ -244,7 +245,7 @@ def _check_known(
                 "forever, so a changed load case needs a new id"
             )
     for name, where, value in restore:
-        g[name].set_coordinate_selection(where, value)
+        array(g, name).set_coordinate_selection(where, value)
 
 
 def _signed(g: zarr.Group, ids: list[str], slots: np.ndarray,
@@ -253,7 +254,7 @@ def _signed(g: zarr.Group, ids: list[str], slots: np.ndarray,
     ``values[...][k]``: the load case the worker signed is the one given now."""
     if not ids or "checksum" not in g:
         return np.array([], dtype=np.int64)
-    sums = g["checksum"].get_coordinate_selection(slots).tolist()
+    sums = read_coordinates(array(g, "checksum"), slots).tolist()
     match = [k for k, (e, s) in enumerate(zip(ids, sums, strict=True))
              if (split(s) or ("",))[0] == label_digest(
                  e, {n: float(v[k]) for n, v in values.items()})]
@@ -266,11 +267,10 @@ def _grow(g: zarr.Group, values: dict[str, np.ndarray], units: dict[str, str], k
             var = parameter(name, units.get(name) or KNOWN_PARAMETER_UNITS[name])
             create_array(g, var, (k,))
     if set(values) & set(COMBINED_PARAMETERS):  # the group becomes a combined-load one
-        sizes = {"experiment": k, "tread_node": g["tread_node"].shape[0], "component": 3}
+        sizes = {"experiment": k, "tread_node": array(g, "tread_node").shape[0], "component": 3}
         for var in COMBINED_VARIABLES:
             if var.name not in g:
                 create_array(g, var, tuple(sizes[d] for d in var.dims))
     for _, arr in g.arrays():
-        if arr.metadata.dimension_names and arr.metadata.dimension_names[0] == "experiment" \
-                and arr.shape[0] != k:
+        if dimension_names(arr)[:1] == ("experiment",) and arr.shape[0] != k:
             arr.resize((k, *arr.shape[1:]))

@@ -419,5 +419,5 @@ def _upgraded(ds: xr.Dataset, group: str) -> xr.Dataset:
     missing = [name for name in VARIABLES if name not in ds]
     if missing:
         raise SchemaError(f"inverse-solves group {group!r} lacks {missing[0]!r} (it holds "
-                          f"{', '.join(sorted(ds.data_vars))}): write it again")
+                          f"{', '.join(sorted(map(str, ds.data_vars)))}): write it again")
     return ds

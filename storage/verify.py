@@ -57,7 +57,7 @@ import zarr
 from zarr.abc.store import Store
 from zarr.storage import LocalStore
 
-from storage._zarr import get_bytes, list_dir, set_bytes
+from storage._zarr import dimension_names, get_bytes, list_dir, read, set_bytes
 from storage.checksum import Slots, check, label_digest, split
 from storage.errors import NotAStoreError, StoreError, verify_hint
 from storage.group import unfinished_groups
@@ -359,12 +359,11 @@ class _GroupCheck:
         positions = [i for i in range(used) if status[i] in (DONE, FAILED) and ids[i]]
         self._orphans(ids, status, used)
         lost = self._lost_load_cases(ids, positions, params, bad_params)
-        checkable = [i for i in positions if i not in lost and EXPERIMENT_ID.fullmatch(
-            ids[i])]
+        checkable = [i for i in positions if i not in lost and _valid_id(ids[i])]
         unverifiable = self._checksums(ids, status, params, checkable)
         self._lost_status(ids, status, params, [
             i for i in range(used) if status[i] == PENDING and ids[i] and i not in bad_params
-            and EXPERIMENT_ID.fullmatch(ids[i])])
+            and _valid_id(ids[i])])
         self._mark()
         return self.report(used, len(positions), unverifiable)
 
@@ -417,7 +416,8 @@ class _GroupCheck:
     def _length(self) -> int:
         """Slots along ``experiment``; arrays of another length (or node size) are named,
         and restored ones are brought to it."""
-        along = {n: a.shape[0] for n, a in self.arrays.items() if _dims(a)[:1] == ("experiment",)}
+        along = {n: a.shape[0] for n, a in self.arrays.items()
+                 if dimension_names(a)[:1] == ("experiment",)}
         k = along.get("experiment", max(along.values(), default=0))
         for name, n in along.items():
             if n != k and name not in self.restored:
@@ -437,7 +437,7 @@ class _GroupCheck:
                 continue
             n = self.arrays[dim].shape[0]
             for name, a in self.arrays.items():
-                for d, size in zip(_dims(a), a.shape, strict=False):
+                for d, size in zip(dimension_names(a), a.shape, strict=False):
                     if d == dim and size != n:
                         self.key_damage(f"{self.group}/{name}",
                                         f"has {size} {dim} entries, {dim} has {n}")
@@ -611,7 +611,7 @@ class _GroupCheck:
         sizes = {n: int(np.prod(self.arrays[n].shape[1:], dtype=np.int64))
                  * self.arrays[n].dtype.itemsize for n in names}
         return Slots([e or "" for e in ids], status, params, sums,
-                     lambda n, lo, hi: self.arrays[n][lo:hi], sizes, names)
+                     lambda n, lo, hi: read(self.arrays[n], slice(lo, hi)), sizes, names)
 
     def _missing_chunks(self, i: int, state: int) -> str:
         if state != DONE:
@@ -646,7 +646,7 @@ class _GroupCheck:
 
     def _mesh_chunks(self) -> None:
         for name, a in self.arrays.items():
-            if _dims(a)[:1] == ("experiment",):
+            if dimension_names(a)[:1] == ("experiment",):
                 continue
             try:
                 a[...]
@@ -685,7 +685,9 @@ class _GroupCheck:
             return
         status = self._writable("status")
         error = self._writable("error") if "error" in self.arrays else None
-        for d in (d for d in self.damage if d.index is not None and d.index not in skip):
+        for d in self.damage:
+            if d.index is None or d.index in skip:
+                continue
             status[d.index] = PENDING
             if error is not None and d.experiment is not None:
                 error[d.index] = f"damaged, marked pending by farm sweep verify: {d.reason}"[:500]
@@ -712,13 +714,13 @@ class _GroupCheck:
         for lo in range(0, min(k, a.shape[0]), block):
             hi = min(lo + block, k, a.shape[0])
             try:
-                values[lo:hi] = a[lo:hi].tolist()
+                values[lo:hi] = read(a, slice(lo, hi)).tolist()
                 continue
             except Exception:  # find the chunk(s) that do not decode
                 pass
             for c in range(lo, hi, chunk):
                 try:
-                    values[c:c + chunk] = a[c:min(c + chunk, hi)].tolist()
+                    values[c:c + chunk] = read(a, slice(c, min(c + chunk, hi))).tolist()
                 except Exception as e:
                     self.key_damage(f"{self.group}/{name}/c/{c // chunk}",
                                     f"the chunk does not decode ({_short(e)})")
@@ -728,8 +730,9 @@ class _GroupCheck:
         return values, bad
 
 
-def _dims(a: zarr.Array) -> tuple[str, ...]:
-    return tuple(a.metadata.dimension_names or ())
+def _valid_id(e: str | None) -> bool:
+    """Whether ``e`` is a well-formed experiment id (None: its chunk did not decode)."""
+    return e is not None and EXPERIMENT_ID.fullmatch(e) is not None
 
 
 def _few(items: list, n: int = 10) -> str:

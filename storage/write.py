@@ -165,14 +165,14 @@ def check_info(info: Mapping[str, Any], *, complete: bool) -> dict[str, np.ndarr
     seconds = info.get("solve_seconds", math.nan)
     if "solve_seconds" in info and not (
         isinstance(seconds, numbers.Real) and not isinstance(seconds, bool)
-        and math.isfinite(seconds) and seconds >= 0
+        and math.isfinite(seconds) and float(seconds) >= 0
     ):
         raise SchemaError(f"info 'solve_seconds' must be a number of seconds >= 0, got {seconds!r}")
     out = {"solve_seconds": np.array([seconds], dtype=np.float64)}
     for name in INFO_NAMES[1:]:
         v = info.get(name, NOT_RECORDED)
         if name in info and not (
-            isinstance(v, numbers.Integral) and not isinstance(v, bool) and 0 <= v < 2**31
+            isinstance(v, numbers.Integral) and not isinstance(v, bool) and 0 <= int(v) < 2**31
         ):
             raise SchemaError(f"info {name!r} must be an integer >= 0, got {v!r}")
         out[name] = np.array([v], dtype=np.int32)

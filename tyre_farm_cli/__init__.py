@@ -24,6 +24,7 @@ import functools
 import logging
 import sys
 import warnings
+from typing import Protocol, runtime_checkable
 
 import typer
 
@@ -39,7 +40,7 @@ from tyre_farm_cli import (
     sweep,
 )
 from tyre_farm_cli.errors import USER_ERRORS, exit_code, fail
-from tyre_farm_cli.options import APP_SETTINGS
+from tyre_farm_cli.options import APP_SETTINGS, use_panels
 
 app = typer.Typer(
     name="farm",
@@ -94,6 +95,7 @@ app.command("converge")(converge.converge)
 app.command("compare")(compare.compare)
 app.add_typer(analyse.app, name="analyse", help="Chapter-5 analyses of a store: "
               "cross-covariance PCA, PCR, PLSR, Monte Carlo noise.")
+use_panels(app)  # the cluster options in sections of their own, after each command's
 
 #: Known-harmless warnings of the libraries, kept from users (each with its reason).
 HARMLESS = (
@@ -135,6 +137,16 @@ def main(argv: list[str] | None = None) -> None:
         _main(args, debug)
 
 
+@runtime_checkable
+class _ClickError(Protocol):
+    """Click's usage errors, by interface: typer vendors click as typer._click in recent
+    versions, so no one class matches them all (isinstance checks both attributes)."""
+
+    exit_code: int
+
+    def format_message(self) -> str: ...
+
+
 def _main(args: list[str], debug: bool) -> None:
     try:
         code = command().main(args=args, prog_name="farm", standalone_mode=False)
@@ -153,7 +165,7 @@ def _main(args: list[str], debug: bool) -> None:
         # so match the interface rather than a class).
         if debug:
             raise
-        if not (hasattr(e, "format_message") and hasattr(e, "exit_code")):
+        if not isinstance(e, _ClickError):
             # a store that cannot be reached or written (credentials, a full disk) is the
             # user's to fix, wherever in the libraries it surfaced (issue 26)
             from storage.errors import access_error

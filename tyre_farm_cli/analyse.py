@@ -19,9 +19,12 @@ import numpy as np
 import typer
 
 from analysis.errors import ParameterError
-from jobs import validate
 from jobs.errors import ClusterError, StudyError
+from jobs.validate import messages
+from jobs.wording import plural
+from tyre_farm_cli.checks import output_folder
 from tyre_farm_cli.errors import usage
+from tyre_farm_cli.jsondoc import JSON_HELP, dump, records
 from tyre_farm_cli.options import (
     APP_SETTINGS,
     SCHEDULER_HELP,
@@ -112,6 +115,7 @@ Scheduler = Annotated[
     str | None,
     typer.Option(help=ANALYSE_SCHEDULER_HELP, callback=check_scheduler),
 ]
+Json = Annotated[bool, typer.Option("--json", help=JSON_HELP)]
 
 
 def _load(store: str, options: list[str] | None, group: str | None, pressure: float | None,
@@ -128,7 +132,7 @@ def _out(out: Path | None, command: str) -> Path:
     folder = out if out is not None else Path("analysis-out") / command
     with usage():
         try:
-            return validate.output_folder(folder, "--out")
+            return output_folder(folder, "--out")
         except StudyError as e:  # the analyses' own error type, for callers of the app
             raise ParameterError(str(e)) from e
 
@@ -154,8 +158,14 @@ def _stored_reference(ds, deflection: float) -> float:
     )
 
 
-def _done(report) -> None:
-    typer.echo(f"wrote {len(report.files)} files to {report.out} (see {report.out / 'summary.md'})")
+def _done(report, as_json: bool = False) -> None:
+    """The files an analysis wrote; with ``as_json`` also every table it wrote, by name."""
+    summary = report.out / "summary.md"
+    if as_json:
+        dump({"out": report.out, "summary": summary, "files": report.files,
+              "tables": {name: records(frame) for name, frame in report.tables.items()}})
+        return
+    typer.echo(f"wrote {plural(len(report.files), 'file')} to {report.out} (see {summary})")
 
 
 @app.command()
@@ -171,6 +181,7 @@ def pca(
     force_component: Force = "z",
     scheduler: Scheduler = None,
     storage_option: StorageOption = None,
+    as_json: Json = False,
 ) -> None:
     """Cross-covariance PCA per direction: singular values, eigen-maps, importance (§5.3)."""
     folder = _out(out, "pca")
@@ -179,7 +190,8 @@ def pca(
         _done(
             _study("crosscov").run(
                 ds, folder, inputs=inputs, n_modes=components, component=force_component
-            )
+            ),
+            as_json,
         )
 
 
@@ -197,6 +209,7 @@ def pcr(
     force_component: Force = "z",
     scheduler: Scheduler = None,
     storage_option: StorageOption = None,
+    as_json: Json = False,
 ) -> None:
     """Principal component regression with 1..N modes (§5.4, Figs. 5.5-5.7)."""
     folder = _out(out, "pcr")
@@ -211,7 +224,8 @@ def pcr(
                 max_modes=components,
                 reference_deflection=reference_deflection,
                 component=force_component,
-            )
+            ),
+            as_json,
         )
 
 
@@ -239,6 +253,7 @@ def plsr(
     force_component: Force = "z",
     scheduler: Scheduler = None,
     storage_option: StorageOption = None,
+    as_json: Json = False,
 ) -> None:
     """PLS regression, SIMPLS beside scikit-learn's NIPALS, PCTVAR (§5.5, Figs. 5.8-5.10)."""
     folder = _out(out, "plsr")
@@ -256,7 +271,8 @@ def plsr(
                 seed=seed,
                 reference_deflection=reference_deflection,
                 component=force_component,
-            )
+            ),
+            as_json,
         )
 
 
@@ -298,10 +314,18 @@ def noise(
             help="'inputs': N(0, σ²) on every input (thesis); 'subspace': same law, faster."
         ),
     ] = "inputs",
+    train_noise: Annotated[
+        bool,
+        typer.Option(
+            help="Also refit each model on noisy training inputs (rows 'training: noisy'; "
+            "the thesis trained on noise-free data, rows 'training: clean')."
+        ),
+    ] = True,
     reference_deflection: Reference = None,
     force_component: Force = "z",
     scheduler: Scheduler = None,
     storage_option: StorageOption = None,
+    as_json: Json = False,
 ) -> None:
     """Monte Carlo measurement noise on PLSR: node maps, Table 5.1, sweep (§5.6)."""
     with usage():
@@ -324,25 +348,17 @@ def noise(
                 component=force_component,
                 sampling=sampling,
                 cv=cv,
-            )
+                train_noise=train_noise,
+            ),
+            as_json,
         )
 
 
 def _levels(text: str | None):
     if text is None:
         return _study("noise").DEFAULT_MULTIPLIERS
-    try:
-        levels = tuple(float(v) for v in text.split(",") if v.strip())
-    except ValueError as exc:
-        raise ParameterError(
-            f"--noise-levels must be numbers separated by commas, got {validate.shown(text)}"
-        ) from exc
-    if not levels or not all(0 <= v <= MAX_NOISE_LEVEL for v in levels):  # NaN fails too
-        raise ParameterError(
-            f"--noise-levels must be multiples of the thesis' noise in [0, {MAX_NOISE_LEVEL:g}], "
-            f"got {validate.shown(text)}"
-        )
-    return levels
+    return _numbers(text, "--noise-levels", low=0.0, high=MAX_NOISE_LEVEL,
+                    what=f"multiples of the thesis' noise in [0, {MAX_NOISE_LEVEL:g}]")
 
 
 def _draws(draws: int) -> int:
@@ -382,6 +398,7 @@ def combined(
     ] = 10,
     scheduler: Scheduler = None,
     storage_option: StorageOption = None,
+    as_json: Json = False,
 ) -> None:
     """Combined loads: PCA latent counts, PLSR/PCR of the 3-D force map and totals,
     held-out errors under T2Cam noise, beside the published anchors (issue 13)."""
@@ -406,7 +423,8 @@ def combined(
                 seed=seed,
                 max_components=max_components,
                 draws=draws,
-            )
+            ),
+            as_json,
         )
 
 
@@ -453,19 +471,22 @@ def sensitivity(
         float, typer.Option(help="Confidence level of the intervals.")] = 0.95,
     seed: Annotated[int, typer.Option(help="Seed of the bootstrap.")] = 0,
     storage_option: StorageOption = None,
+    as_json: Json = False,
 ) -> None:
     """Sobol' indices or Morris screening of a model design over the store (thesis §6.2):
     Fz, contact nodes and area per load case, and PCA scores of an inner-surface field."""
     from analysis.sensitivity_data import OutputRequest
 
     with usage():
-        deflections = _numbers(deflection, "--deflection")
-        pressures = _numbers(pressure_kpa, "--pressure-kpa")
+        deflections = _numbers(deflection, "--deflection", low=math.ulp(0.0),
+                               what="positive numbers of mm")
+        pressures = _numbers(pressure_kpa, "--pressure-kpa", low=0.0,  # 0: not inflated
+                             what="numbers of kPa >= 0")
         if field is not None and field not in SENSITIVITY_FIELDS:
             raise ParameterError(f"--field must be one of {', '.join(SENSITIVITY_FIELDS)}, "
-                                 f"got {validate.shown(field)}")
+                                 f"got {messages.shown(field)}")
         if method is not None and method not in ("sobol", "morris"):
-            raise ParameterError(f"--method must be sobol or morris, got {validate.shown(method)}")
+            raise ParameterError(f"--method must be sobol or morris, got {messages.shown(method)}")
         if not 2 <= num_resamples <= MAX_DRAWS:
             raise ParameterError(
                 f"--num-resamples must be in [2, {MAX_DRAWS}], got {num_resamples}")
@@ -489,21 +510,25 @@ def sensitivity(
     _done(_study("sensitivity").run(
         store, design.matrix, design.names, design.bounds, design.groups, request, folder,
         method=design.method, num_levels=spec.models.num_levels,
-        num_resamples=num_resamples, conf_level=conf_level, seed=seed, source=str(study)))
+        num_resamples=num_resamples, conf_level=conf_level, seed=seed, source=str(study)),
+        as_json)
 
 
-def _numbers(text: str | None, option: str) -> tuple[float, ...] | None:
+def _numbers(text: str | None, option: str, *, low: float, high: float = math.inf,
+             what: str | None = None) -> tuple[float, ...] | None:
+    """The comma list of finite numbers in [``low``, ``high``] that ``option`` was given
+    (None if it was not); ``what`` says what they must be (default: ">= low")."""
     if text is None:
         return None
     try:
         values = tuple(float(v) for v in text.split(",") if v.strip())
     except ValueError as exc:
         raise ParameterError(
-            f"{option} must be numbers separated by commas, got {validate.shown(text)}"
+            f"{option} must be numbers separated by commas, got {messages.shown(text)}"
         ) from exc
-    low = 0.0 if option == "--pressure-kpa" else math.ulp(0.0)  # 0 kPa: not inflated
-    if not values or not all(math.isfinite(v) and v >= low for v in values):
-        raise ParameterError(f"{option} must be numbers >= {low:g}, got {validate.shown(text)}")
+    if not values or not all(math.isfinite(v) and low <= v <= high for v in values):
+        raise ParameterError(f"{option} must be {what or f'numbers >= {low:g}'}, got "
+                             f"{messages.shown(text)}")
     return values
 
 

@@ -9,14 +9,17 @@ from pathlib import Path
 import typer
 from rich.console import Console
 
+from jobs.driver import Progress
+from jobs.wording import plural
 from tyre_farm_cli.errors import usage
 from tyre_farm_cli.frames import print_frame
+from tyre_farm_cli.jsondoc import JSON, dump, records
 from tyre_farm_cli.options import SCHEDULER, WORKERS, with_cluster
 from tyre_farm_cli.progress import LogLines, interactive
 from tyre_farm_cli.progress import console as stderr_console
 
 
-class CalibrationLines:
+class CalibrationLines(Progress):
     """Progress of a calibration (:class:`jobs.driver.Progress`) on stderr: one line per
     new parameter set - budget, rounds, best cost, worst point. On a terminal every one;
     elsewhere timestamped and rate-limited (:class:`tyre_farm_cli.progress.LogLines`)."""
@@ -78,6 +81,7 @@ def calibrate(
                              "figure and the fitted preset (JSON)."),
     cache: Path = typer.Option(None, "--cache", help="Evaluation cache [default: "
                                "<out>/evaluations]; a re-run replays it without ccx."),
+    as_json: bool = JSON,
     cluster=None,
 ) -> None:
     """Fit Young's moduli (and thicknesses) to force-deflection points, on the farm.
@@ -89,16 +93,17 @@ def calibrate(
     """
     from farm.ccx.runner import find_ccx
     from farm.errors import SpecError
-    from jobs import validate
     from jobs.calibrate.fit import CalibrationSettings
     from jobs.calibrate.params import Parameters, default_parameters
     from jobs.calibrate.references import read_points, thesis_points
     from jobs.calibrate.run import run_calibration
+    from jobs.validate import limits, messages, scalars
+    from tyre_farm_cli.checks import output_folder
     from tyre_farm_cli.params import build_model
 
     with usage():
         if model not in ("reduced", "full"):
-            raise SpecError(f"unknown model {validate.shown(model)}: choose 'reduced' or "
+            raise SpecError(f"unknown model {messages.shown(model)}: choose 'reduced' or "
                             "'full'")
         base = build_model(model, materials, None, overrides)
         names = (tuple(s.strip() for s in parameters.split(",") if s.strip()) if parameters
@@ -113,12 +118,12 @@ def calibrate(
                        "4475.5 N point (the other: --reading "
                        f"{'80kPa' if reading == '200kPa' else '200kPa'})")
     with usage():
-        validate.integer(max_evaluations, "--max-evaluations", low=2,
-                         high=validate.MAX_EVALUATIONS)
-        validate.number(prior_weight, "--prior-weight", low=0)
-        validate.output_folder(out, "--out")
+        scalars.integer(max_evaluations, "--max-evaluations", low=2,
+                        high=limits.MAX_EVALUATIONS)
+        scalars.number(prior_weight, "--prior-weight", low=0)
+        output_folder(out, "--out")
         if cache is not None:
-            validate.output_folder(cache, "--cache")
+            output_folder(cache, "--cache")
     if cluster.embedded:
         find_ccx()
     console = Console(width=None if sys.stdout.isatty() else 160)
@@ -126,11 +131,39 @@ def calibrate(
         params, points, str(cache or out / "evaluations"), cluster=cluster,
         progress=CalibrationLines(),
         cal=CalibrationSettings(max_evaluations=max_evaluations, prior_weight=prior_weight))
-    _report(console, report, params, points, out)
+    frames = _write(report, params, points, out)
+    if as_json:
+        dump(_document(report, frames, out))
+    else:
+        _print(console, report, frames, out)
     raise typer.Exit(0 if report.ok else 1)
 
 
-def _report(console: Console, report, params, points, out: Path) -> None:
+def _print(console: Console, report, frames: dict, out: Path) -> None:
+    result = report.result
+    print_frame(console, f"fitted parameters ({result.status})", frames["parameters"],
+                digits=4)
+    print_frame(console, "reference points: force N, residual %",
+                frames["points"].drop(columns="source"), digits=4)
+    s = result.stats
+    console.print(f"{plural(s.evaluations, 'evaluation')} in {plural(s.rounds, 'round')} "
+                  f"({plural(s.solved, 'load path')} solved, {s.cached} from the cache), "
+                  f"{report.wall_seconds:.0f} s wall; "
+                  f"tables, figure and fitted.json in {out}")
+
+
+def _document(report, frames: dict, out: Path) -> dict:
+    """``farm calibrate --json``: the two tables and the cost line, as numbers."""
+    s = report.result.stats
+    return {"status": report.result.status, "ok": report.ok,
+            "parameters": records(frames["parameters"]), "points": records(frames["points"]),
+            "evaluations": s.evaluations, "rounds": s.rounds, "solved": s.solved,
+            "cached": s.cached, "wall_seconds": round(report.wall_seconds, 3), "out": out}
+
+
+def _write(report, params, points, out: Path) -> dict:
+    """Write the tables, history, curves, figure and fitted.json into ``out``; return
+    the parameter and point tables."""
     import numpy as np
     import pandas as pd
 
@@ -141,10 +174,6 @@ def _report(console: Console, report, params, points, out: Path) -> None:
     start = params.start()
     out.mkdir(parents=True, exist_ok=True)
     frames = {"parameters": parameter_table(result), "points": point_table(result)}
-    print_frame(console, f"fitted parameters ({result.status})", frames["parameters"],
-                digits=4)
-    print_frame(console, "reference points: force N, residual %",
-                frames["points"].drop(columns="source"), digits=4)
     for name, frame in frames.items():
         frame.to_csv(out / f"{name}.csv", index=False)
     history = pd.DataFrame(np.exp(result.theta_history) * [start[n] for n in params.names],
@@ -168,7 +197,4 @@ def _report(console: Console, report, params, points, out: Path) -> None:
         {"model": spec.kind, "materials": preset, "geometry": geometry,
          "residuals_pct": list(100 * result.residuals), "status": result.status},
         indent=2))
-    s = result.stats
-    console.print(f"{s.evaluations} evaluations in {s.rounds} rounds ({s.solved} load paths "
-                  f"solved, {s.cached} from the cache), {report.wall_seconds:.0f} s wall; "
-                  f"tables, figure and fitted.json in {out}")
+    return frames

@@ -32,14 +32,14 @@ def compare(
 ) -> None:
     """Solve a full model at 80 and 200 kPa and put it beside every thesis statement."""
     from farm.ccx.runner import find_ccx
-    from jobs import validate
     from jobs.calibrate import compare as cmp
     from jobs.calibrate.statements import READINGS
+    from tyre_farm_cli.checks import output_folder
 
     with usage():
         spec = build_model("full", materials, None, overrides, mesh)
         if out is not None:
-            validate.output_folder(out, "--out")
+            output_folder(out, "--out")
     find_ccx()
     with cluster.client() as client:
         curves = cmp.solve_curves(spec, client)

@@ -14,6 +14,7 @@ from pathlib import Path
 import typer
 from rich.console import Console
 
+from jobs.wording import plural
 from tyre_farm_cli.errors import usage
 from tyre_farm_cli.options import SCHEDULER, WORKERS, with_cluster
 from tyre_farm_cli.params import check_materials
@@ -34,15 +35,16 @@ def converge(
 ) -> None:
     """Solve the mesh-convergence study and write OUT/convergence.md."""
     from farm.ccx.runner import find_ccx
-    from jobs import validate
     from jobs.convergence import levels as lv
     from jobs.convergence.run import run_study
+    from jobs.validate import reading
+    from tyre_farm_cli.checks import output_folder
 
     with usage():
         check_materials(materials)
-        validate.output_folder(out, "--out")
+        output_folder(out, "--out")
         if replay:
-            saved = validate.read_text(out / "convergence.json", "convergence records")
+            saved = reading.read_text(out / "convergence.json", "convergence records")
     if replay:
         doc = json.loads(saved)
         _write(out, doc["records"], doc["sequence"], doc["materials"], doc["quick"])
@@ -81,4 +83,5 @@ def _write(out: Path, records: list[dict], sequence: list[str], materials: str,
         + markdown(table, records, sequence))
     failed = sum(r["status"] != "done" for r in records)
     Console().print(f"{out / 'convergence.md'}: {summary}"
-                    + (f"; {failed} of {len(records)} solves failed" if failed else ""))
+                    + (f"; {failed} of {plural(len(records), 'solve')} failed" if failed
+                       else ""))

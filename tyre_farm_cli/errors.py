@@ -5,6 +5,7 @@ from __future__ import annotations
 import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
+from typing import NoReturn
 
 from farm.errors import FarmError
 
@@ -23,9 +24,26 @@ def _user_errors() -> tuple[type[BaseException], ...]:
 USER_ERRORS = _user_errors()
 
 
-def fail(message: str, code: int = 1) -> None:
+#: The libraries' advice to Python callers, and what a user of the CLI does instead
+#: (issue 25: a missing store said "create the store with storage.create_group(...)").
+CLI_ADVICE = (
+    ("create the store with storage.create_group(...)",
+     "create it with `farm sweep submit STUDY.toml` (the study's [study] store)"),
+    ("create it with storage.create_group(...)",
+     "`farm sweep submit STUDY.toml` creates a study's group"),
+)
+
+
+def for_the_cli(message: str) -> str:
+    """``message`` with the libraries' Python advice replaced by the farm command."""
+    for library, command in CLI_ADVICE:
+        message = message.replace(library, command)
+    return message
+
+
+def fail(message: str, code: int = 1) -> NoReturn:
     """Print ``farm: error: <message>`` as one line on stderr and exit with ``code``."""
-    line = " ".join(str(message).split())
+    line = " ".join(for_the_cli(str(message)).split())
     print(f"farm: error: {line}", file=sys.stderr)
     raise SystemExit(code)
 

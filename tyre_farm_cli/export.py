@@ -10,6 +10,7 @@ import typer
 from rich.console import Console
 
 from farm.errors import SpecError
+from jobs.wording import plural
 from tyre_farm_cli.errors import usage
 
 
@@ -25,10 +26,10 @@ def export(
     from farm.export import surface_vtus
     from farm.mesh import mesh_for
     from farm.specs import ModelSpec
-    from jobs import validate
+    from tyre_farm_cli.checks import output_folder
 
     with usage():
-        validate.output_folder(out, "--out")  # before reading the store or meshing
+        output_folder(out, "--out")  # before reading the store or meshing
     groups = [group] if group else storage.list_groups(store)
     if len(groups) != 1:
         raise SpecError(f"the store has groups {', '.join(groups) or 'none'}: choose one with "
@@ -48,13 +49,13 @@ def export(
         load = f"{float(one['deflection']):g}mm_{1000 * float(one['pressure']):g}kPa"
         stem = out / f"{exp[:12]}_{load}"
         written += surface_vtus(mesh, arrays, stem)
-    Console().print(f"wrote {len(written)} VTU files to {out}")
+    Console().print(f"wrote {plural(len(written), 'VTU file')} to {out}")
 
 
 def _match(ids: list[str], prefix: str) -> str:
     found = [i for i in ids if i.startswith(prefix)]
     if len(found) != 1:
-        what = "no done experiment" if not found else f"{len(found)} experiments"
-        raise SpecError(f"{what} matches {prefix!r}: give a longer id prefix "
+        what = "no done experiment matches" if not found else f"{len(found)} experiments match"
+        raise SpecError(f"{what} {prefix!r}: give a longer id prefix "
                         "(see `farm sweep list STORE --status done`)")
     return found[0]

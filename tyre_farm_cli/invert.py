@@ -2,15 +2,27 @@
 
 from __future__ import annotations
 
+import math
+import statistics
 import sys
 from pathlib import Path
 
 import typer
 from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.progress import (
+    BarColumn,
+    MofNCompleteColumn,
+    Progress,
+    TaskID,
+    TextColumn,
+    TimeElapsedColumn,
+)
 
+from jobs.wording import plural
+from storage.paths import StoreLike
 from tyre_farm_cli.errors import usage
 from tyre_farm_cli.frames import print_frame
+from tyre_farm_cli.jsondoc import JSON, dump, records
 from tyre_farm_cli.options import SCHEDULER, WORKERS, with_cluster
 from tyre_farm_cli.progress import LogLines, interactive
 from tyre_farm_cli.progress import console as stderr_console
@@ -27,7 +39,9 @@ class RichLoops:
     when a loop ends: on a terminal's stderr."""
 
     def __init__(self, console: Console) -> None:
-        self.console, self.bar, self.tasks = console, None, []
+        self.console = console
+        self.bar: Progress | None = None  # made when the loops start
+        self.tasks: list[TaskID] = []
         self.reported: set[str] = set()
 
     def started(self, session, loops) -> None:
@@ -74,8 +88,8 @@ class LoopLines:
         self.reported: set[str] = set()
 
     def started(self, session, loops) -> None:
-        self.lines.log(f"invert: dashboard {session.dashboard}, {session.workers} workers, "
-                       f"{len(loops)} loops")
+        self.lines.log(f"invert: dashboard {session.dashboard}, "
+                       f"{plural(session.workers, 'worker')}, {plural(len(loops), 'loop')}")
 
     def advanced(self, loops) -> None:
         evaluations = sum(min(s.stats.evaluations, s.budget) for s in loops)
@@ -98,8 +112,8 @@ def _ended_text(state) -> str:
     if result is None:
         return f"{state.label}: failed: {state.error}"
     return (f"{state.label}: {result.status}, Fz {result.x.sum():.1f} N, objective "
-            f"{result.objective:.3g}, {len(result.f_history)} evaluations, "
-            f"{result.stats.rounds} rounds, {result.wall_seconds:.0f} s")
+            f"{result.objective:.3g}, {plural(len(result.f_history), 'evaluation')}, "
+            f"{plural(result.stats.rounds, 'round')}, {result.wall_seconds:.0f} s")
 
 
 def _default_out(study) -> Path:
@@ -110,7 +124,8 @@ def _default_out(study) -> Path:
 
 @with_cluster
 def invert(study_file: Path = STUDY, scheduler: str = SCHEDULER, workers: int = WORKERS,
-           out: Path = OUT, repeats: int = REPEATS, cluster=None) -> None:
+           out: Path = OUT, repeats: int = REPEATS, as_json: bool = JSON,
+           cluster=None) -> None:
     """Identify tread forces from inner-surface measurements (thesis ch. 4), FEM in the loop.
 
     Prints and writes Tables 4.1-4.4 beside the thesis' values, histograms of the nodal
@@ -118,31 +133,51 @@ def invert(study_file: Path = STUDY, scheduler: str = SCHEDULER, workers: int = 
     Running it again replays every evaluation from the cache (no ccx): resuming.
     """
     from farm.ccx.runner import find_ccx
-    from jobs import validate
     from jobs.inverse.run import run_inverse
     from jobs.inverse.study import load_inverse_study, with_repeats
+    from jobs.validate import limits, scalars
+    from tyre_farm_cli.checks import output_folder
 
     study = load_inverse_study(study_file)  # everything is validated before anything runs
     with usage():
         if repeats is not None:
-            validate.integer(repeats, "--repeats", low=1, high=validate.MAX_REPEATS)
+            scalars.integer(repeats, "--repeats", low=1, high=limits.MAX_REPEATS)
             study = with_repeats(study, repeats)
         if out is not None:
-            validate.output_folder(out, "--out")
+            output_folder(out, "--out")
     if cluster.embedded:
         find_ccx()
-    console = Console(width=None if sys.stdout.isatty() else 180)
-    progress = loop_progress()
-    report = run_inverse(study, cluster=cluster, progress=progress)
+    report = run_inverse(study, cluster=cluster, progress=loop_progress())
     folder = (out or _default_out(study)).expanduser()
-    figures = _report(console, study.store, study.group, folder) if report.results else []
-    console.print(report.summary())
-    console.print(f"results: {study.location} (group {study.group}); tables and "
-                  f"{len(figures)} histograms in {folder}" if report.results else
-                  "no solve finished: nothing stored, no tables")
+    console = Console(width=None if sys.stdout.isatty() else 180)
+    frames, figures = _report(study.store, study.group, folder) if report.results else ({}, [])
     for label, error in report.errors.items():
         stderr_console().print(f"{label}: {error}", style="red", markup=False)
+    if as_json:
+        dump(_document(study, report, frames, figures, folder))
+        raise typer.Exit(0 if report.ok else 1)
+    for name, frame in frames.get("views", {}).items():
+        print_frame(console, TITLES[name], frame)
+    console.print(report.summary())
+    console.print(f"results: {study.location} (group {study.group}); tables and "
+                  f"{plural(len(figures), 'histogram')} in {folder}" if report.results else
+                  "no solve finished: nothing stored, no tables")
     raise typer.Exit(0 if report.ok else 1)
+
+
+def _document(study, report, frames: dict, figures: list[Path], folder: Path) -> dict:
+    """``farm invert --json``: what the summary line and the tables show, as numbers (the
+    tables are those of the CSV files, unformatted: no "mean ± std" text)."""
+    t = report.totals
+    objectives = [r.objective for r in report.results if math.isfinite(r.objective)]
+    return {"study": study.name, "store": study.location, "group": study.group,
+            "ok": report.ok, "solves": len(report.results),
+            "evaluations": t.evaluations, "solved": t.solved, "cached": t.cached,
+            "shared": t.shared, "rounds": t.rounds,
+            "median_objective": statistics.median(objectives) if objectives else None,
+            "wall_seconds": round(report.wall_seconds, 3), "errors": report.errors,
+            "out": folder if report.results else None, "histograms": figures,
+            "tables": {name: records(f) for name, f in frames.get("tables", {}).items()}}
 
 
 TITLES = {"forces": "Forces and moments, mean ± std over repeats (thesis Tables 4.1/4.3)",
@@ -153,17 +188,18 @@ TITLES = {"forces": "Forces and moments, mean ± std over repeats (thesis Tables
                      "the solution [N] (issue 16)"}
 
 
-def _report(console: Console, store: str, group: str, folder: Path) -> list[Path]:
-    """Tables (CSV, printed) and histograms (PNG) from the group as stored: the report
-    shows what the store holds, and nothing the store lacks."""
+def _report(store: StoreLike, group: str, folder: Path) -> tuple[dict, list[Path]]:
+    """Tables (CSV) and histograms (PNG) from the group as stored: the report shows what
+    the store holds, and nothing the store lacks. Returns {"tables": the CSVs' frames,
+    "views": the terminal's} and the histograms."""
     from analysis.report import ch4, ch4_extra
     from storage.solves import open_solves
 
     ds = open_solves(store, group)
     folder.mkdir(parents=True, exist_ok=True)
     guesses = ch4_extra.guesses(ds)
-    for name, frame in {**ch4.tables(ds), "guesses": guesses}.items():
+    tables = {**ch4.tables(ds), "guesses": guesses}
+    for name, frame in tables.items():
         frame.to_csv(folder / f"{name}.csv", index=False)
-    for name, frame in {**ch4.views(ds), "guesses": guesses.round(4)}.items():
-        print_frame(console, TITLES[name], frame)
-    return ch4.histograms(ds, folder)
+    views = {**ch4.views(ds), "guesses": guesses.round(4)}
+    return {"tables": tables, "views": views}, ch4.histograms(ds, folder)

@@ -1,8 +1,8 @@
 """Command-line options shared by every command that runs on a Dask cluster.
 
 ``--scheduler`` and ``--workers`` are checked when parsed
-(:func:`jobs.validate.scheduler_address`, :func:`jobs.validate.workers`), so a bad value
-is a usage error before anything starts: ``--workers -3`` once waited for ever on a
+(:func:`jobs.validate.addresses.scheduler_address`, :func:`tyre_farm_cli.checks.worker_count`),
+so a bad value is a usage error before anything starts: ``--workers -3`` once waited for ever on a
 cluster of no workers. :func:`with_cluster` adds the rest - ``--cluster local|slurm``,
 ``--slurm-*`` and ``--tls-*`` - and hands the command one checked
 :class:`jobs.cluster.ClusterSpec` (docs/scale-out.md); :func:`with_tls` adds only the
@@ -16,12 +16,14 @@ import inspect
 from collections.abc import Callable
 from enum import StrEnum
 from pathlib import Path
-from typing import Any, get_type_hints
+from typing import Any, TypedDict, get_type_hints
 
 import typer
+from typer.core import MarkupMode, TyperCommand
 
-from jobs import validate
 from jobs.errors import StudyError
+from jobs.validate import addresses, locations
+from tyre_farm_cli.checks import MAX_WORKERS, worker_count
 
 
 def checked(check: Callable[[Any, str], Any], name: str) -> Callable[[Any], Any]:
@@ -36,13 +38,19 @@ def checked(check: Callable[[Any, str], Any], name: str) -> Callable[[Any], Any]
     return callback
 
 
-check_scheduler = checked(validate.scheduler_address, "--scheduler")
-check_workers = checked(validate.workers, "--workers")
+check_scheduler = checked(addresses.scheduler_address, "--scheduler")
+check_workers = checked(worker_count, "--workers")
+
+class AppSettings(TypedDict):
+    """Keyword arguments of :class:`typer.Typer` that every app of the CLI shares."""
+
+    rich_markup_mode: MarkupMode
+
 
 #: Settings of every typer app of the CLI. Without rich markup: in rich mode, help texts
 #: lose every ``[...]``, the ``[default: ...]`` of options whose default is computed
 #: among them (issue 12); typer shows the other defaults itself.
-APP_SETTINGS = {"rich_markup_mode": None}
+APP_SETTINGS: AppSettings = {"rich_markup_mode": None}
 
 SCHEDULER_HELP = ("Address of a running Dask scheduler, e.g. tcp://host:8786 [default: "
                   "$FARM_SCHEDULER, then $DASK_SCHEDULER_ADDRESS, else an embedded "
@@ -50,7 +58,7 @@ SCHEDULER_HELP = ("Address of a running Dask scheduler, e.g. tcp://host:8786 [de
 SCHEDULER = typer.Option(None, "--scheduler", callback=check_scheduler, help=SCHEDULER_HELP)
 WORKERS = typer.Option(None, "--workers", callback=check_workers,
                        help="Embedded cluster: worker processes [default: one per core]. "
-                       f"External: wait for this many workers. 1-{validate.MAX_WORKERS}.")
+                       f"External: wait for this many workers. 1-{MAX_WORKERS}.")
 
 STORAGE_OPTION_HELP = ("fsspec option of a store URL, KEY=VALUE, repeatable (e.g. "
                        "endpoint_url=http://minio:9000); credentials stay in the environment "
@@ -77,7 +85,7 @@ def open_target(store: str, options: list[str] | None) -> Any:
             raise typer.BadParameter(f"{text!r}: give KEY=VALUE", param_hint="--storage-option")
         pairs[key.strip()] = _option_value(value.strip())
     try:
-        checked_options = validate.storage_options(pairs, "--storage-option", store)
+        checked_options = locations.storage_options(pairs, "--storage-option", store)
     except StudyError as e:
         raise typer.BadParameter(str(e).removeprefix("--storage-option: "),
                                  param_hint="--storage-option") from e
@@ -91,7 +99,10 @@ class ClusterKind(StrEnum):
     slurm = "slurm"
 
 
-PANEL = "Cluster"
+#: --help sections of the options :func:`with_cluster` and :func:`with_tls` add, shown
+#: after each command's own options (:class:`PanelCommand`): 13 of them once came first
+SLURM_PANEL = "SLURM cluster options"
+TLS_PANEL = "TLS options"
 _SLURM = "--cluster slurm: "
 
 
@@ -99,50 +110,84 @@ _SLURM = "--cluster slurm: "
 #: SlurmOptions' fields (their defaults are its defaults, shown in --help)
 CLUSTER_OPTIONS: dict[str, tuple[Any, Any]] = {
     "cluster_kind": (ClusterKind, typer.Option(
-        ClusterKind.local, "--cluster", case_sensitive=False, rich_help_panel=PANEL,
+        ClusterKind.local, "--cluster", case_sensitive=False, rich_help_panel=SLURM_PANEL,
         help="local: the embedded LocalCluster, or the --scheduler one; slurm: workers in "
         "SLURM jobs submitted from here (dask-jobqueue, pip install 'tyre-farm[slurm]').")),
     "tls_ca_file": (Path | None, typer.Option(
-        None, "--tls-ca-file", rich_help_panel=PANEL,
+        None, "--tls-ca-file", rich_help_panel=TLS_PANEL,
         help="TLS: the CA certificate (PEM) that signed the scheduler's and our certificates; "
         "with --tls-cert and --tls-key; needs a tls:// --scheduler, or encrypts the embedded "
         "cluster [default: dask config distributed.comm.tls.*, else no TLS].")),
     "tls_cert": (Path | None, typer.Option(
-        None, "--tls-cert", rich_help_panel=PANEL,
+        None, "--tls-cert", rich_help_panel=TLS_PANEL,
         help="TLS: this client's certificate (PEM) [default: none].")),
     "tls_key": (Path | None, typer.Option(
-        None, "--tls-key", rich_help_panel=PANEL,
+        None, "--tls-key", rich_help_panel=TLS_PANEL,
         help="TLS: this client's private key (PEM) [default: none].")),
     "slurm_partition": (str | None, typer.Option(
-        None, "--slurm-partition", rich_help_panel=PANEL,
+        None, "--slurm-partition", rich_help_panel=SLURM_PANEL,
         help=f"{_SLURM}partition (sbatch -p) [default: SLURM's default partition].")),
     "slurm_account": (str | None, typer.Option(
-        None, "--slurm-account", rich_help_panel=PANEL,
+        None, "--slurm-account", rich_help_panel=SLURM_PANEL,
         help=f"{_SLURM}account (sbatch -A) [default: none].")),
     "slurm_jobs": (int, typer.Option(
-        1, "--slurm-jobs", min=1, max=10_000, rich_help_panel=PANEL,
+        1, "--slurm-jobs", min=1, max=10_000, rich_help_panel=SLURM_PANEL,
         help=f"{_SLURM}SLURM jobs kept running (a job that ends is replaced).")),
     "slurm_cores": (int, typer.Option(
-        1, "--slurm-cores", min=1, max=1024, rich_help_panel=PANEL,
+        1, "--slurm-cores", min=1, max=1024, rich_help_panel=SLURM_PANEL,
         help=f"{_SLURM}cores per job, one single-threaded worker (one ccx) each.")),
     "slurm_memory": (str, typer.Option(
-        "2GiB", "--slurm-memory", rich_help_panel=PANEL,
+        "2GiB", "--slurm-memory", rich_help_panel=SLURM_PANEL,
         help=f"{_SLURM}memory per job, e.g. 4GiB.")),
     "slurm_walltime": (str, typer.Option(
-        "01:00:00", "--slurm-walltime", rich_help_panel=PANEL,
+        "01:00:00", "--slurm-walltime", rich_help_panel=SLURM_PANEL,
         help=f"{_SLURM}time limit per job (sbatch -t); workers retire about 5 min before it, "
         "so a walltime kill costs no task failure.")),
     "slurm_interface": (str | None, typer.Option(
-        None, "--slurm-interface", rich_help_panel=PANEL,
+        None, "--slurm-interface", rich_help_panel=SLURM_PANEL,
         help=f"{_SLURM}network interface of scheduler and workers, e.g. ib0 or lo "
         "[default: the host name's address].")),
     "slurm_job_name": (str, typer.Option(
-        "tyre-farm", "--slurm-job-name", rich_help_panel=PANEL,
+        "tyre-farm", "--slurm-job-name", rich_help_panel=SLURM_PANEL,
         help=f"{_SLURM}name of the jobs (sbatch -J), what `squeue -n` finds.")),
     "slurm_dashboard": (str, typer.Option(
-        ":8787", "--slurm-dashboard", rich_help_panel=PANEL,
+        ":8787", "--slurm-dashboard", rich_help_panel=SLURM_PANEL,
         help=f"{_SLURM}address of the scheduler's dashboard (it runs here).")),
 }
+
+
+class PanelCommand(TyperCommand):
+    """A command whose --help lists its own options first, then the options of each
+    ``rich_help_panel`` in a section of its own. Typer groups by panel only in rich mode,
+    which :data:`APP_SETTINGS` turns off."""
+
+    def format_options(self, ctx: Any, formatter: Any) -> None:
+        arguments: list[tuple[str, str]] = []
+        sections: dict[str, list[tuple[str, str]]] = {"Options": []}
+        for param in self.get_params(ctx):
+            record = param.get_help_record(ctx)
+            if record is None:
+                continue
+            if param.param_type_name == "argument":
+                arguments.append(record)
+            else:
+                panel = getattr(param, "rich_help_panel", None) or "Options"
+                sections.setdefault(panel, []).append(record)
+        for title, records in (("Arguments", arguments), *sections.items()):
+            if records:
+                with formatter.section(title):
+                    formatter.write_dl(records)
+
+
+def use_panels(app: typer.Typer) -> None:
+    """Make every command of ``app`` and of the apps mounted in it a :class:`PanelCommand`
+    (before the click command is built)."""
+    for info in app.registered_commands:
+        if info.cls in (None, TyperCommand):  # typer's default: no class of our own
+            info.cls = PanelCommand
+    for group in app.registered_groups:
+        if group.typer_instance is not None:
+            use_panels(group.typer_instance)
 
 
 def cluster_spec(kind: ClusterKind, scheduler: str | None, workers: int | None,
@@ -259,7 +304,10 @@ def _adding(command: Callable[..., Any], options: dict[str, tuple[Any, Any]],
     def wrapper(**kwargs: Any) -> Any:
         return call(kwargs, {name: kwargs.pop(name) for name in options})
 
-    wrapper.__signature__ = signature.replace(parameters=own + added)
+    # typeshed declares no __signature__ on functions, yet inspect.signature (hence typer)
+    # reads it first (PEP 362): the stubs are narrower than the language here
+    wrapper.__signature__ = signature.replace(  # type: ignore[attr-defined]
+        parameters=own + added)
     wrapper.__annotations__ = {**hints, **{n: k for n, (k, _) in options.items()}}
     del wrapper.__wrapped__  # typer must see the new signature, not the command's
     return wrapper

@@ -1,8 +1,9 @@
 """Parsing of command-line values into typed specs (errors are SpecErrors, one line).
 
-The rules are :mod:`jobs.validate`'s, the ones study files follow: ``10:40:5`` is the
-study's ``{ start = 10, stop = 40, step = 5 }`` and ``--set mesh.tread=4`` its
-``[model.mesh] tread = 4``. Only the command-line syntax is parsed here.
+The rules are the ones study files follow (:mod:`jobs.validate.lists`,
+:mod:`farm.overrides`): ``10:40:5`` is the study's ``{ start = 10, stop = 40, step = 5 }``
+and ``--set mesh.tread=4`` its ``[model.mesh] tread = 4``. Only the command-line syntax is
+parsed here.
 """
 
 from __future__ import annotations
@@ -12,17 +13,30 @@ from typing import Any
 from farm.errors import SpecError
 from farm.presets import default_model
 from farm.specs import ModelSpec
-from jobs import validate
 from jobs.errors import StudyError
+from jobs.validate import lists, spec_tables
+from jobs.validate.messages import shown
+
+RANGE_HINT = "give start:stop:step (e.g. 10:40:5) or a list (10,20,30)"
 
 
 def parse_range(text: str, what: str = "deflection") -> tuple[float, ...]:
-    """``"10:40:5"`` (inclusive start:stop:step), ``"10,20,30"`` or ``"30"`` -> sorted floats.
+    """``"10:40:5"`` (inclusive start:stop:step), ``"10,20,30"`` or ``"30"`` -> sorted floats:
+    the command line's form of a study's value list (:func:`jobs.validate.lists.values`),
+    ``10:40:5`` its range ``{start = 10, stop = 40, step = 5}``.
 
     Bounds (a deflection > 0) are the load path's to check (:class:`farm.specs.LoadPath`).
     """
+    parts = text.split(":") if ":" in text else text.split(",")
     try:
-        return validate.values_from_text(text, what)
+        numbers = [float(p) for p in parts]
+    except ValueError as e:
+        raise SpecError(f"cannot read {what} {shown(text)}: {RANGE_HINT}") from e
+    if ":" in text and len(numbers) != 3:
+        raise SpecError(f"{what} range {shown(text)} needs three numbers: start:stop:step")
+    value = dict(zip(("start", "stop", "step"), numbers, strict=True)) if ":" in text else numbers
+    try:
+        return lists.values(value, what)
     except StudyError as e:
         raise SpecError(str(e)) from e
 
@@ -39,6 +53,8 @@ def _set_dotted(table: dict[str, Any], key: str, value: Any, item: str) -> None:
 
 
 def _literal(text: str) -> Any:
+    if text.lower() in ("true", "false"):  # switches, e.g. reinforcement.tension_only
+        return text.lower() == "true"
     for cast in (int, float):
         try:
             return cast(text)
@@ -58,7 +74,7 @@ def check_materials(name: str) -> str:
     from farm.presets import MATERIAL_PRESETS
 
     if name not in MATERIAL_PRESETS:
-        raise SpecError(f"unknown material preset {validate.shown(name)}: choose one of "
+        raise SpecError(f"unknown material preset {shown(name)}: choose one of "
                         f"{', '.join(MATERIAL_PRESETS)}")
     return name
 
@@ -74,6 +90,6 @@ def build_model(kind: str, materials: str, road: str | None, overrides: list[str
             raise SpecError(f"--set expects key=value (e.g. mesh.circumferential=80), got {item!r}")
         _set_dotted(table, key.strip(), _literal(value.strip()), item)
     try:
-        return validate.override_model(base, table)
+        return spec_tables.override_model(base, table)
     except StudyError as e:
         raise SpecError(str(e)) from e

@@ -6,9 +6,9 @@ Every argument is checked before the solver starts (docs/limits.md), ``--out`` a
 
 from __future__ import annotations
 
-import json
 import os
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import typer
@@ -27,10 +27,14 @@ from farm.specs import (
     RoadMotion,
     SolverSettings,
 )
-from jobs import validate
 from jobs.errors import StudyError
+from jobs.validate import limits, scalars
+from jobs.wording import plural
+from tyre_farm_cli.checks import output_file, output_folder
 from tyre_farm_cli.errors import usage
+from tyre_farm_cli.jsondoc import dump
 from tyre_farm_cli.params import MATERIALS_HELP, MESH_HELP, build_model, parse_range
+from tyre_farm_cli.progress import LogLines
 
 
 def run(
@@ -75,9 +79,9 @@ def run(
     if keep:
         scratch = Path(f"farm-run-{time.strftime('%Y%m%d-%H%M%S')}").resolve()
         os.environ["FARM_SCRATCH_DIR"] = str(scratch)
-    result = run_load_path(spec, path, settings)
+    result = _solve(spec, path, settings, kpa)
     if as_json:
-        typer.echo(json.dumps(_document(result, kpa), indent=1))
+        dump(_document(result, kpa))
     else:
         _print_table(result, kpa, _patches(result))  # on stdout; the notes on stderr
     if keep:
@@ -89,7 +93,49 @@ def run(
         from farm.export import path_vtus
 
         files = path_vtus(result, mesh_for(spec), vtu)
-        Console(stderr=True).print(f"{len(files)} VTU files written to {vtu}")
+        Console(stderr=True).print(f"{plural(len(files), 'VTU file')} written to {vtu}")
+
+
+HEARTBEAT_SECONDS = 10.0  # a solve runs for minutes: a line now and then, not a flood
+
+
+class RunLines:
+    """The stages of ``farm run`` on stderr (meshing, solving, done), and while ccx runs a
+    line every :data:`HEARTBEAT_SECONDS`: a solve once printed nothing for 40-110 s."""
+
+    def __init__(self, lines: LogLines | None = None) -> None:
+        self.lines = lines or LogLines(every=HEARTBEAT_SECONDS)
+        self.start = time.perf_counter()
+
+    def stage(self, text: str) -> None:
+        self.lines.log(f"run: {text}")
+
+    def solving(self) -> Callable[[], bool]:
+        """The solver's ``should_stop`` poll, used as a clock: it never stops the run."""
+        start = time.perf_counter()
+        self.lines.last = self.lines.clock()  # the first beat after a period, not at once
+
+        def poll() -> bool:
+            self.lines.progress(f"run: solving, {time.perf_counter() - start:.0f} s")
+            return False
+
+        return poll
+
+
+def _solve(spec, path: LoadPath, settings: SolverSettings, kpa: float) -> PathResult:
+    """Mesh and solve, saying so on stderr (stdout keeps the results only)."""
+    lines = RunLines()
+    lines.stage(f"meshing the {spec.kind} model (cached after the first run)")
+    mesh = mesh_for(spec)
+    lines.stage(f"mesh ready: {plural(mesh.n_nodes, 'node')}, "
+                f"{time.perf_counter() - lines.start:.1f} s")
+    lines.stage(f"solving {plural(len(path.deflections), 'deflection')} at {kpa:g} kPa on the "
+                f"{spec.road} road with ccx")
+    result = run_load_path(spec, path, settings, should_stop=lines.solving())
+    lines.stage(f"done in {time.perf_counter() - lines.start:.1f} s: "
+                f"{plural(result.ccx_runs, 'ccx run')}, "
+                f"{plural(result.increments, 'increment')}")
+    return result
 
 
 def _checked(spec, kpa: float, deflection: str, threads: int, timeout: float, keep: bool,
@@ -97,22 +143,34 @@ def _checked(spec, kpa: float, deflection: str, threads: int, timeout: float, ke
              ) -> tuple[LoadPath, SolverSettings]:
     """The load path and solver settings, every bound checked (raises SpecError)."""
     try:
-        validate.number(kpa, "--pressure", low=0, high=1000 * MAX_PRESSURE_MPA)
-        validate.integer(threads, "--threads", low=THREADS[0], high=THREADS[1])
-        validate.number(timeout, "--timeout", low=TIMEOUT_S[0], high=TIMEOUT_S[1])
+        scalars.number(kpa, "--pressure", low=0, high=1000 * MAX_PRESSURE_MPA)
+        scalars.integer(threads, "--threads", low=THREADS[0], high=THREADS[1])
+        scalars.number(timeout, "--timeout", low=TIMEOUT_S[0], high=TIMEOUT_S[1])
         deflections = parse_range(deflection)
-        validate.EXPERIMENTS.check(len(deflections), "--deflection",
-                                   f"a path of {len(deflections)} deflections")
+        limits.EXPERIMENTS.check(len(deflections), "--deflection",
+                                 f"a path of {len(deflections)} deflections")
         if out is not None:
-            validate.output_file(out, "--out")
+            output_file(out, "--out")
         if vtu is not None:
-            validate.output_folder(vtu, "--vtu")
+            output_folder(vtu, "--vtu")
     except StudyError as e:
         raise SpecError(str(e)) from e
+    _inflation(spec, kpa)
     # RoadMotion checked its bounds; check_against refuses it on the iterative road
     path = LoadPath(deflections, kpa / 1000.0, motion)
     path.check_against(spec)
     return path, SolverSettings(threads=threads, timeout=timeout, keep_scratch=keep)
+
+
+def _inflation(spec, kpa: float) -> None:
+    """The inflation check of :meth:`LoadPath.check_against`, in the CLI's kPa: the
+    library's own message speaks its MPa ("got 0.2 MPa" for ``--pressure 200``)."""
+    if spec.inflated and kpa <= 0:
+        raise SpecError(f"--pressure: the {spec.kind} model is inflated: give a pressure "
+                        "> 0 kPa, e.g. --pressure 200")
+    if not spec.inflated and kpa > 0:
+        raise SpecError(f"--pressure: the {spec.kind} model is not inflated (thesis Table "
+                        f"3.1): give 0 kPa or leave --pressure out, got {kpa:g} kPa")
 
 
 def _document(result: PathResult, kpa: float) -> dict:
@@ -142,11 +200,12 @@ def _print_table(result: PathResult, kpa: float,
                  patches: tuple[list, float | None] | None = None) -> None:
     spec = result.model
     moduli = "/".join(f"{m.youngs_modulus:g}" for m in spec.materials.by_region().values())
-    table = Table(title=f"{spec.kind} model, {kpa:g} kPa, {spec.road} road, E = {moduli} MPa")
+    title = f"{spec.kind} model, {kpa:g} kPa, {spec.road} road, E = {moduli} MPa"
     motion = result.path.motion
     if motion is not None:
-        table.title += (f"; mu {motion.friction:g}, tilt {motion.tilt:g} deg, shift "
-                        f"({motion.shift_x:g}, {motion.shift_y:g}) mm after the last deflection")
+        title += (f"; mu {motion.friction:g}, tilt {motion.tilt:g} deg, shift "
+                  f"({motion.shift_x:g}, {motion.shift_y:g}) mm after the last deflection")
+    table = Table(title=title)
     combined = motion is not None
     cols = ("deflection mm", *(("shift x mm", "shift y mm", "Fx N", "Fy N") if combined
                                else ()),
@@ -171,7 +230,8 @@ def _print_table(result: PathResult, kpa: float,
         table.add_row(*row)
     timing = ("solve s: cumulative along the one-run path" if spec.road == "contact"
               else "solve s: each deflection's iterations")
-    table.caption = (f"{result.ccx_runs} ccx runs, {result.increments} increments, "
+    table.caption = (f"{plural(result.ccx_runs, 'ccx run')}, "
+                     f"{plural(result.increments, 'increment')}, "
                      f"{result.solve_seconds:.1f} s solver, {result.wall_seconds:.1f} s wall, "
                      f"{result.solver}; {timing}")
     if patches and patches[1] is not None:

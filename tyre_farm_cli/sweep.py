@@ -12,12 +12,15 @@ from rich.progress import (
     BarColumn,
     MofNCompleteColumn,
     Progress,
+    TaskID,
     TextColumn,
     TimeElapsedColumn,
     TimeRemainingColumn,
 )
 from rich.table import Table
 
+from jobs.wording import plural
+from storage.paths import StoreLike
 from tyre_farm_cli.options import (
     APP_SETTINGS,
     SCHEDULER,
@@ -47,7 +50,9 @@ class RichProgress:
     terminal's stderr."""
 
     def __init__(self, console: Console) -> None:
-        self.console, self.bar, self.task = console, None, None
+        self.console = console
+        self.bar: Progress | None = None  # made when the sweep starts
+        self.task: TaskID | None = None
 
     def started(self, session, state) -> None:
         self.console.print(f"dashboard: {session.dashboard}   workers: {session.workers}   "
@@ -63,7 +68,7 @@ class RichProgress:
                                       done=0, failed=0, running=0)
 
     def advanced(self, state) -> None:
-        if self.bar is not None:
+        if self.bar is not None and self.task is not None:
             self.bar.update(self.task, completed=state.skipped + state.done + state.failed,
                             done=state.done, failed=state.failed, running=state.running)
 
@@ -76,11 +81,13 @@ class SweepLines:
     """Progress of a sweep off a terminal: timestamped, rate-limited lines on stderr."""
 
     def __init__(self, name: str, lines: LogLines | None = None) -> None:
-        self.name, self.lines, self.seen = name, lines or LogLines(), None
+        self.name, self.lines = name, lines or LogLines()
+        self.seen: tuple[int, int] | None = None
 
     def started(self, session, state) -> None:
-        self.lines.log(f"sweep {self.name}: dashboard {session.dashboard}, {session.workers} "
-                       f"workers, {state.total} experiments ({state.skipped} already done)")
+        self.lines.log(f"sweep {self.name}: dashboard {session.dashboard}, "
+                       f"{plural(session.workers, 'worker')}, "
+                       f"{plural(state.total, 'experiment')} ({state.skipped} already done)")
 
     def advanced(self, state) -> None:
         ended = (state.done, state.failed)
@@ -116,7 +123,8 @@ def _summary_dict(report) -> dict:
                         **_row(i, report.experiments[i], "failed", r)}
                        for i, r in report.failed.items()],
             "ccx_runs": report.ccx_runs, "solver_seconds": round(report.solve_seconds, 3),
-            "wall_seconds": round(report.wall_seconds, 3)}
+            "wall_seconds": round(report.wall_seconds, 3),
+            "nothing_to_do": report.nothing_to_do}
 
 
 def _row(experiment: str, case, status: str, error: str) -> dict:
@@ -127,8 +135,11 @@ def _row(experiment: str, case, status: str, error: str) -> dict:
 
 
 def _summary(report, console: Console) -> None:
+    if report.nothing_to_do:  # no cluster was started: no table of a run that did not run
+        _nothing_to_do(report, console)
+        return
     groups = _groups(report)
-    where = (f"{len(groups)} groups, one per model" if report.study.models
+    where = (f"{plural(len(groups), 'group')}, one per model" if report.study.models
              else f"group {groups[0]}")
     table = Table(title=f"sweep {report.study.name}: {report.study.location} ({where})")
     for col in ("experiments", "already done", "done now", "failed", "ccx runs",
@@ -138,6 +149,19 @@ def _summary(report, console: Console) -> None:
                   str(len(report.failed)), str(report.ccx_runs), f"{report.solve_seconds:.1f}",
                   f"{report.wall_seconds:.1f}")
     console.print(table)
+    _report_failures(report, console)
+
+
+def _nothing_to_do(report, console: Console) -> None:
+    failed = (f", {len(report.failed)} failed before (--retry-failed runs them again)"
+              if report.failed else "")
+    console.print(f"sweep {report.study.name}: nothing to do in {report.study.location}: "
+                  f"{report.skipped} of {plural(report.total, 'experiment')} done{failed}",
+                  highlight=False, soft_wrap=True)  # one line, a path unbroken
+    _report_failures(report, console)
+
+
+def _report_failures(report, console: Console) -> None:
     if report.failed:
         _failure_table([(i, report.experiments[i].deflection, report.experiments[i].pressure,
                          _motion_text(report.experiments[i]) + r)
@@ -193,7 +217,7 @@ def resume(study: Path = STUDY, scheduler: str = SCHEDULER, workers: int = WORKE
 
 
 def _target(target: str, group: str | None, options: list[str] | None = None
-            ) -> tuple[object, list[str] | None, str, dict[str, dict]]:
+            ) -> tuple[StoreLike, list[str] | None, str, dict[str, dict]]:
     """The store, groups and location (text) of a study file, or of the store given, and
     what a study expects of its groups that may not exist yet.
 
@@ -218,7 +242,7 @@ def _expected(study) -> dict[str, dict]:
     from jobs.sweep import parts
 
     design = model_design(study)
-    values = {}
+    values: dict[str, dict[str, float]] = {}
     if design is not None:
         for row, g in zip(design.matrix, design.groups, strict=True):
             values.setdefault(g, dict(zip(design.names, map(float, row), strict=True)))
@@ -316,10 +340,12 @@ def list_experiments(
 
 
 def _list_table(rows: list[dict], console: Console) -> None:
+    from tyre_farm_cli.listing import header
+
     columns = list(dict.fromkeys(k for row in rows for k in row)) or ["experiment"]
-    table = Table(title=f"{len(rows)} experiments")
+    table = Table(title=plural(len(rows), "experiment"))
     for col in columns:
-        table.add_column(col.replace("_mm", " mm").replace("_kpa", " kPa"))
+        table.add_column(header(col))
     for row in rows:
         table.add_row(*(_cell(row.get(c)) for c in columns))
     console.print(table)

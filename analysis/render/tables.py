@@ -11,6 +11,7 @@ from collections.abc import Mapping
 import numpy as np
 import pandas as pd
 
+from analysis.crosscov import CrossCovariancePCA
 from analysis.data import family
 from analysis.noise import TOTALS, NoiseResult, contact_mask, nodal_average_std
 
@@ -30,7 +31,7 @@ THESIS_NOTE = (
 N_MM_TO_N_M = 1e-3
 
 
-def singular_values(fits: Mapping[str, object]) -> pd.DataFrame:
+def singular_values(fits: Mapping[str, CrossCovariancePCA]) -> pd.DataFrame:
     """direction, family, mode (1-based), singular_value, ratio_to_first."""
     rows = []
     for direction, fit in fits.items():
@@ -44,7 +45,7 @@ def singular_values(fits: Mapping[str, object]) -> pd.DataFrame:
 
 
 def components(
-    fits: Mapping[str, object], nodes: pd.DataFrame, n_modes: int, which: str
+    fits: Mapping[str, CrossCovariancePCA], nodes: pd.DataFrame, n_modes: int, which: str
 ) -> pd.DataFrame:
     """Long table of W (``which="x"``, per inner node) or V (``"y"``, per tread node)."""
     frames = []

@@ -34,7 +34,10 @@ MODELS = "models (thesis Table 3.1)"
 def validation(store, full: str, reduced: str, figures: Path) -> StageResult:
     """Tables and figure of the ``validation`` stage from groups ``full`` and ``reduced``."""
     stage = StageResult("validation")
-    curves, points, specs, nodal = {}, [], [], {}
+    curves: dict[str, dict[float, float]] = {}  # label -> {deflection: Fz}
+    points: list[dict] = []
+    specs: list[dict] = []
+    nodal: dict[str, pd.DataFrame] = {}
     for group in (full, reduced):
         ds = load(store, group)
         spec = model_spec(ds)

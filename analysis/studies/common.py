@@ -150,6 +150,6 @@ def fit_simpls(moments: Moments, n_components: int | None, *, cap: int = 10) -> 
     try:
         return SIMPLSRegression(asked).fit_moments(moments)
     except ComponentsError as exc:
-        if n_components is not None or getattr(exc, "available", 0) < 1:
+        if n_components is not None or exc.available is None or exc.available < 1:
             raise
         return SIMPLSRegression(exc.available).fit_moments(moments)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import xarray as xr
 
@@ -24,7 +25,9 @@ def run(
     """PCR with 1..max_modes modes per input set; predictions at the reference experiment."""
     sel = Selection.of(ds, component, reference_deflection, study="PCR (thesis §5.4)")
     report = Report(Path(out))
-    ratios, frames, figures = {}, [], []
+    ratios: dict[str, np.ndarray] = {}  # label -> variance explained per mode
+    frames: list[pd.DataFrame] = []
+    figures: list[tuple[str, Path]] = []
     for name in model_inputs(ds, inputs):
         moments = sel.moments(name)
         full = PCRegression().fit_moments(moments)

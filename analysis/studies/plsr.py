@@ -81,9 +81,11 @@ def _nipals(name, moments, X, Y, A):
         fit = PLSRegression(a, scale=False).fit(X, Y)
         ours = SIMPLSRegression(a).fit_moments(moments)
         diff = np.linalg.norm(fit.predict(X).reshape(Y.shape) - ours.predict(X).reshape(Y.shape))
-        coef = np.linalg.norm(fit.coef_ - ours.coef_) / max(np.linalg.norm(ours.coef_), 1e-300)
+        scale = max(float(np.linalg.norm(ours.coef_)), 1e-300)
+        coef = np.linalg.norm(fit.coef_ - ours.coef_) / scale
         rows.append((name, a, diff / y_norm, coef))
     cols = ["inputs", "n_components", "fitted_rel_diff", "coef_rel_diff"]
+    assert fit is not None  # A >= 1 (a fitted SIMPLS model's count): the loop ran
     return pctvar_from_scores(fit.x_scores_, X, Y), pd.DataFrame(rows, columns=cols)
 
 

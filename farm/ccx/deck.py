@@ -29,8 +29,8 @@ def _num(v: float) -> str:
 
 
 def _id_lines(ids: Iterable[int], per_line: int = 16) -> list[str]:
-    ids = [str(int(i)) for i in ids]
-    return [", ".join(ids[k:k + per_line]) for k in range(0, len(ids), per_line)]
+    texts = [str(int(i)) for i in ids]
+    return [", ".join(texts[k:k + per_line]) for k in range(0, len(texts), per_line)]
 
 
 def mesh_lines(mesh: TyreMesh) -> list[str]:
@@ -83,7 +83,7 @@ class Road:
     z_top: float
     lines: tuple[str, ...]
     # reference coordinates of the road nodes (ids first_node, first_node + 1, ...)
-    xyz: np.ndarray = field(default=None, compare=False, repr=False)
+    xyz: np.ndarray = field(compare=False, repr=False)
 
     @property
     def node_set(self) -> str:

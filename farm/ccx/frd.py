@@ -26,7 +26,7 @@ displacements (``DISP``) and the *residual* forces (``FORC``), then stops withou
 from __future__ import annotations
 
 import gzip
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -267,13 +267,13 @@ class _Parts:
 
     nodes: tuple[np.ndarray, np.ndarray] | None = None
     elements: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
-    blocks: list[tuple[int, FrdResult]] | None = None  # (output number, block)
+    blocks: list[tuple[int, FrdResult]] = field(default_factory=list)  # (output no., block)
     complete: bool = False
     truncated: bool = False
 
 
 def _assemble(path: str, parts: _Parts, diverged: bool | None) -> FrdFile:
-    blocks = parts.blocks or []
+    blocks = parts.blocks
     n_last = 0  # size of the trailing run of blocks from one output (same output number)
     while n_last < len(blocks) and blocks[-1 - n_last][0] == blocks[-1][0]:
         n_last += 1
@@ -318,7 +318,7 @@ class _Scanner:
         return line
 
     def scan(self) -> _Parts:
-        parts = _Parts(blocks=[])
+        parts = _Parts()
         step = (0, 0)  # (step, increment) of the last 1PSTEP record
         mode = 0  # of the 1PMODE record after that 1PSTEP (eigenmode blocks only)
         while (line := self.next_line()) is not None:
@@ -414,7 +414,7 @@ class _Scanner:
                             f"got {line[:20]!r}")
         name = line[5:13].decode("ascii", "replace").strip()
         ncomp = _int(line[13:18])
-        components = []
+        components: list[str] = []
         for _ in range(ncomp):
             line = self.next_line()
             while line is not None and line[:3] == b" -6":  # cgx-only; ccx never writes it
@@ -451,7 +451,9 @@ class _Scanner:
 
 def _layout(ncols: int, idw: int) -> tuple[int, list[int], np.ndarray]:
     """Byte layout of one record: its length, line start offsets, value char columns."""
-    starts, cols, pos = [], [], 0
+    starts: list[int] = []
+    cols: list[int] = []
+    pos = 0
     for first in range(0, max(ncols, 1), _PER_LINE):
         n = min(_PER_LINE, ncols - first)
         starts.append(pos)
@@ -471,6 +473,7 @@ def _records(body: bytes, first_line: int, ncols: int, idw: int, path: str,
     rec = _as_matrix(body, reclen, starts)
     if rec is None:  # CR/LF, trailing blanks or a broken record: normalise line by line
         rec = _as_matrix(_normalise(body, ncols, idw, starts, path, first_line), reclen, starts)
+        assert rec is not None  # _normalise raised at any record that would not fit
     n = rec.shape[0]
     raw = np.ascontiguousarray(rec[:, 3 : 3 + idw])
     key = raw.tobytes()
@@ -623,8 +626,8 @@ def _elements(body: bytes, first_line: int, idw: int, path: str):
         try:
             ids.append(int(head[3 : 3 + idw]))
             types.append(int(head[3 + idw : 8 + idw]))
-            nodes = b"".join(ln[3:] for ln in lines[h + 1 : nxt])
-            conn.append([int(nodes[j : j + idw]) for j in range(0, len(nodes), idw)])
+            text = b"".join(ln[3:] for ln in lines[h + 1 : nxt])
+            conn.append([int(text[j : j + idw]) for j in range(0, len(text), idw)])
         except ValueError:
             raise ResultsError(f"{path}, line {first_line + h}: unreadable element record "
                                f"{head[:40]!r}") from None

@@ -13,18 +13,32 @@ times the force of the cordless one.) A member stands for the cords across its
 tributary width: the layer's membrane stiffness (N/mm) times half the distance to the
 neighbouring parallel edges. The springs end on twins of the cavity nodes, tied to
 them by equations, so that the strain measured on the cavity stays the rubber's.
+
+Issue 24's options (:class:`farm.reinforcement.Reinforcement`, docs/reinforcement.md):
+``belt_layout = "cords"`` replaces the belts' edge members by members along each ply's
+cords (:mod:`farm.ccx.belt_cords`), and ``tension_only`` writes every member as a
+``*SPRING, NONLINEAR`` that is (almost) slack in compression (:func:`spring_lines`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from farm.ccx.belt_cords import BeltChords, belt_chords
 from farm.mesh.tyremesh import TyreMesh
 from farm.specs import ModelSpec
 
 FIRST_ID_OFFSET = 10_000
 """Spring and twin node ids start this far after the hexahedra's: the rigid road slab
 (:func:`farm.ccx.deck.road_slab`) numbers its nodes and elements from ``n + 1``."""
+
+COMPRESSION_RATIO = 1e-3
+"""Compression stiffness of a tension-only cord over its tension stiffness. ccx's manual
+(``*SPRING``) warns that a zero tangent may make the stiffness matrix singular. Here
+every member end is tied to the rubber by equations, and zero did converge on the coarse
+mesh (21 increments against 18 with 1e-3 at 30 mm / 80 kPa, Fz 0.35 % lower); 1e-3 keeps
+that warning moot at no measurable cost: a slack steel member keeps a few N/mm, well
+below the rubber around it (docs/reinforcement.md)."""
 
 
 def _tread_rows(spec: ModelSpec) -> np.ndarray:
@@ -62,17 +76,19 @@ def _at_nodes(per_edge: np.ndarray, axis: int, periodic: bool) -> np.ndarray:
     return np.moveaxis(out, 0, axis)
 
 
-def surface_trusses(spec: ModelSpec, mesh: TyreMesh,
-                    grid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def surface_trusses(spec: ModelSpec, mesh: TyreMesh, grid: np.ndarray,
+                    belt: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """Truss edges (T, 2) of one surface grid and the axial stiffness E*A (N) of each.
 
     A meridional edge stands for the cords across its circumferential tributary width;
     a circumferential edge for those across its meridional width, the belts counting
-    only over tread element rows (so they end at the tread's edge).
+    only over tread element rows (so they end at the tread's edge), and not at all
+    with ``belt=False`` (the carcass alone, under belts of their own layout).
     """
     reinf = spec.reinforcement
+    assert reinf is not None, "cord_lines builds trusses for reinforced models only"
     carcass_c, carcass_m = reinf.carcass.membrane_stiffness()
-    belt_c, belt_m = reinf.belt.membrane_stiffness()
+    belt_c, belt_m = reinf.belt.membrane_stiffness() if belt else (0.0, 0.0)
     tread = _tread_rows(spec)
     merid, circ = _edges(grid, mesh.periodic)
     len_m, len_c = _length(mesh, merid), _length(mesh, circ)
@@ -103,28 +119,85 @@ def _twin_lines(mesh: TyreMesh, nodes: np.ndarray, first: int) -> list[str]:
     return lines
 
 
-def cord_lines(spec: ModelSpec, mesh: TyreMesh) -> list[str]:
-    """``SPRINGA`` elements with their stiffness ``E*A/L``; none for a cordless model.
+def spring_lines(first: int, pairs: np.ndarray, k: np.ndarray, length: np.ndarray,
+                 tension_only: bool) -> list[str]:
+    """``SPRINGA`` elements ``first, first + 1, ...`` joining ``pairs`` (n, 2) of node ids,
+    of stiffness ``k`` (N/mm; rounded to 4 significant digits and grouped by value, one
+    ``*SPRING`` each: by axisymmetry about one per grid row and direction).
 
-    The springs join twins of the cavity nodes (:func:`_twin_lines`). They are grouped
-    by stiffness rounded to 4 significant digits (one ``*SPRING`` each: by axisymmetry
-    about one per grid row and direction).
+    ``tension_only``: ``*SPRING, NONLINEAR`` through (force, elongation) points
+    ``(-r k e_c, -e_c)``, ``(0, 0)``, ``(k e_t, e_t)`` with ``r`` =
+    :data:`COMPRESSION_RATIO`, ``e_c`` half the group's shortest member (ccx refuses an
+    elongation below minus the length) and ``e_t`` its longest (100 % strain: ccx holds
+    the force constant beyond the last point, a zero tangent no cord should reach).
     """
-    if spec.reinforcement is None:
-        return []
-    edges, ea = surface_trusses(spec, mesh, mesh.inner_grid)
-    k = ea / _length(mesh, edges)
-    keep = k > 0
-    edges, k = edges[keep], np.array([float(f"{v:.4g}") for v in k[keep]])
-    nodes, twin = np.unique(edges, return_inverse=True)
-    twin = twin.reshape(edges.shape) + mesh.n_nodes + FIRST_ID_OFFSET
-    lines = _twin_lines(mesh, nodes, mesh.n_nodes + FIRST_ID_OFFSET)
-    first = mesh.n_elements + FIRST_ID_OFFSET
+    k = np.array([float(f"{v:.4g}") for v in k])
+    lines = []
     for g, value in enumerate(np.unique(k)):
         ids = np.flatnonzero(k == value)
         lines.append(f"*ELEMENT, TYPE=SPRINGA, ELSET=CORD{g}")
-        lines += [f"{first + e}, {twin[e, 0]}, {twin[e, 1]}" for e in ids]
+        lines += [f"{first + e}, {pairs[e, 0]}, {pairs[e, 1]}" for e in ids]
         # ccx skips the blank line and reads a value with no decimal point as a
         # degree of freedom (SPRING1/2 syntax): always write the stiffness with one
-        lines += [f"*SPRING, ELSET=CORD{g}", "", f"{value:.6e}"]
+        if not tension_only:
+            lines += [f"*SPRING, ELSET=CORD{g}", "", f"{value:.6e}"]
+            continue
+        shortest, longest = 0.5 * length[ids].min(), length[ids].max()
+        lines += [f"*SPRING, ELSET=CORD{g}, NONLINEAR", "",
+                  f"{-COMPRESSION_RATIO * value * shortest:.6e}, {-shortest:.6e}",
+                  "0.000000e+00, 0.000000e+00", f"{value * longest:.6e}, {longest:.6e}"]
     return lines
+
+
+def cord_lines(spec: ModelSpec, mesh: TyreMesh) -> list[str]:
+    """``SPRINGA`` elements with their stiffness ``E*A/L``; none for a cordless model.
+
+    Members on the cavity face join twins of its nodes (:func:`_twin_lines`); belts of
+    the ``cords`` layout are :mod:`farm.ccx.belt_cords`' members, whose far ends are
+    nodes of their own tied to the row they end on.
+    """
+    if spec.reinforcement is None:
+        return []
+    reinf = spec.reinforcement
+    edges, ea = surface_trusses(spec, mesh, mesh.inner_grid, belt=reinf.belt_layout == "edges")
+    length = _length(mesh, edges)
+    keep = ea > 0
+    edges, k, length = edges[keep], ea[keep] / length[keep], length[keep]
+    chords = belt_chords(spec, mesh) if reinf.belt_layout == "cords" else None
+    twinned = edges if chords is None else np.concatenate(  # cavity nodes only
+        [edges.ravel(), chords.start[np.isin(chords.start, mesh.inner_grid)]])
+    nodes = np.unique(twinned)
+    first_twin = mesh.n_nodes + FIRST_ID_OFFSET
+    twin = dict(zip(nodes.tolist(), range(first_twin, first_twin + len(nodes)), strict=True))
+    lines = _twin_lines(mesh, nodes, first_twin)
+    pairs = np.vectorize(twin.__getitem__, otypes=[np.int64])(edges)
+    if chords is not None:
+        chord_pairs, end_lines = _chord_ends(mesh, chords, twin, first_twin + len(nodes))
+        lines += end_lines
+        pairs = np.concatenate([pairs, chord_pairs])
+        k = np.concatenate([k, chords.ea / chords.length])
+        length = np.concatenate([length, chords.length])
+    return lines + spring_lines(mesh.n_elements + FIRST_ID_OFFSET, pairs, k, length,
+                                reinf.tension_only)
+
+
+def _chord_ends(mesh: TyreMesh, chords: BeltChords, twin: dict[int, int],
+                first: int) -> tuple[np.ndarray, list[str]]:
+    """Node pairs (n, 2) of the belt members and the lines of their far ends: nodes
+    ``first + k`` on the next row, each tied by an ``*EQUATION`` per dof to its two row
+    nodes (a term whose weight vanishes is left out: ccx needs nonzero coefficients).
+    A member starts at its node's twin where that node has one (the cavity face)."""
+    ids = first + np.arange(len(chords.start))
+    a, b, w = chords.ends[:, 0], chords.ends[:, 1], chords.weight
+    xyz = (1 - w)[:, None] * mesh.xyz(a) + w[:, None] * mesh.xyz(b)
+    lines = ["*NODE, NSET=BELT_ENDS"]
+    lines += [f"{n}, " + ", ".join(f"{c:.12g}" for c in p) for n, p in zip(ids, xyz, strict=True)]
+    lines.append("*EQUATION")
+    for n, na, nb, wb in zip(ids, a, b, w, strict=True):
+        terms = [(na, 1.0 - wb), (nb, wb)]
+        terms = [(node, c) for node, c in terms if c > 1e-9]
+        for dof in (1, 2, 3):
+            lines += [str(1 + len(terms)), f"{n}, {dof}, 1., " + ", ".join(
+                f"{node}, {dof}, {-c:.12g}" for node, c in terms)]
+    starts = np.array([twin.get(int(s), int(s)) for s in chords.start], dtype=np.int64)
+    return np.stack([starts, ids], axis=1), lines

@@ -161,7 +161,8 @@ def clean_stale_scratch(base: str | Path | None = None,
     hosts sharing the base clean their own.
     """
     root = Path(base or tempfile.gettempdir())
-    host, now, removed = scratch_host(), time.time(), []
+    host, now = scratch_host(), time.time()
+    removed: list[Path] = []
     try:
         entries = list(os.scandir(root))
     except OSError:

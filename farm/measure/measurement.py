@@ -97,6 +97,9 @@ class Measurement:
         """
         if self.motion is None:
             return {}
+        # a state with a motion carries all three (farm.solve.contact fills them together)
+        assert (self.contact_status is not None and self.tread_slip is not None
+                and self.road_moment is not None)
         return {"contact_status": self.contact_status, "tread_slip": self.tread_slip,
                 "road_reaction": self.road_reaction, "road_moment": self.road_moment}
 

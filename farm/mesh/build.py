@@ -11,6 +11,7 @@ tyre. Named physical groups become the CalculiX sets; the arrays are then checke
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -152,8 +153,8 @@ def _chunks(spec: ModelSpec) -> list[tuple[float, list[int], list[float]]]:
 
 def _physical_groups(model, patches, pieces, spec: ModelSpec) -> dict[str, tuple[int, int]]:
     """Named groups: element sets per region, node sets per surface."""
-    vols = {r: [] for r in REGIONS}
-    surf = {"INNER": [], "OUTER": [], "TREAD_OUTER": [], "BEAD_SEAT": []}
+    vols: dict[str, list[int]] = {r: [] for r in REGIONS}  # gmsh entity tags
+    surf: dict[str, list[int]] = {"INNER": [], "OUTER": [], "TREAD_OUTER": [], "BEAD_SEAT": []}
     last = len(patches) - 1
     for parts in pieces:
         for k, (patch, part) in enumerate(zip(patches, parts, strict=True)):
@@ -181,7 +182,7 @@ def _physical_groups(model, patches, pieces, spec: ModelSpec) -> dict[str, tuple
 def _extract(model, groups: dict[str, tuple[int, int]]) -> dict:
     """Nodes, hexahedra and the members of each physical group, in gmsh's numbering."""
     tags, coords, _ = model.mesh.getNodes()
-    raw = {"node_tags": np.asarray(tags, dtype=np.int64),
+    raw: dict[str, Any] = {"node_tags": np.asarray(tags, dtype=np.int64),
            "coords": np.asarray(coords).reshape(-1, 3), "elements": {}, "sets": {}}
     for name, (dim, tag) in groups.items():
         if dim == 3:

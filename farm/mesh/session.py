@@ -11,6 +11,7 @@ from __future__ import annotations
 import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
+from types import ModuleType
 
 import gmsh
 
@@ -20,7 +21,7 @@ _LOCK = threading.Lock()
 
 
 @contextmanager
-def gmsh_session(name: str, verbosity: int = 1) -> Iterator[object]:
+def gmsh_session(name: str, verbosity: int = 1) -> Iterator[ModuleType]:
     """Yield the initialised ``gmsh`` module with an empty model called ``name``.
 
     Any gmsh failure inside the block is re-raised as :class:`MeshError`.

@@ -127,7 +127,9 @@ class TyreMesh:
         arrays.update({f"set_{k}": v for k, v in self.node_sets.items()})
         # atomic: concurrent workers never read a half-written file
         with replacing(path, suffix=".npz") as tmp:
-            np.savez_compressed(tmp, **arrays)
+            # allow_pickle is numpy's default, named so that the type checker knows that
+            # no array of **arrays takes its place
+            np.savez_compressed(tmp, allow_pickle=True, **arrays)
 
     @classmethod
     def load(cls, path: str | Path) -> TyreMesh:
@@ -167,7 +169,7 @@ def face_with_nodes(elements: np.ndarray, node_set: np.ndarray) -> np.ndarray:
     Returns 0 where no face qualifies; raises ``ValueError`` where several do.
     """
     inside = np.isin(elements, node_set)  # (E, 8)
-    full = inside[:, HEX_FACES].all(axis=2)  # (E, 6)
+    full: np.ndarray = np.all(inside[:, HEX_FACES], axis=2)  # (E, 6); never a scalar
     if np.any(full.sum(axis=1) > 1):
         raise ValueError("an element has more than one face on the same surface")
     return np.where(full.any(axis=1), full.argmax(axis=1) + 1, 0).astype(np.int8)

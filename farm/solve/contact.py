@@ -141,11 +141,18 @@ def _road(spec: ModelSpec, mesh: TyreMesh, z_road: float) -> D.Road:
 TILT_TIME = 0.25  # fraction of the rise ramp in which a tilted road turns, still clear
 
 
+def _motion(path: LoadPath) -> RoadMotion:
+    """The road motion of a combined path."""
+    # path_deck and solve_contact_path dispatch here only when path.motion is set
+    assert path.motion is not None, "combined-load helpers need a path with a motion"
+    return path.motion
+
+
 def _combined_gap(spec: ModelSpec, path: LoadPath) -> float:
     """Initial clearance of a combined path's road: a tilted road must turn clear of
     the tyre, whose tread spans +-section_width/2 (the tilt lifts one side by that
     times the sine)."""
-    lift = 0.5 * spec.geometry.section_width * math.sin(math.radians(abs(path.motion.tilt)))
+    lift = 0.5 * spec.geometry.section_width * math.sin(math.radians(abs(_motion(path).tilt)))
     return road_gap(spec) + lift
 
 
@@ -154,9 +161,10 @@ def _combined_times(spec: ModelSpec, path: LoadPath) -> list[float]:
     gap = _combined_gap(spec, path)
     travel = gap + path.deflections[-1]
     t0 = 1.0 if spec.inflated else 0.0
-    s = TILT_TIME if path.motion.tilt else 0.0
+    motion = _motion(path)
+    s = TILT_TIME if motion.tilt else 0.0
     times = [t0 + s + (1.0 - s) * (gap + d) / travel for d in path.deflections]
-    return times + ([t0 + 1.0 + f for f in path.motion_fractions] if path.motion.moves else [])
+    return times + ([t0 + 1.0 + f for f in path.motion_fractions] if motion.moves else [])
 
 
 def _combined_deck(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: SolverSettings,
@@ -170,7 +178,7 @@ def _combined_deck(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: So
     (deflection keeps its meaning: the travel of the road under the wheel centre from the
     untilted road's first touch).
     """
-    motion = path.motion
+    motion = _motion(path)
     gap = _combined_gap(spec, path)
     travel = gap + path.deflections[-1]
     t0 = 1.0 if spec.inflated else 0.0
@@ -386,7 +394,7 @@ def _combined_solution(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, frd: Frd
     road = _road(spec, mesh, z_start)
     run = runs[-1]
     before = sum(r.seconds for r in runs[:-1])
-    motion = path.motion
+    motion = _motion(path)
     still = RoadMotion(friction=motion.friction, stick_slope=motion.stick_slope)
     if spec.inflated:  # inflated, road clear and not yet tilted
         reference = _combined_state(frd, mesh, faces, road, 1.0, 0.0, np.nan, still)

@@ -89,7 +89,7 @@ def _contact_state(runner: _Runner, mesh: TyreMesh, active: set[int], deflection
         if not active:  # the node that most violates the road goes first
             active = {int(tread[np.argmin(z0)])}
         seen.add(frozenset(active))
-        uz = {n: road_z - float(mesh.xyz([n])[0, 2]) for n in active}
+        uz = {n: road_z - float(mesh.xyz(np.array([n]))[0, 2]) for n in active}
         state = runner.solve(uz, deflection, road_z)
         z = z0 + state.displacement[tread - 1, 2]
         inside = np.isin(tread, list(active))
@@ -117,7 +117,8 @@ def solve_iterative_path(spec: ModelSpec, mesh: TyreMesh, path: LoadPath,
     """Solve every deflection of ``path`` with the iterative procedure."""
     runner = _Runner(spec, mesh, settings, should_stop)
     touch_z = mesh.bottom_z
-    states, active = [], set()
+    states: list[SolvedState] = []
+    active: set[int] = set()
     for d in path.deflections:
         state = _contact_state(runner, mesh, set(active), d, touch_z + d)
         active = set(mesh.tread_nodes[state.tread_force[:, 2] > 0].tolist())

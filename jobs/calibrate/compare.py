@@ -55,6 +55,7 @@ def ours(statement: Statement, curves: dict[float, dict[str, Any]]) -> float:
     if statement.quantity == "stiffness ratio":
         k = {p: mean_stiffness(c["deflection"], c["Fz"]) for p, c in curves.items()}
         return k[PRESSURES[1]] / k[PRESSURES[0]]
+    assert statement.pressure is not None  # only the stiffness ratio spans pressures
     curve = curves[statement.pressure]
     if statement.quantity == "growth":
         return float(curve["growth"])

@@ -22,13 +22,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from farm.errors import SpecError
-from farm.specs import SolverSettings
+from farm.specs import ModelSpec, SolverSettings
 from jobs.calibrate.evaluate import curve_evaluation, fz
 from jobs.calibrate.params import Parameters
 from jobs.calibrate.references import ReferencePoint
 from jobs.guard import Failed
 from jobs.loops import optimizers
-from jobs.loops.evaluator import Evaluator, LoopStats
+from jobs.loops.evaluator import Evaluation, Evaluator, LoopStats
 
 PENALTY = 10.0  # relative residual of a parameter set that cannot be solved
 
@@ -103,7 +103,9 @@ class _Forces:
         self.paths = _paths(points)
 
     def __call__(self, thetas: Sequence[np.ndarray]) -> list[np.ndarray | None]:
-        specs, batch, where = [], [], []
+        specs: list[ModelSpec | None] = []  # None: theta makes no valid model
+        batch: list[Evaluation] = []
+        where: list[tuple[int, float, int]] = []  # (spec, pressure, position in batch)
         for theta in thetas:
             try:
                 spec = self.params.spec(theta)

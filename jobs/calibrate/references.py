@@ -12,7 +12,7 @@ always used) and ``"80kPa"``; ``farm calibrate --reading`` chooses and says whic
     full,25,80,3933
     full,30,200,4476
 
-The file is read as :func:`jobs.validate.read_text` reads study files (a regular UTF-8
+The file is read as :func:`jobs.validate.reading.read_text` reads study files (a regular UTF-8
 file of at most 1 MiB); given the model spec, every point is checked against it as a
 load path is (pressures up to 1000 kPa, deflections the tyre can take).
 """
@@ -27,8 +27,9 @@ from pathlib import Path
 
 from farm.errors import SpecError
 from farm.specs import MAX_PRESSURE_MPA, LoadPath, ModelSpec
-from jobs import validate
 from jobs.errors import StudyError
+from jobs.validate import reading
+from jobs.validate.messages import shown
 
 MAX_FORCE_N = 1e6  # a reference force: 100 t on one tyre
 
@@ -75,7 +76,7 @@ def _number(row: dict, key: str, where: str, positive: bool, high: float) -> flo
     try:
         v = float(row[key])
     except (TypeError, ValueError) as e:
-        raise StudyError(f"{where}: {key} must be a number, got {validate.shown(row[key])}"
+        raise StudyError(f"{where}: {key} must be a number, got {shown(row[key])}"
                          ) from e
     if not math.isfinite(v) or v < 0 or (positive and v == 0) or v > high:
         raise StudyError(f"{where}: {key} must be {'> 0' if positive else '>= 0'} and "
@@ -89,7 +90,7 @@ def read_points(path: str | Path, model: str | ModelSpec) -> tuple[ReferencePoin
     path = Path(path)
     spec = model if isinstance(model, ModelSpec) else None
     model = spec.kind if spec else model
-    text = validate.read_text(path, "references")
+    text = reading.read_text(path, "references")
     try:
         rows = list(csv.DictReader(io.StringIO(text, newline="")))
     except csv.Error as e:

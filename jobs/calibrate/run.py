@@ -40,7 +40,7 @@ class CalibrationReport(RunReport):
         return self.result.status != "failed"
 
 
-class Calibration(LoopThreads):
+class Calibration(LoopThreads[CalibrationReport]):
     """The calibration strategy: one least-squares loop; the progress state is its
     :class:`CalibrationState`."""
 
@@ -54,7 +54,7 @@ class Calibration(LoopThreads):
         self.error: BaseException | None = None
 
     def loops(self, session: Session) -> list[Callable[[], CalibrationResult]]:
-        return [lambda: calibrate(self.params, self.points, self.evaluator, session.solver,
+        return [lambda: calibrate(self.params, self.points, self.started_evaluator, session.solver,
                                   self.settings, self.cal, self.progress_state)]
 
     def collected(self, index: int, result, error) -> None:
@@ -66,8 +66,10 @@ class Calibration(LoopThreads):
     def finish(self, session: Session) -> CalibrationReport:
         if self.error is not None:
             raise self.error
-        table = (_curves(self.params, self.result, self.points, self.evaluator, session.solver,
-                         self.settings) if self.curves else pd.DataFrame())
+        # poll() ended once the one loop was collected: with a result, or with an error
+        assert self.result is not None
+        table = (_curves(self.params, self.result, self.points, self.started_evaluator,
+                         session.solver, self.settings) if self.curves else pd.DataFrame())
         return CalibrationReport(self.result, table)
 
 
@@ -97,8 +99,8 @@ def _curves(params: Parameters, result: CalibrationResult, points, evaluator: Ev
              for label, spec in labels for p in pressures]
     out = evaluator.run([e for _, _, e in batch])
     rows = []
-    for (label, p, _), result in zip(batch, out, strict=True):
-        fz = np.full(len(defl), np.nan) if isinstance(result, Failed) else curve_fz(result)
+    for (label, p, _), outcome in zip(batch, out, strict=True):
+        fz = np.full(len(defl), np.nan) if isinstance(outcome, Failed) else curve_fz(outcome)
         rows += [{"model": label, "pressure_kpa": 1000 * p, "deflection_mm": d, "fz_n": f}
                  for d, f in zip(defl, fz, strict=True)]
     return pd.DataFrame(rows)

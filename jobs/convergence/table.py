@@ -92,7 +92,8 @@ def rows(records: Sequence[dict[str, Any]], levels: Sequence[str], ratio: float 
 def _row(case: str, state: str, label: str, kind: str | None, vals: dict[str, float],
          seq: list[float], ratio: float) -> dict[str, Any]:
     last = change_pct(seq[-2], seq[-1]) if len(seq) >= 2 else math.nan
-    p, err = richardson(*seq[-3:], ratio) if len(seq) >= 3 else (math.nan, math.nan)
+    p, err = (richardson(seq[-3], seq[-2], seq[-1], ratio) if len(seq) >= 3
+              else (math.nan, math.nan))
     err_pct = 100.0 * abs(err) / abs(seq[-1]) if seq[-1] and not math.isnan(err) else math.nan
     limit = {"total": TOTALS_PCT, "field": FIELDS_PCT}.get(kind or "")
     if kind == "total" and not abs(seq[-1]) >= FORCE_FLOOR_N:

@@ -215,7 +215,8 @@ def check_mesh(data: TrainingSet, tread_nodes: np.ndarray, tread_xyz: np.ndarray
                          "on a sweep of the same [model.mesh]")
 
 
-def guess_from(model: TyreDistribution, tread_nodes: np.ndarray, unknowns: Sequence[int],
+def guess_from(model: TyreDistribution, tread_nodes: np.ndarray,
+               unknowns: Sequence[int] | np.ndarray,
                params: Mapping[str, float], total: float) -> np.ndarray:
     """The distribution's shape on the unknown nodes, scaled to ``total`` N, shape (n,).
 

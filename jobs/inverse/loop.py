@@ -176,7 +176,7 @@ def run_loop(study: InverseStudy, problem: Problem, spec: LoopSpec, evaluator: E
     last = warm.run([outcome.x])[0]
     final = None if isinstance(last, Failed) else last.measurement
     status = "failed" if final is None else outcome.status
-    message = last.reason if final is None else outcome.message
+    message = last.reason if isinstance(last, Failed) else outcome.message
     if spec.optimizer.weight_rule == "discrepancy":  # stored with the solve (the report reads it)
         message = f"{WEIGHT_TAG} {weight:.6g}; {message}"
     state.status = status
@@ -202,10 +202,10 @@ def _discrepancy(study: InverseStudy, problem: Problem, spec: LoopSpec, seed, ma
     h, points = fd_points(x1, np.full(problem.n, spec.optimizer.fd_step),
                           np.full(problem.n, np.inf))
     results = warm.around(x1, points)
-    r = [data.data_residuals(res.measurement, 0) if not isinstance(res, Failed) else None
-         for res in results]
-    if any(v is None for v in r):
+    solved = [res for res in results if not isinstance(res, Failed)]
+    if len(solved) < len(results):
         return spec.optimizer.weight  # a failed column: no linearisation to choose on
+    r = [data.data_residuals(res.measurement, 0) for res in solved]
     unit = _objective(study, problem, spec, seed, mask, scale, 1.0, x0)
     noise = study.noise
     delta = expected_noise_norm(spec.method, noise.displacement, noise.strain, data.n_nodes)

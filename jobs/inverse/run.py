@@ -10,6 +10,7 @@ the client died.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -30,6 +31,7 @@ from jobs.inverse.problem import Problem, build_problem
 from jobs.inverse.store import write_results
 from jobs.inverse.study import InverseStudy
 from jobs.loops.evaluator import Interrupted, LoopStats
+from jobs.wording import plural
 
 
 @dataclass
@@ -50,12 +52,13 @@ class InverseReport(RunReport):
         """One line: loops, evaluations, solver runs and time."""
         t, n = self.totals, len(self.results)
         best = np.nanmedian([r.objective for r in self.results]) if n else float("nan")
-        return (f"{n} solves, {t.evaluations} evaluations ({t.solved} solved by ccx, "
-                f"{t.cached} from the cache, {t.shared} shared between loops), {t.rounds} "
-                f"rounds, median final objective {best:.3g}, {self.wall_seconds:.1f} s wall")
+        return (f"{plural(n, 'solve')}, {plural(t.evaluations, 'evaluation')} ({t.solved} "
+                f"solved by ccx, {t.cached} from the cache, {t.shared} shared between loops), "
+                f"{plural(t.rounds, 'round')}, median final objective {best:.3g}, "
+                f"{self.wall_seconds:.1f} s wall")
 
 
-class Inverse(LoopThreads):
+class Inverse(LoopThreads[InverseReport]):
     """The inverse strategy: the reference, then one loop per condition x method x
     optimiser x repeat; the progress state is the list of :class:`LoopState`."""
 
@@ -72,10 +75,10 @@ class Inverse(LoopThreads):
         self._results: dict[int, LoopResult] = {}
 
     def loops(self, session: Session) -> list[Callable[[], LoopResult]]:
-        study, ev = self.study, self.evaluator
+        study, ev = self.study, self.started_evaluator
         self.report.problem = problem = build_problem(study, ev, session.solver)
-        return [lambda s=s, st=st: run_loop(study, problem, s, ev, st, self.masks.get(s.method),
-                                            distribution=self.distribution)
+        return [functools.partial(run_loop, study, problem, s, ev, st, self.masks.get(s.method),
+                                  distribution=self.distribution)
                 for s, st in zip(self.specs, self.states, strict=True)]
 
     def collected(self, index: int, result, error) -> None:
@@ -94,8 +97,9 @@ class Inverse(LoopThreads):
     def finish(self, session: Session) -> InverseReport:
         report = self.report
         report.results = [self._results[k] for k in sorted(self._results)]
-        report.totals = self.evaluator.total
+        report.totals = self.started_evaluator.total
         if self.write and report.results:
+            assert report.problem is not None  # loops() built it before any loop ran
             write_results(self.study, report.problem, report.results)
         return report
 

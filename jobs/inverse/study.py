@@ -65,6 +65,7 @@ sizes have bounds (docs/limits.md): repeats, evaluations, loops, noise levels, s
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -72,8 +73,9 @@ from typing import Any
 import storage
 from farm.errors import SpecError
 from farm.specs import LoadPath, ModelSpec, SolverSettings
-from jobs import validate as v
 from jobs.identity import value_key
+from jobs.validate import limits, locations, reading, scalars, spec_tables
+from jobs.validate.messages import fail, located, shown
 from storage.paths import describe
 
 METHODS = ("displacement", "strain", "combined")
@@ -204,7 +206,9 @@ class InverseStudy:
     @property
     def location(self) -> str:
         """Where the store is, as text (a path or URL)."""
-        return self.store if isinstance(self.store, str) else describe(self.store)
+        if isinstance(self.store, str | os.PathLike):
+            return os.fspath(self.store)
+        return describe(self.store)
 
     def optimizer(self, name: str) -> OptimizerSettings:
         return next(o for o in self.optimizers if o.name == name)
@@ -234,60 +238,62 @@ def thesis_conditions(repeats: int = 10, optimizers: tuple[str, ...] = ("nelder-
 
 def _positive(t: dict, key: str, where: str, default: float, high: float | None = None
               ) -> float:
-    return v.number(t.get(key, default), f"{where}.{key}", low=0, high=high, strict=True)
+    return scalars.number(t.get(key, default), f"{where}.{key}", low=0, high=high, strict=True)
 
 
 def _count(t: dict, key: str, where: str, default: int, low: int = 1,
            high: int | None = None) -> int:
-    return v.integer(t.get(key, default), f"{where}.{key}", low=low, high=high)
+    return scalars.integer(t.get(key, default), f"{where}.{key}", low=low, high=high)
 
 
 def _optimizer(name: str, data: Any) -> OptimizerSettings:
     where = f"optimizers.{name}"
     if name not in OPTIMIZERS:
-        raise v.fail(where, f"unknown optimiser; choose {', '.join(OPTIMIZERS)}")
+        raise fail(where, f"unknown optimiser; choose {', '.join(OPTIMIZERS)}")
     lsq = name == "least-squares"
     keys = {"max_evaluations", "noise_draw"} | ({"fd_step_n", "regularisation", "weight",
                                                  "tolerance", "jacobian", "jacobian_radius",
                                                  "jacobian_patience", "discrepancy",
                                                  "warm_starts", "columns_per_run"}
                                                 if lsq else {"xatol", "fatol"})
-    t = v.table(data, where, keys)
-    draw = v.choice(t.get("noise_draw", "per_solve" if lsq else "per_evaluation"),
-                    f"{where}.noise_draw", NOISE_DRAWS)
+    t = scalars.table(data, where, keys)
+    draw = scalars.choice(t.get("noise_draw", "per_solve" if lsq else "per_evaluation"),
+                          f"{where}.noise_draw", NOISE_DRAWS)
     if lsq and draw != "per_solve":
-        raise v.fail(f"{where}.noise_draw", "least squares needs 'per_solve': a finite-"
-                     "difference Jacobian of a target redrawn between columns is noise")
-    common = {"name": name, "noise_draw": draw,
-              "max_evaluations": _count(t, "max_evaluations", where, 200 if lsq else 600, 2,
-                                        v.MAX_EVALUATIONS)}
+        raise fail(f"{where}.noise_draw", "least squares needs 'per_solve': a finite-"
+                   "difference Jacobian of a target redrawn between columns is noise")
+    budget = _count(t, "max_evaluations", where, 200 if lsq else 600, 2, limits.MAX_EVALUATIONS)
     if not lsq:
-        return OptimizerSettings(**common, xatol=_positive(t, "xatol", where, 1e-3, MAX_TOLERANCE),
+        return OptimizerSettings(name=name, noise_draw=draw, max_evaluations=budget,
+                                 xatol=_positive(t, "xatol", where, 1e-3, MAX_TOLERANCE),
                                  fatol=_positive(t, "fatol", where, 1e-7, MAX_TOLERANCE))
-    reg = v.choice(t.get("regularisation", "none"), f"{where}.regularisation", REGULARISATIONS)
+    reg = scalars.choice(t.get("regularisation", "none"), f"{where}.regularisation",
+                         REGULARISATIONS)
     rule, weight = _weight(t.get("weight", 0.0), f"{where}.weight")
     if reg != "none" and weight == 0 and rule == "fixed":
-        raise v.fail(f"{where}.weight", f"give a weight > 0 or \"discrepancy\" for {reg} "
-                     "regularisation")
+        raise fail(f"{where}.weight", f"give a weight > 0 or \"discrepancy\" for {reg} "
+                   "regularisation")
     if rule == "discrepancy" and reg == "none":
-        raise v.fail(f"{where}.weight", "\"discrepancy\" chooses a regularisation weight: "
-                     "set regularisation = \"tikhonov\", \"smoothness\" or \"guess\"")
+        raise fail(f"{where}.weight", "\"discrepancy\" chooses a regularisation weight: "
+                   "set regularisation = \"tikhonov\", \"smoothness\" or \"guess\"")
     tau = _positive(t, "discrepancy", where, 1.0, MAX_SCALE)
     if t.get("jacobian") == "full" and t.get("jacobian_patience", 0) != 0:
-        raise v.fail(f"{where}.jacobian_patience", "applies to Jacobian reuse only: leave it "
-                     "out with jacobian = \"full\" (a new Jacobian at every accepted point)")
-    return OptimizerSettings(**common, fd_step=_positive(t, "fd_step_n", where, 0.25, MAX_FORCE_N),
+        raise fail(f"{where}.jacobian_patience", "applies to Jacobian reuse only: leave it "
+                   "out with jacobian = \"full\" (a new Jacobian at every accepted point)")
+    return OptimizerSettings(name=name, noise_draw=draw, max_evaluations=budget,
+                             fd_step=_positive(t, "fd_step_n", where, 0.25, MAX_FORCE_N),
                              regularisation=reg, weight=weight,
                              tolerance=_positive(t, "tolerance", where, 1e-8, MAX_TOLERANCE),
-                             jacobian=v.choice(t.get("jacobian", "shared"), f"{where}.jacobian",
-                                               JACOBIANS),
-                             jacobian_radius=v.number(t.get("jacobian_radius", 0.1),
-                                                      f"{where}.jacobian_radius", low=0, high=1),
+                             jacobian=scalars.choice(t.get("jacobian", "shared"),
+                                                     f"{where}.jacobian", JACOBIANS),
+                             jacobian_radius=scalars.number(t.get("jacobian_radius", 0.1),
+                                                            f"{where}.jacobian_radius", low=0,
+                                                            high=1),
                              jacobian_patience=_count(t, "jacobian_patience", where, 0, 0,
                                                       MAX_PATIENCE),
                              weight_rule=rule, discrepancy=tau,
-                             warm_starts=v.boolean(t.get("warm_starts", True),
-                                                   f"{where}.warm_starts"),
+                             warm_starts=scalars.boolean(t.get("warm_starts", True),
+                                                         f"{where}.warm_starts"),
                              columns_per_run=_count(t, "columns_per_run", where, 8, 1,
                                                     MAX_COLUMNS_PER_RUN))
 
@@ -296,114 +302,117 @@ def _weight(value: Any, where: str) -> tuple[str, float]:
     """``weight``: a number λ >= 0, or "discrepancy" (the loop chooses λ)."""
     if isinstance(value, str):
         if value != "discrepancy":
-            raise v.fail(where, f"got {v.shown(value)}: give a number >= 0 or \"discrepancy\"")
+            raise fail(where, f"got {shown(value)}: give a number >= 0 or \"discrepancy\"")
         return "discrepancy", 0.0
-    return "fixed", v.number(value, where, low=0, high=MAX_WEIGHT)
+    return "fixed", scalars.number(value, where, low=0, high=MAX_WEIGHT)
 
 
 def _distribution(data: Any, base: Path) -> DistributionSpec:
-    t = v.table(data, "distribution", {"store", "group", "components", "degree",
-                                       "exclude_within_mm"}, {"store", "group"})
+    t = scalars.table(data, "distribution", {"store", "group", "components", "degree",
+                                             "exclude_within_mm"}, {"store", "group"})
     return DistributionSpec(
-        store=v.store_location(t["store"], "distribution.store", base),
-        group=v.identifier(t["group"], "distribution.group"),
+        store=locations.store_location(t["store"], "distribution.store", base),
+        group=scalars.identifier(t["group"], "distribution.group"),
         components=_count(t, "components", "distribution", 3, high=50),
         degree=_count(t, "degree", "distribution", 2, high=4),
-        exclude_within=v.number(t.get("exclude_within_mm", 0.5), "distribution.exclude_within_mm",
-                                low=0, high=MAX_NOISE_MM))
+        exclude_within=scalars.number(t.get("exclude_within_mm", 0.5),
+                                      "distribution.exclude_within_mm", low=0,
+                                      high=MAX_NOISE_MM))
 
 
 def _condition(data: Any, k: int, optimizers: tuple[str, ...]) -> Condition:
     where = f"conditions[{k}]"
-    t = v.table(data, where, {"name", "methods", "optimizers", "noise", "initial", "scale",
-                              "guess_sigma_n", "repeats"}, {"name"})
+    t = scalars.table(data, where, {"name", "methods", "optimizers", "noise", "initial", "scale",
+                                    "guess_sigma_n", "repeats"}, {"name"})
     return Condition(
-        name=v.identifier(t["name"], f"{where}.name"),
-        methods=v.choices(t.get("methods", ["displacement", "strain"]), f"{where}.methods",
-                          METHODS),
-        optimizers=v.choices(t.get("optimizers", list(optimizers)), f"{where}.optimizers",
-                             optimizers),
-        noise=v.boolean(t.get("noise", True), f"{where}.noise"),
-        initial=v.choice(t.get("initial", "scaled"), f"{where}.initial", INITIALS),
+        name=scalars.identifier(t["name"], f"{where}.name"),
+        methods=scalars.choices(t.get("methods", ["displacement", "strain"]), f"{where}.methods",
+                                METHODS),
+        optimizers=scalars.choices(t.get("optimizers", list(optimizers)), f"{where}.optimizers",
+                                   optimizers),
+        noise=scalars.boolean(t.get("noise", True), f"{where}.noise"),
+        initial=scalars.choice(t.get("initial", "scaled"), f"{where}.initial", INITIALS),
         scale=_positive(t, "scale", where, 0.9, MAX_SCALE),
-        guess_sigma=v.number(t.get("guess_sigma_n", 0.0), f"{where}.guess_sigma_n", low=0,
-                             high=MAX_FORCE_N),
-        repeats=_count(t, "repeats", where, 1, high=v.MAX_REPEATS))
+        guess_sigma=scalars.number(t.get("guess_sigma_n", 0.0), f"{where}.guess_sigma_n", low=0,
+                                   high=MAX_FORCE_N),
+        repeats=_count(t, "repeats", where, 1, high=limits.MAX_REPEATS))
 
 
 def _mask(data: Any, base: Path) -> MaskSpec:
-    t = v.table(data, "mask", {"eigen_vectors", "keep", "mode"}, {"eigen_vectors"})
-    path = v.location(t["eigen_vectors"], "mask.eigen_vectors", "a path", base)
-    keep = v.number(t.get("keep", 0.5), "mask.keep", low=0, high=1, strict=True)
+    t = scalars.table(data, "mask", {"eigen_vectors", "keep", "mode"}, {"eigen_vectors"})
+    path = locations.location(t["eigen_vectors"], "mask.eigen_vectors", "a path", base)
+    keep = scalars.number(t.get("keep", 0.5), "mask.keep", low=0, high=1, strict=True)
     mask = MaskSpec(path, keep, _count(t, "mode", "mask", 1, high=1000))
     if Path(path).exists():  # a FIFO or a device would be read for ever at run time
-        v.regular_file(Path(path), "mask.eigen_vectors")
+        reading.regular_file(Path(path), "mask.eigen_vectors")
     return mask
 
 
 def parse_inverse_study(text: str, source: str = "<study>", base: Path | None = None
                         ) -> InverseStudy:
     """Validate the TOML text of an inverse study (raises :class:`StudyError`)."""
-    data = v.parse_toml(text, source)
-    with v.located(source):
+    data = reading.parse_toml(text, source)
+    with located(source):
         return _parse(data, source, base or Path.cwd())
 
 
 def _paths(head: dict, base: Path) -> tuple[str, str]:
     """The store and the evaluation cache, relative paths taken from ``base``."""
-    store = v.store_location(head["store"], "study.store", base)
+    store = locations.store_location(head["store"], "study.store", base)
     cache = head.get("cache")
     if cache is None:
         if "://" in store:
-            raise v.fail("study.cache", "give a local cache directory for a URL store")
+            raise fail("study.cache", "give a local cache directory for a URL store")
         return store, store.rstrip("/") + ".evaluations"
-    return store, v.location(cache, "study.cache", "a directory path", base)
+    return store, locations.location(cache, "study.cache", "a directory path", base)
 
 
 def _parse(data: dict, source: str, base: Path) -> InverseStudy:
-    v.table(data, "study file", {"study", "model", "reference", "noise", "optimizers", "mask",
-                                 "conditions", "solver", "distribution"}, {"study", "model"})
-    head = v.table(data["study"], "study",
-                   {"name", "store", "group", "cache", "seed", "storage_options"}, {"store"})
-    name = v.identifier(head.get("name", Path(source).stem), "study.name")
-    group = v.identifier(head.get("group", f"inverse-{name}"), "study.group")
+    scalars.table(data, "study file", {"study", "model", "reference", "noise", "optimizers",
+                                       "mask", "conditions", "solver", "distribution"},
+                  {"study", "model"})
+    head = scalars.table(data["study"], "study",
+                         {"name", "store", "group", "cache", "seed", "storage_options"}, {"store"})
+    name = scalars.identifier(head.get("name", Path(source).stem), "study.name")
+    group = scalars.identifier(head.get("group", f"inverse-{name}"), "study.group")
     store, cache = _paths(head, base)
-    model = v.model(data["model"])
+    model = spec_tables.model(data["model"])
     if model.kind != "reduced" or model.road != "iterative":
-        raise v.fail("model", "the inverse problem uses the reduced model with the iterative "
-                     f"road (thesis §4.1); got kind={model.kind!r}, road={model.road!r}")
-    ref = v.table(data.get("reference", {}), "reference", {"deflection_mm"})
+        raise fail("model", "the inverse problem uses the reduced model with the iterative "
+                   f"road (thesis §4.1); got kind={model.kind!r}, road={model.road!r}")
+    ref = scalars.table(data.get("reference", {}), "reference", {"deflection_mm"})
     deflection = _positive(ref, "deflection_mm", "reference", 30.0)
-    noise_t = v.table(data.get("noise", {}), "noise", {"displacement_mm", "strain"})
+    noise_t = scalars.table(data.get("noise", {}), "noise", {"displacement_mm", "strain"})
     noise = NoiseSettings(_positive(noise_t, "displacement_mm", "noise", 1.0, MAX_NOISE_MM),
                           _positive(noise_t, "strain", "noise", 4e-4, MAX_NOISE_STRAIN))
-    opt_t = v.table(data.get("optimizers", {"nelder-mead": {}}), "optimizers", set(OPTIMIZERS))
+    opt_t = scalars.table(data.get("optimizers", {"nelder-mead": {}}), "optimizers",
+                          set(OPTIMIZERS))
     if not opt_t:
-        raise v.fail("optimizers", "name at least one optimiser")
+        raise fail("optimizers", "name at least one optimiser")
     optimizers = tuple(_optimizer(k, x) for k, x in opt_t.items())
     names = tuple(o.name for o in optimizers)
     conds = data.get("conditions")
     if conds is None:
         conditions = thesis_conditions(optimizers=names)
     elif not isinstance(conds, list) or not conds:
-        raise v.fail("conditions", "must be a non-empty array of tables ([[conditions]])")
+        raise fail("conditions", "must be a non-empty array of tables ([[conditions]])")
     else:
         conditions = tuple(_condition(c, k, names) for k, c in enumerate(conds))
     if len({c.name for c in conditions}) != len(conditions):
-        raise v.fail("conditions", "condition names must be distinct")
+        raise fail("conditions", "condition names must be distinct")
     loops = sum(len(c.methods) * len(c.optimizers) * c.repeats for c in conditions)
-    if loops > v.MAX_LOOPS:
-        raise v.fail("conditions", f"methods x optimisers x repeats is {loops} loops, above "
-                     f"the limit of {v.MAX_LOOPS}")
-    settings = v.solver(data.get("solver", {})).settings
-    seed = v.integer(head.get("seed", 0), "study.seed", low=0, high=v.MAX_SEED)
+    if loops > limits.MAX_LOOPS:
+        raise fail("conditions", f"methods x optimisers x repeats is {loops} loops, above "
+                   f"the limit of {limits.MAX_LOOPS}")
+    settings = spec_tables.solver(data.get("solver", {})).settings
+    seed = scalars.integer(head.get("seed", 0), "study.seed", low=0, high=limits.MAX_SEED)
     mask = _mask(data["mask"], base) if "mask" in data else None
     distribution = _distribution(data["distribution"], base) if "distribution" in data else None
     for k, c in enumerate(conditions):
         if c.initial == "distribution" and distribution is None:
-            raise v.fail(f"conditions[{k}].initial", "\"distribution\" needs a [distribution] "
-                         "table naming the sweep group it is trained from (store, group)")
-    options = (v.storage_options(head["storage_options"], "study.storage_options", store)
+            raise fail(f"conditions[{k}].initial", "\"distribution\" needs a [distribution] "
+                       "table naming the sweep group it is trained from (store, group)")
+    options = (locations.storage_options(head["storage_options"], "study.storage_options", store)
                if "storage_options" in head else None)
     study = InverseStudy(name, store, group, cache, seed, model, deflection, noise, optimizers,
                          conditions, mask, settings, source, options, distribution)
@@ -417,21 +426,21 @@ def _opened(url: str, options: dict[str, Any]) -> storage.StoreLike:
     try:
         return storage.open_store(url, storage_options=options)
     except storage.StoreError as e:
-        raise v.fail("study.storage_options", str(e)) from e
+        raise fail("study.storage_options", str(e)) from e
 
 
 def _check_deflection(study: InverseStudy) -> None:
     try:
         LoadPath((study.deflection,)).check_against(study.model)
     except SpecError as e:
-        raise v.fail("reference.deflection_mm", str(e)) from e
+        raise fail("reference.deflection_mm", str(e)) from e
 
 
 def load_inverse_study(path: str | Path) -> InverseStudy:
     """Read and validate an inverse study file; relative paths are taken from the
     current directory, like any path on the command line."""
     path = Path(path)
-    return parse_inverse_study(v.read_text(path), str(path))
+    return parse_inverse_study(reading.read_text(path), str(path))
 
 
 def with_repeats(study: InverseStudy, repeats: int) -> InverseStudy:

@@ -92,7 +92,9 @@ class WarmStarts:
         """(key, kept state) of the evaluation that solved ``base``; None: from rest (no
         base, a base this loop did not solve, or its state is gone from the cache)."""
         e = None if base is None else self._solved.get(_tag(base))
-        state = None if e is None else self.evaluator.cache.state(e.key)
+        if e is None:
+            return None
+        state = self.evaluator.cache.state(e.key)
         return None if state is None else (e.key, state)
 
     def _single(self, p: np.ndarray, start: tuple[str, bytes] | None) -> Evaluation:

@@ -19,8 +19,9 @@ from __future__ import annotations
 import dataclasses
 import os
 import re
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -61,16 +62,23 @@ def decode(arrays: Mapping[str, np.ndarray]) -> Result | None:
         return None
     if "failed" in arrays:
         return Failed(str(arrays["failed"]), str(arrays["outcome"]))
-    ms = tuple(Measurement(**{name: _scalar(arrays[f"m{k}.{name}"])
-                              if f"m{k}.{name}" in arrays or name not in _OPTIONAL else None
-                              for name in _FIELDS})
-               for k in range(int(arrays["states"])))
+    ms = tuple(_measurement(arrays, k) for k in range(int(arrays["states"])))
     state = arrays["state"].tobytes() if "state" in arrays else None
     return Solved(ms, float(arrays["solve_seconds"]), int(arrays["ccx_runs"]),
                   int(arrays["increments"]), state)
 
 
-def _scalar(a: np.ndarray):
+def _measurement(arrays: Mapping[str, np.ndarray], k: int) -> Measurement:
+    """State ``k``'s measurement; a missing required field raises KeyError (a bad file)."""
+    fields: dict[str, Any] = {}
+    for name in _FIELDS:
+        key = f"m{k}.{name}"
+        fields[name] = _scalar(arrays[key]) if key in arrays or name not in _OPTIONAL else None
+    return Measurement(**fields)
+
+
+def _scalar(a: np.ndarray) -> Any:
+    """A 0-d array's Python scalar, any other array as it is."""
     return a.item() if a.ndim == 0 else a
 
 
@@ -122,7 +130,7 @@ class EvaluationCache:
         result = self._read(key, list)
         return result.state if isinstance(result, Solved) else None
 
-    def _read(self, key: str, arrays) -> Result | None:
+    def _read(self, key: str, arrays: Callable[[list[str]], list[str]]) -> Result | None:
         path = self._path(key)  # a malformed key raises: it is a bug, not a miss
         try:
             with np.load(path, allow_pickle=False) as z:
@@ -132,8 +140,10 @@ class EvaluationCache:
 
     def put(self, key: str, result: Result) -> None:
         """Store ``result`` under ``key`` (atomically; the last write wins)."""
-        light = isinstance(result, Solved) and result.state is not None and self.directory
-        self._memory[key] = dataclasses.replace(result, state=None) if light else result
+        if isinstance(result, Solved) and result.state is not None and self.directory is not None:
+            self._memory[key] = dataclasses.replace(result, state=None)  # kept on disk only
+        else:
+            self._memory[key] = result
         if self.directory is None:
             return
         arrays = encode(result)
@@ -143,7 +153,9 @@ class EvaluationCache:
             # durable: a loop resumes by replaying this cache, so an entry lost to a
             # machine crash costs a solve
             with replacing(path, suffix=".npz", durable=True) as tmp:
-                np.savez(tmp, **arrays)
+                # allow_pickle is numpy's default, named so that the type checker knows
+                # that no array of **arrays takes its place
+                np.savez(tmp, allow_pickle=True, **arrays)
         except OSError as e:
             raise CacheError(f"cannot write the evaluation cache at {self.directory}: "
                              f"{e.strerror or e}") from e

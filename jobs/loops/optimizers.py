@@ -123,7 +123,9 @@ def nelder_mead(evaluate: BatchFunction, x0: np.ndarray, *, max_evaluations: int
                      "maxfev": 10 * max_evaluations, "maxiter": 10 * max_evaluations})
     except _Budget:
         status = "stopped" if tracker.stopped else "max_evaluations"
-        return Outcome(tracker.best_x, tracker.best_f, status,
+        # no best point when every residual so far was NaN or infinite: report the start
+        best = tracker.best_x if tracker.best_x is not None else np.asarray(x0, float)
+        return Outcome(best, tracker.best_f, status,
                        f"{status} after {tracker.used} evaluations", -1)
     status = "converged" if res.success else "max_evaluations"
     return Outcome(np.asarray(res.x), float(res.fun), status, str(res.message), int(res.nit))

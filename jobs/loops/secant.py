@@ -59,7 +59,8 @@ class _Model:
     updates: int = 0
 
     def fresh(self, x: np.ndarray, radius: float) -> bool:
-        return bool(np.linalg.norm(x - self.origin) <= radius * max(np.linalg.norm(x), 1e-12))
+        scale = max(float(np.linalg.norm(x)), 1e-12)
+        return bool(np.linalg.norm(x - self.origin) <= radius * scale)
 
     def update(self, s: np.ndarray, y: np.ndarray) -> None:
         """Broyden's good update (Nocedal & Wright eq. 11.27)."""

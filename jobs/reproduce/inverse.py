@@ -23,6 +23,7 @@ import time
 
 from jobs.reproduce.options import COARSE_MESH, Options
 from jobs.reproduce.stage import Log, ProgressFor, StageRun, logger
+from jobs.wording import plural
 
 MATERIALS = "thesis-calibrated"
 # Least squares reuses Jacobians: Broyden updates between full ones, shared between
@@ -30,11 +31,13 @@ MATERIALS = "thesis-calibrated"
 JACOBIAN = "shared"
 
 # (name, initial guess, scale, guess sigma N, noise) - thesis §4.3-4.5
-CONDITIONS = (("ideal", "scaled", 0.9, 0.0, False), ("noise", "scaled", 0.9, 0.0, True),
-              ("guess-90", "scaled", 0.9, 4.0, True),
-              ("guess-uniform", "uniform", 1.0, 4.0, True))
+ConditionRow = tuple[str, str, float, float, bool]
+CONDITIONS: tuple[ConditionRow, ...] = (
+    ("ideal", "scaled", 0.9, 0.0, False), ("noise", "scaled", 0.9, 0.0, True),
+    ("guess-90", "scaled", 0.9, 4.0, True),
+    ("guess-uniform", "uniform", 1.0, 4.0, True))
 # beyond the thesis (§6.2): the "tyre distribution" guess, with noise, no guess jitter
-DISTRIBUTION = ("distribution", "distribution", 1.0, 0.0, True)
+DISTRIBUTION: ConditionRow = ("distribution", "distribution", 1.0, 0.0, True)
 # the noisy conditions again, once per regularisation (weights: discrepancy principle)
 REGULARISED = ("tikhonov", "smoothness", "guess")
 
@@ -125,7 +128,8 @@ def run(opts: Options, log: Log | None = None, progress: ProgressFor | None = No
         stage.ccx_runs += extra.totals.solved
         stage.solver_seconds += extra.totals.solver_seconds
         stage.notes += [f"{name} ({reg} regularisation, weights by the discrepancy principle): "
-                        f"{len(extra.results)} solves, {extra.totals.solved} solved by ccx"]
+                        f"{plural(len(extra.results), 'solve')}, {extra.totals.solved} "
+                        "solved by ccx"]
         stage.notes += [f"{name} {label}: {error}" for label, error in extra.errors.items()]
     stage.wall_seconds = time.perf_counter() - start
     return stage
@@ -137,7 +141,8 @@ def notes(report) -> list[str]:
     lines = [f"reference: reduced model ({MATERIALS} materials) at {report.study.deflection:g}"
              f" mm on the iterative road, Fz = {problem.reference.total_force[2]:.1f} N "
              f"(thesis 359.08 N); {problem.n} unknown nodal forces (thesis 14)",
-             f"{len(report.results)} solves, {t.evaluations} evaluations, {t.solved} solved by "
+             f"{plural(len(report.results), 'solve')}, {plural(t.evaluations, 'evaluation')}, "
+             f"{t.solved} solved by "
              f"ccx this run, {t.cached} from the evaluation cache, {t.shared} shared between "
              "loops; noise is drawn once per solve for least squares, at every evaluation "
              "for Nelder-Mead (as the thesis, §4.4)"]

@@ -10,6 +10,7 @@ import time
 
 from jobs.reproduce.options import COARSE_MESH, Options
 from jobs.reproduce.stage import Log, ProgressFor, StageRun, logger
+from jobs.wording import plural
 
 STEPS = "deflection_mm = { start = 5, stop = 40, step = 5 }"
 
@@ -46,12 +47,12 @@ def run(opts: Options, log: Log | None = None, progress: ProgressFor | None = No
         report = run_sweep(study, cluster=opts.cluster_spec(),
                            progress=progress(name) if progress else None)
         stage.reports[name] = report
-        log(f"{name}: {report.total} experiments ({report.skipped} already done), "
-            f"{report.ccx_runs} ccx runs, {report.wall_seconds:.1f} s")
+        log(f"{name}: {plural(report.total, 'experiment')} ({report.skipped} already "
+            f"done), {plural(report.ccx_runs, 'ccx run')}, {report.wall_seconds:.1f} s")
         stage.ccx_runs += report.ccx_runs
         stage.solver_seconds += report.solve_seconds
         if not report.ok:
-            stage.notes.append(f"{name}: {len(report.failed)} experiments failed: "
+            stage.notes.append(f"{name}: {plural(len(report.failed), 'experiment')} failed: "
                                + "; ".join(sorted(set(report.failed.values())))[:400])
     stage.wall_seconds = time.perf_counter() - start
     return stage

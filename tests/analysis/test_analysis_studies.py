@@ -88,9 +88,10 @@ def test_table_5_1_plus_minus_is_the_nodal_average_std(noise_report):
     is zero. Both are reported, under their own names."""
     totals, nodes = noise_report.tables["totals"], noise_report.tables["nodes"]
     noisy = totals[totals["sigma"] > 0]
-    assert len(noisy) == 2
-    for _, row in noisy.iterrows():
-        part = nodes[nodes["inputs"] == row["inputs"]]
+    assert len(noisy) == 4 and noisy["training"].value_counts().to_dict() == {"clean": 2,
+                                                                              "noisy": 2}
+    for _, row in noisy[noisy["training"] == "clean"].iterrows():
+        part = nodes[(nodes["inputs"] == row["inputs"]) & (nodes["training"] == "clean")]
         live = _contact(part)
         std = part["std"].to_numpy()[live]
         x, y = part["x"].to_numpy()[live], part["y"].to_numpy()[live]
@@ -131,7 +132,8 @@ def test_noise_components_are_chosen_by_leave_one_out_and_reported(noise_report,
         row = cv[(cv["inputs"] == "displacement") & (cv["n_components"] == a)]
         assert row["mse_mean"].item() == pytest.approx(np.mean(errs), rel=1e-8)
     totals = noise_report.tables["totals"]
-    assert totals["model"].str.contains("components").sum() == 4  # two rows per input set
+    # per input set: noise-free, noisy (clean training), noisy (noisy training)
+    assert totals["model"].str.contains("components").sum() == 6
     summary = (noise_report.out / "summary.md").read_text()
     assert "leave-one-out" in summary and "cross-validation" in summary.lower()
 
@@ -143,3 +145,30 @@ def test_noise_components_given_are_reported_as_given(thesis_store, tmp_path):
     assert models["n_components"].tolist() == [3, 3]
     assert models["chosen_by"].str.contains("given").all()
     assert "cross_validation" not in report.tables
+
+
+def test_noise_reports_clean_and_noisy_training_side_by_side(noise_report, thesis_store,
+                                                             tmp_path):
+    """Issue 25: every table has a ``training`` column; the clean rows are the thesis'
+    setting, unchanged by the noisy-training run; the summary states both and their ratio."""
+    ds = data.load(thesis_store)
+    clean_only = noise.run(ds, tmp_path, multipliers=(0.0, 1.0), draws=400, seed=2,
+                           train_noise=False)
+    for name in ("totals", "nodes", "sweep"):
+        both, alone = noise_report.tables[name], clean_only.tables[name]
+        assert set(alone["training"]) <= {"", "clean"}
+        kept = both[both["training"] != "noisy"].reset_index(drop=True)
+        pd.testing.assert_frame_equal(kept, alone)
+    sweep = noise_report.tables["sweep"]
+    noisy = sweep[sweep["training"] == "noisy"]
+    assert len(noisy) == len(sweep) / 2 and noisy["Fz_nodal_avg_std_analytic"].isna().all()
+    assert (noisy.loc[noisy["multiplier"] == 0, "Fz_nodal_avg_std"] == 0).all()
+    clean = sweep[sweep["training"] == "clean"]
+    at = noisy["multiplier"] == 1.0
+    ratio = noisy.loc[at, "Fz_nodal_avg_std"].to_numpy() / clean.loc[
+        clean["multiplier"] == 1.0, "Fz_nodal_avg_std"].to_numpy()
+    assert np.all(ratio > 0) and not np.allclose(ratio, 1.0, rtol=0.02)
+    summary = (noise_report.out / "summary.md").read_text()
+    assert "Noise in training (issue 25)" in summary and "noisy/clean" in summary
+    for name, r in zip(noise_report.tables["models"]["inputs"], ratio, strict=True):
+        assert f"{name} {r:.2f}" in summary

@@ -99,6 +99,12 @@ def test_table_5_1_is_one_table_with_the_thesis_values_in_it(report):
     assert "PLSR from displacement + noise σ = 1 mm" in cases
     noisy = table[1 + cases.index("PLSR from displacement + noise σ = 1 mm")]
     assert noisy[table[0].index("thesis ± Fz N")] == "133.1"
+    # issue 25: noisy training sits beside the clean ±, on the same row, not as new rows
+    assert len(cases) == len(set(cases)) == 5
+    both = noisy[table[0].index("± Fz N")], noisy[table[0].index(table_5_1.NOISY_TRAINING)]
+    assert readable.MISSING not in both and both[0] != both[1]
+    free = table[1 + cases.index("PLSR from displacement, noise-free")]
+    assert free[table[0].index(table_5_1.NOISY_TRAINING)] == readable.MISSING
 
 
 def test_findings_come_first_and_hold_every_chapters_headline(report):
@@ -161,3 +167,18 @@ def test_table_5_1_matches_the_thesis_row_by_input_set_and_noise():
     assert table["± Fz N"].isna().tolist() == [True, True, False]
     assert table.loc[2, "thesis ± Fz N"] == 149.28
     assert table.loc[2, "case"] == "PLSR from strain + noise σ = 0.04 % strain (σ = 0.0004)"
+    assert table[table_5_1.NOISY_TRAINING].isna().all()  # no training column: all clean
+
+
+def test_table_5_1_puts_noisy_training_beside_the_clean_row():
+    totals = pd.DataFrame({
+        "case": ["reference", "strain", "strain + N(0, 0.0004)", "strain + N(0, 0.0004)"],
+        "training": ["", "clean", "clean", "noisy"], "inputs": ["", "strain", "strain",
+                                                                "strain"],
+        "sigma": [0.0, 0.0, 4e-4, 4e-4], "Fz": [4400.0, 4410.0, 4420.0, 4300.0],
+        "Mx": [0.0] * 4, "My": [0.0] * 4, "Fz_nodal_avg_std": [0.0, 0.0, 150.0, 90.0]})
+    table = table_5_1.beside_thesis(totals)
+    assert len(table) == 3  # the noisy-training row is merged, not listed
+    assert table.loc[2, "Fz N"] == 4420.0 and table.loc[2, "± Fz N"] == 150.0
+    assert table.loc[2, table_5_1.NOISY_TRAINING] == 90.0
+    assert table[table_5_1.NOISY_TRAINING].iloc[:2].isna().all()

@@ -661,7 +661,7 @@ class Recorder:
 
 @pytest.fixture(scope="module")
 def analysis_store(tmp_path_factory) -> Path:
-    from analysis.synthetic import make_store
+    from tests.synthetic import make_store
 
     path = tmp_path_factory.mktemp("fuzz-store") / "synthetic.zarr"
     make_store(path, n_experiments=7, rows=4, cols=8, tread_rows=3, tread_cols=6)

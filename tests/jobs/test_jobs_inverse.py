@@ -456,11 +456,15 @@ def test_farm_invert_reports_from_the_stored_group(stored, tmp_path):
 
     from rich.console import Console
 
-    from tyre_farm_cli.invert import _report
+    from tyre_farm_cli.frames import print_frame
+    from tyre_farm_cli.invert import TITLES, _report
 
     study = stored[0]
     out = io.StringIO()
-    figures = _report(Console(file=out, width=200), study.store, study.group, tmp_path / "r")
+    frames, figures = _report(study.store, study.group, tmp_path / "r")
+    console = Console(file=out, width=200)
+    for name, frame in frames["views"].items():  # what `farm invert` prints of them
+        print_frame(console, TITLES[name], frame)
     text = out.getvalue()
     assert "Tables 4.1/4.3" in text and "72 ± 2.8" in text and "358.28 ± 0.4" in text
     for name in ("forces", "rmse", "nodal_errors", "cost", "per_solve", "guesses"):

@@ -174,9 +174,9 @@ def test_files_that_are_not_regular_are_refused_without_reading(tmp_path, kind):
 
 
 def test_a_study_file_over_the_size_limit_is_refused(tmp_path):
-    from jobs import validate
+    from jobs.validate import limits
 
-    text = study_text(tmp_path / "s.zarr") + "#" * validate.MAX_FILE_BYTES
+    text = study_text(tmp_path / "s.zarr") + "#" * limits.MAX_FILE_BYTES
     with pytest.raises(StudyError, match="larger than 1 MiB"):
         load_study(_write(tmp_path, text))
 
@@ -289,13 +289,13 @@ def test_pressures_are_bounded_in_kpa():
     ("tcp://[::1:8786", False), ("", False), ("tcp://host:8786/x", False),
 ])
 def test_scheduler_addresses(address, ok):
-    from jobs import validate
+    from jobs.validate import addresses
 
     if ok:
-        assert validate.scheduler_address(address) == address
+        assert addresses.scheduler_address(address) == address
     else:
         with pytest.raises(StudyError, match="--scheduler: "):
-            validate.scheduler_address(address)
+            addresses.scheduler_address(address)
 
 
 @pytest.mark.parametrize("argv", [["--workers", "-3"], ["--workers", "0"],

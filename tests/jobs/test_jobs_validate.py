@@ -1,10 +1,12 @@
 """jobs.validate: one rule per kind of value, shared by study files and the CLI."""
 
 import ast
+import dataclasses
 import itertools
 import math
 import re
 import textwrap
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -12,13 +14,15 @@ from conftest import study_text
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from farm import overrides
 from farm.errors import SpecError
 from farm.presets import default_model
-from farm.specs import SolverSettings
-from jobs import validate as v
+from farm.reinforcement import Cords, Reinforcement
+from farm.specs import ModelSpec, SolverSettings
 from jobs.errors import StudyError
 from jobs.inverse.study import parse_inverse_study
 from jobs.study import parse_study
+from jobs.validate import limits, lists, locations, scalars, spec_tables
 from tyre_farm_cli import main
 from tyre_farm_cli.params import build_model, parse_range
 
@@ -41,11 +45,11 @@ def test_both_range_syntaxes_give_the_same_values(start, count, step, extra):
     text = f"{start}:{stop!r}:{step}"
     table = {"start": start, "stop": stop, "step": step}
     cli = parse_range(text)
-    assert cli == v.values_from_text(text, "d") == v.values(table, "d")
+    assert cli == parse_range(text, "d") == lists.values(table, "d")
     assert len(cli) == count + 1 and cli[0] == start
     assert cli[-1] <= stop + 1e-9 and stop - cli[-1] < step
     assert all(b - a == pytest.approx(step) for a, b in itertools.pairwise(cli))
-    assert all(x == round(x, v.DECIMALS) for x in cli)
+    assert all(x == round(x, limits.DECIMALS) for x in cli)
     if stop < 70:  # the tyre takes it: the same values out of a whole study file
         assert sweep(f"{{ start = {start}, stop = {stop!r}, step = {step} }}").deflections == cli
 
@@ -74,7 +78,7 @@ def test_the_cli_string_and_the_study_table_agree(text, toml):
 ])
 def test_bad_ranges_name_the_key_the_value_and_the_rule(value, match):
     with pytest.raises(StudyError, match=match):
-        v.values(value, "d")
+        lists.values(value, "d")
 
 
 @pytest.mark.parametrize(("text", "match"), [
@@ -95,32 +99,32 @@ def test_a_huge_cli_range_is_one_line_not_a_memory_error(capsys):
 
 
 def test_bounds_apply_to_every_value_of_every_form():
-    assert v.values([0, 5], "d", low=0) == (0.0, 5.0)
+    assert lists.values([0, 5], "d", low=0) == (0.0, 5.0)
     for value, where in (([5, 0], r"d\[1\]"), ({"start": 0, "stop": 5, "step": 5}, r"d\.start"),
                          (0, "d")):
         with pytest.raises(StudyError, match=f"{where}: must be > 0, got 0"):
-            v.values(value, "d", low=0, strict=True)
+            lists.values(value, "d", low=0, strict=True)
 
 
 # ------------------------------------------------------------------------------ scalars
 
 
 @pytest.mark.parametrize(("call", "match"), [
-    (lambda: v.number(True, "k"), "k: must be a number, got True"),
-    (lambda: v.number(math.inf, "k"), "k: must be a number, got inf"),
-    (lambda: v.number(2, "k", low=0, high=1, strict=True), r"k: must be in \(0, 1\], got 2"),
-    (lambda: v.integer(1.0, "k"), "k: must be an integer, got 1.0"),
-    (lambda: v.integer(0, "k", low=1), "k: must be an integer >= 1, got 0"),
-    (lambda: v.integer(7, "k", low=1, high=5), r"k: must be an integer in \[1, 5\], got 7"),
-    (lambda: v.boolean(1, "k"), "k: must be true or false, got 1"),
-    (lambda: v.choice("c", "k", ("a", "b")), "k: must be one of a, b, got 'c'"),
-    (lambda: v.choices(["a", "c"], "k", ("a", "b")), "k: must list a, b; got 'c'"),
-    (lambda: v.choices([], "k", ("a",)), "k: must be a non-empty list"),
-    (lambda: v.string("  ", "k", "a path", blank=False), "k: must be a path, got '  '"),
-    (lambda: v.identifier("../x", "k"), "k: must be letters, digits"),
-    (lambda: v.table([], "k", {"a"}), "k: must be a table, got list"),
-    (lambda: v.table({"b": 1}, "k", {"a", "c"}), "k.b: unknown key; allowed: a, c"),
-    (lambda: v.table({}, "k", {"a"}, {"a"}), "k.a: is required"),
+    (lambda: scalars.number(True, "k"), "k: must be a number, got True"),
+    (lambda: scalars.number(math.inf, "k"), "k: must be a number, got inf"),
+    (lambda: scalars.number(2, "k", low=0, high=1, strict=True), r"k: must be in \(0, 1\], got 2"),
+    (lambda: scalars.integer(1.0, "k"), "k: must be an integer, got 1.0"),
+    (lambda: scalars.integer(0, "k", low=1), "k: must be an integer >= 1, got 0"),
+    (lambda: scalars.integer(7, "k", low=1, high=5), r"k: must be an integer in \[1, 5\], got 7"),
+    (lambda: scalars.boolean(1, "k"), "k: must be true or false, got 1"),
+    (lambda: scalars.choice("c", "k", ("a", "b")), "k: must be one of a, b, got 'c'"),
+    (lambda: scalars.choices(["a", "c"], "k", ("a", "b")), "k: must list a, b; got 'c'"),
+    (lambda: scalars.choices([], "k", ("a",)), "k: must be a non-empty list"),
+    (lambda: scalars.string("  ", "k", "a path", blank=False), "k: must be a path, got '  '"),
+    (lambda: scalars.identifier("../x", "k"), "k: must be letters, digits"),
+    (lambda: scalars.table([], "k", {"a"}), "k: must be a table, got list"),
+    (lambda: scalars.table({"b": 1}, "k", {"a", "c"}), "k.b: unknown key; allowed: a, c"),
+    (lambda: scalars.table({}, "k", {"a"}, {"a"}), "k.a: is required"),
 ])
 def test_scalar_errors_name_the_key_the_value_and_what_is_allowed(call, match):
     with pytest.raises(StudyError, match=match):
@@ -128,20 +132,22 @@ def test_scalar_errors_name_the_key_the_value_and_what_is_allowed(call, match):
 
 
 def test_scalars_pass_good_values_through():
-    assert v.number(3, "k", low=0, strict=True) == 3.0 and isinstance(v.number(3, "k"), float)
-    assert v.integer(5, "k", low=1, high=5) == 5
-    assert v.choices(["b", "a", "b"], "k", ("a", "b")) == ("b", "a")
+    assert scalars.number(3, "k", low=0, strict=True) == 3.0
+    assert isinstance(scalars.number(3, "k"), float)
+    assert scalars.integer(5, "k", low=1, high=5) == 5
+    assert scalars.choices(["b", "a", "b"], "k", ("a", "b")) == ("b", "a")
 
 
 # ------------------------------------------------------------------------ model, solver
 
 
 def test_the_model_table_is_a_preset_with_overrides():
-    spec = v.model({"kind": "full", "materials": "thesis-calibrated", "mesh": {"tread": 4}})
+    spec = spec_tables.model({"kind": "full", "materials": "thesis-calibrated",
+                              "mesh": {"tread": 4}})
     preset = default_model("full", "thesis-calibrated")
     assert spec.mesh.tread == 4 and spec.mesh.sidewall == preset.mesh.sidewall
     assert spec.materials == preset.materials
-    regions = v.model({"kind": "full", "materials": {"tread": {"youngs_modulus": 7.5}}})
+    regions = spec_tables.model({"kind": "full", "materials": {"tread": {"youngs_modulus": 7.5}}})
     assert regions.materials.tread.youngs_modulus == 7.5
     assert regions.materials.sidewall == default_model("full").materials.sidewall
 
@@ -149,9 +155,9 @@ def test_the_model_table_is_a_preset_with_overrides():
 def test_the_cli_builds_the_same_model_as_the_study_table():
     cli = build_model("full", "thesis-calibrated", None,
                       ["mesh.tread=4", "materials.bead.youngs_modulus=9"])
-    assert cli == v.override_model(default_model("full", "thesis-calibrated"),
-                                   {"mesh": {"tread": 4},
-                                    "materials": {"bead": {"youngs_modulus": 9}}})
+    assert cli == spec_tables.override_model(default_model("full", "thesis-calibrated"),
+                                             {"mesh": {"tread": 4},
+                                              "materials": {"bead": {"youngs_modulus": 9}}})
     assert cli.materials.bead.youngs_modulus == 9.0
 
 
@@ -164,17 +170,63 @@ def test_the_cli_builds_the_same_model_as_the_study_table():
 ])
 def test_bad_model_tables_name_the_key(table, match):
     with pytest.raises(StudyError, match=match):
-        v.model(table)
+        spec_tables.model(table)
+
+
+@pytest.mark.parametrize("kind", ["reduced", "full"])
+@pytest.mark.parametrize("materials", ["table-3.1", "cord-reinforced"])
+def test_the_model_table_takes_every_field_of_model_spec(kind, materials):
+    """Every field of ModelSpec is a key of the study's [model] table, on every preset
+    (issue 25: a hand-kept key list once left ``reinforcement`` out, and a cordless
+    preset refused it as an unknown key)."""
+    spec = replace(default_model(kind, materials), reinforcement=Reinforcement(
+        belt=Cords(modulus=100.0, diameter=0.9, spacing=1.8, angle=25.0), tension_only=True))
+    editable = spec.editable_dict()
+    table = {f.name: editable[f.name] for f in dataclasses.fields(ModelSpec)}
+    assert spec_tables.model(table) == spec
+
+
+def test_a_study_gives_a_cordless_preset_cords_through_its_model_table(tmp_path):
+    """``[model.reinforcement]`` on the cordless default: the default cords, changed
+    where the table says, as ``--set reinforcement.<key>`` gives them."""
+    text = study_text(tmp_path / "s.zarr").replace(
+        "\n[loads]", "[model.reinforcement]\ntension_only = true\n"
+        "[model.reinforcement.belt]\nplies = 3\n\n[loads]")
+    model = parse_study(text, "s.toml").model
+    assert model.reinforcement == replace(Reinforcement(), tension_only=True, belt=replace(
+        Reinforcement().belt, plies=3))
+    assert model.materials == default_model("reduced").materials
+    assert model == build_model("reduced", "table-3.1", "contact", [
+        "reinforcement.tension_only=true", "reinforcement.belt.plies=3", "mesh.tread=4",
+        "mesh.sidewall=2", "mesh.bead=1", "mesh.circumferential=8"])
+    with pytest.raises(StudyError, match=r"model\.reinforcement\.tension: unknown key; "
+                                         r"allowed: belt, belt_layout, carcass, tension_only"):
+        spec_tables.model({"kind": "full", "reinforcement": {"tension": True}})
+
+
+@pytest.mark.parametrize("table", [
+    {"kind": "half"}, {"kind": "full", "materials": "steel"}, {"kind": "full", "tyre": 1},
+    {"kind": "full", "mesh": {"treads": 3}}, {"kind": "full", "mesh": [1] * 100},
+    {"kind": "full", "reinforcement": {"belt": {"plies": "x" * 200}}}, {},
+])
+def test_farm_and_the_study_table_give_the_same_line(table):
+    """farm raises its SpecError, a study its StudyError: the user reads one line."""
+    with pytest.raises(SpecError) as farm_error:
+        overrides.model(table)
+    with pytest.raises(StudyError) as study_error:
+        spec_tables.model(table)
+    assert str(farm_error.value) == str(study_error.value)
+    assert str(farm_error.value).startswith("model.")
 
 
 def test_the_solver_table():
-    s = v.solver({"timeout_s": 60, "threads": 2, "max_path_length": 3,
-                  "retry_smaller_increments": False})
+    s = spec_tables.solver({"timeout_s": 60, "threads": 2, "max_path_length": 3,
+                            "retry_smaller_increments": False})
     assert (s.settings.timeout, s.settings.threads, s.max_path_length,
             s.retry_smaller_increments) == (60.0, 2, 3, False)
-    assert v.solver({}) == v.SolverTable(SolverSettings())
+    assert spec_tables.solver({}) == spec_tables.SolverTable(SolverSettings())
     with pytest.raises(StudyError, match=r"solver\.threads: must be an integer >= 1, got 0"):
-        v.solver({"threads": 0})
+        spec_tables.solver({"threads": 0})
 
 
 # ------------------------------------------------- every study kind names the bad key
@@ -209,8 +261,11 @@ def test_a_bad_value_in_an_inverse_study_names_the_key(extra, needle):
 # ------------------------------------------------------------------- no private imports
 
 
-@pytest.mark.parametrize("module", ["jobs/study.py", "jobs/inverse/study.py", "jobs/validate.py",
-                                    "tyre_farm_cli/params.py"])
+@pytest.mark.parametrize("module", ["jobs/study.py", "jobs/inverse/study.py",
+                                    *sorted(str(p.relative_to(ROOT))
+                                            for p in (ROOT / "jobs/validate").glob("*.py")),
+                                    "farm/overrides.py", "tyre_farm_cli/params.py",
+                                    "tyre_farm_cli/checks.py"])
 def test_study_parsers_import_nothing_private(module):
     tree = ast.parse((ROOT / module).read_text())
     private = [f"{node.module}.{alias.name}" for node in ast.walk(tree)
@@ -230,18 +285,18 @@ def test_study_parsers_import_nothing_private(module):
 ])
 def test_store_paths_that_read_other_than_they_are_are_refused(text, needle, tmp_path):
     with pytest.raises(StudyError, match=re.escape(needle)):
-        v.store_location(text, "study.store", tmp_path)
+        locations.store_location(text, "study.store", tmp_path)
 
 
 def test_a_store_through_a_dangling_symlink_is_refused(tmp_path):
     (tmp_path / "link").symlink_to(tmp_path / "nowhere")
     with pytest.raises(StudyError, match=r"is a symbolic link to .*nowhere, which does not exist"):
-        v.store_location(str(tmp_path / "link" / "x.zarr"), "study.store")
+        locations.store_location(str(tmp_path / "link" / "x.zarr"), "study.store")
     (tmp_path / "nowhere").mkdir()  # the same link, its target made: accepted
-    assert v.store_location(str(tmp_path / "link" / "x.zarr"), "study.store")
+    assert locations.store_location(str(tmp_path / "link" / "x.zarr"), "study.store")
 
 
 def test_zarr_json_is_no_group_name():
     with pytest.raises(StudyError, match="Zarr's own metadata file"):
-        v.identifier("zarr.json", "study.group")
-    assert v.identifier("zarr.json2", "study.group") == "zarr.json2"
+        scalars.identifier("zarr.json", "study.group")
+    assert scalars.identifier("zarr.json2", "study.group") == "zarr.json2"

@@ -180,7 +180,7 @@ def test_analyse_refuses_a_tls_scheduler_without_certificates(tmp_path, capsys):
 
 
 def test_analyse_runs_on_a_tls_scheduler(tls_scheduler, certs, tmp_path, capsys):
-    from analysis.synthetic import make_store
+    from tests.synthetic import make_store
 
     store = tmp_path / "s.zarr"
     make_store(store, n_experiments=6, rows=4, cols=8, tread_rows=3, tread_cols=6)

@@ -47,8 +47,9 @@ def test_dataset_is_labelled_with_units(filled):
     assert ds["displacement"].dims == ("experiment", "inner_node", "component")
     assert ds["strain"].dims == ("experiment", "inner_node", "strain_component")
     assert ds["reaction_force"].dims == ("experiment", "tread_node", "component")
+    # the load case: one index over both parameters (issue 25, test_store_index.py)
     assert set(ds.indexes) == {"experiment", "inner_node", "component", "tread_node",
-                               "strain_component"}
+                               "strain_component", "deflection", "pressure"}
     units = {**{n: v.units for n, v in FIXED_VARIABLES.items()}, **KNOWN_PARAMETER_UNITS}
     # a vertical group: no combined-load variables (those are created by reserve only
     # for combined-load studies, tests/storage/test_store_combined.py)

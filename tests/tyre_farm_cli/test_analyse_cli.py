@@ -20,7 +20,7 @@ from analysis.errors import (
     StoreError,
     TooFewExperimentsError,
 )
-from analysis.synthetic import make_store
+from tests.synthetic import make_store
 from tyre_farm_cli.analyse import app
 
 PNG = b"\x89PNG\r\n\x1a\n"
@@ -154,6 +154,8 @@ def test_noise_outputs(outputs, thesis_ds):
         ["sweep.png", "nodes_displacement.png", "nodes_strain.png"],
     )
     sweep = pd.read_csv(out / "sweep.csv")
+    assert set(sweep["training"]) == {"clean", "noisy"}  # issue 25: both, by default
+    sweep = sweep[sweep["training"] == "clean"]  # noisy training has no analytic std
     assert sorted(set(sweep["multiplier"])) == [0.0, 0.5, 1.0, 2.0]  # the thesis level is added
     live = sweep[sweep["sigma"] > 0]
     per_sigma = live["Fz_total_std_analytic"] / live["sigma"]

@@ -7,7 +7,7 @@ import pytest
 from typer.testing import CliRunner
 
 from analysis.errors import NoVarianceError, ParameterError
-from analysis.synthetic import make_combined_store, make_store
+from tests.synthetic import make_combined_store, make_store
 from tyre_farm_cli import main
 from tyre_farm_cli.analyse import app
 

@@ -14,9 +14,9 @@ import zarr
 from typer.testing import CliRunner
 
 from analysis.errors import IncompleteDesignError, ParameterError
-from analysis.synthetic import make_store
 from jobs.design import model_design
 from jobs.study import load_study
+from tests.synthetic import make_store
 from tyre_farm_cli.analyse import app
 
 PNG = b"\x89PNG\r\n\x1a\n"

@@ -4,7 +4,6 @@ own right (held-out maps, totals), the initial guess it gives, and its validatio
 import numpy as np
 import pytest
 
-from analysis.synthetic import make_store
 from jobs.errors import StudyError
 from jobs.inverse.distribution import (
     TyreDistribution,
@@ -13,6 +12,7 @@ from jobs.inverse.distribution import (
     guess_from,
     training_set,
 )
+from tests.synthetic import make_store
 
 SMALL = {"rows": 4, "cols": 6, "tread_rows": 8, "tread_cols": 20}
 
@@ -20,7 +20,7 @@ SMALL = {"rows": 4, "cols": 6, "tread_rows": 8, "tread_cols": 20}
 @pytest.fixture(scope="module")
 def data(tmp_path_factory):
     """25 deflections 10..40 mm at one pressure: an elliptic patch growing with d
-    (analysis.synthetic), plus a failed one that must never be read."""
+    (tests.synthetic), plus a failed one that must never be read."""
     path = tmp_path_factory.mktemp("dist") / "sweep.zarr"
     group = make_store(path, n_experiments=25, n_failed=1, **SMALL)
     return training_set(str(path), group), str(path), group

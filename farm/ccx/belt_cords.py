@@ -1,0 +1,191 @@
+"""Belt members along the cords (``reinforcement.belt_layout = "cords"``, issue 24).
+
+Why: members on the edges of the surface grid give the +-theta belt pair no in-plane
+shear stiffness (:mod:`farm.netting`). Here each ply gets its own members across every
+tread element row of the belt surface: from each node of one of the row's two node rows
+to the point of the other where the line from that node meets it at the ply's angle
+``theta`` to the circumferential direction. That point generally lies between two
+nodes: it is a node of its own, tied by ``*EQUATION`` to the linear interpolation of
+the two (a hexahedron's edge is straight and moves linearly between its nodes, so the
+member's end moves with the rubber as an embedded cord would: the "rebar" idea,
+Helnwein et al. 1993). Snapping the end to the node whose angle is nearest theta
+instead puts the members 2-3 degrees off theta in the ``patch`` mesh's window and much
+more outside it, and its A22 tens of % off (docs/reinforcement.md): whole column
+offsets are too coarse for a 20 degree cord.
+
+Stiffness: a member stands for a quarter of the pair's cords over a tributary area
+``A`` (the spacing of the two node rows times the circumferential width at its start
+node): ``E*A = (S / 4) A / L`` with ``S`` the pair's cord stiffness per width, i.e.
+netting theory at the member's own angle, which equals theta up to the bisection
+tolerance and the curvature of the surface. A quarter, because each ply is two
+families (:data:`FAMILIES`), for the mesh's mirror symmetries. The network then has
+the pair's A11, A22 and A66 (tests/farm/test_reinforcement_cords.py).
+
+Depth: with ``mesh.through >= 2`` the belts lie on the first interior node layer
+outboard of the cavity (:mod:`farm.mesh.layers`), at their depth in the crown rather
+than on the cavity face; those nodes are not measured, so the members join them
+directly. With one element through the wall there is no such layer and the belts stay
+on the cavity face, on the twins of :mod:`farm.ccx.reinforcement`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from farm.errors import MeshError
+from farm.mesh.tyremesh import TyreMesh
+from farm.specs import ModelSpec
+
+BISECTIONS = 60  # halves the column interval 60 times: far below 1e-9 of a column
+
+
+@dataclass(frozen=True)
+class BeltChords:
+    """The members of both belt plies (:data:`FAMILIES`), one per row of each array.
+
+    ``start``: node id of the member's first end; ``ends`` (n, 2) and ``weight`` (n,):
+    its second end is ``(1 - weight) * ends[:, 0] + weight * ends[:, 1]``; ``ea`` its
+    axial stiffness E*A (N); ``length`` (mm); ``vectors`` (n, 2) its vector in the local
+    (circumferential, meridional) frame; ``area`` (n,) its tributary area (mm^2) and
+    ``strip`` (n,) the element row it crosses.
+    """
+
+    start: np.ndarray
+    ends: np.ndarray
+    weight: np.ndarray
+    ea: np.ndarray
+    length: np.ndarray
+    vectors: np.ndarray
+    area: np.ndarray
+    strip: np.ndarray
+
+
+def belt_grid(spec: ModelSpec, mesh: TyreMesh) -> np.ndarray:
+    """Node ids (rows, columns) of the surface the belts lie on.
+
+    The cavity grid for a one-element wall; else the first interior layer, whose node
+    for the through-wall line from cavity node ``a`` is ``n1 + 1 + rank(a)`` (``n1``
+    nodes of the one-element mesh, lines numbered in order of their cavity node:
+    :func:`farm.mesh.layers.split_wall`). Checked against the geometry.
+    """
+    through = spec.mesh.through
+    inner = mesh.inner_grid
+    if through == 1:
+        return inner
+    order = np.unique(inner)
+    first = mesh.n_nodes - (through - 1) * len(order)
+    grid = first + 1 + np.searchsorted(order, inner)
+    x_in, x_out = mesh.xyz(inner), mesh.xyz(mesh.outer_grid)
+    expected = x_in + (x_out - x_in) / through
+    if np.abs(mesh.xyz(grid) - expected).max() > 1e-6 * np.abs(x_in).max():
+        raise MeshError("the first interior node layer is not where the layered wall "
+                        "puts it (farm.mesh.layers changed?): cannot place the belts")
+    return grid
+
+
+def _tread_strips(spec: ModelSpec) -> np.ndarray:
+    """Indices of the element rows (-y bead to +y bead) under the tread (thesis §3.2)."""
+    m = spec.mesh
+    first = m.bead + m.sidewall
+    return np.arange(first, first + m.tread)
+
+
+def _along_row(row: np.ndarray, u: np.ndarray, periodic: bool) -> tuple:
+    """Points at continuous column ``u`` of a row of points (C, 3): the two columns
+    each lies between and the weight of the second."""
+    n = len(row)
+    lo = np.floor(u).astype(np.int64)
+    weight = u - lo
+    if periodic:
+        lo, hi = lo % n, (lo + 1) % n
+    else:
+        lo = np.clip(lo, 0, n - 2)
+        weight = u - lo
+        hi = lo + 1
+    point = (1 - weight)[:, None] * row[lo] + weight[:, None] * row[hi]
+    return point, lo, hi, weight
+
+
+def _local(p0: np.ndarray, p1: np.ndarray, up: np.ndarray) -> np.ndarray:
+    """Vectors ``p1 - p0`` in the (circumferential, meridional) frame at their midpoint:
+    circumferential component along (cos phi, 0, sin phi), the rest meridional, signed
+    as its projection on ``up`` (the direction of increasing grid row)."""
+    v = p1 - p0
+    mid = 0.5 * (p0 + p1)
+    phi = np.arctan2(mid[:, 0], -mid[:, 2])
+    vc = v[:, 0] * np.cos(phi) + v[:, 2] * np.sin(phi)
+    vm = np.sqrt(np.maximum(np.einsum("ij,ij->i", v, v) - vc * vc, 0.0))
+    return np.stack([vc, np.copysign(vm, np.einsum("ij,ij->i", v, up))], axis=1)
+
+
+def _widths(points: np.ndarray, periodic: bool) -> np.ndarray:
+    """Circumferential tributary width at each node of a row (half of each side)."""
+    if periodic:
+        seg = np.linalg.norm(np.roll(points, -1, axis=0) - points, axis=1)
+        return 0.5 * (seg + np.roll(seg, 1))
+    seg = np.linalg.norm(np.diff(points, axis=0), axis=1)
+    return 0.5 * (np.concatenate([seg, [0.0]]) + np.concatenate([[0.0], seg]))
+
+
+def _family(p0: np.ndarray, row: np.ndarray, sign: int, angle: float,
+            periodic: bool, up: np.ndarray) -> tuple:
+    """Members from every point of a row ``p0`` (C, 3) to the next row ``row`` (C, 3),
+    their ends ``sign`` (+1: increasing phi) round at ``angle`` to the circumferential
+    (``up``: direction of increasing grid row at each point, for :func:`_local`).
+
+    Bisection on the continuous column of the end: the member's angle to the
+    circumferential direction falls from ~90 degrees (end straight across) as the end
+    moves round. Returns start columns, end lo/hi columns, weights, ends, local vectors.
+    """
+    n = len(p0)
+    cols = np.arange(n, dtype=float)
+    if periodic:
+        near, far = cols, cols + sign * n / 2
+    else:  # a sector: members that would leave it are dropped below
+        near, far = cols, np.full(n, (n - 1) * (sign > 0), dtype=float)
+    target = np.tan(np.radians(angle))
+    for _ in range(BISECTIONS):
+        mid = 0.5 * (near + far)
+        v = _local(p0, _along_row(row, mid, periodic)[0], up)
+        steep = np.abs(v[:, 1]) > target * np.abs(v[:, 0])  # still steeper than theta
+        near, far = np.where(steep, mid, near), np.where(steep, far, mid)
+    end, lo, hi, weight = _along_row(row, 0.5 * (near + far), periodic)
+    vectors = _local(p0, end, up)
+    slope = np.degrees(np.arctan2(np.abs(vectors[:, 1]), np.abs(vectors[:, 0])))
+    ok = np.abs(slope - angle) < 1e-3
+    return np.flatnonzero(ok), lo[ok], hi[ok], weight[ok], end[ok], vectors[ok]
+
+
+FAMILIES = ((0, 1), (1, -1), (0, -1), (1, 1))
+"""(start row of the element row: 0 lower, 1 upper; end direction round). A member
+starts at a node and ends between two: so that the network has the mesh's mirror
+symmetries (y -> -y, phi -> -phi; else the lateral moment of a vertical push is not zero:
+0.3 % of Fz x section width on the coarse mesh), each ply is two families with half the
+stiffness each: +theta from the lower row towards +phi and from the upper row towards
+-phi, -theta their mirror images."""
+
+
+def belt_chords(spec: ModelSpec, mesh: TyreMesh) -> BeltChords:
+    """Both plies' members over the tread rows of :func:`belt_grid`."""
+    assert spec.reinforcement is not None, "cord_lines lays belts in reinforced models only"
+    belt = spec.reinforcement.belt
+    stiffness = belt.modulus * 1e3 * belt.area_per_width  # N/mm, GPa -> MPa
+    grid = belt_grid(spec, mesh)
+    xyz = mesh.nodes[grid - 1]
+    parts = []
+    for i in _tread_strips(spec):
+        spacing = np.linalg.norm(xyz[i + 1] - xyz[i], axis=1)
+        width = 0.5 * (_widths(xyz[i], mesh.periodic) + _widths(xyz[i + 1], mesh.periodic))
+        for up, sign in FAMILIES:
+            a, b = (i + 1, i) if up else (i, i + 1)
+            cols, lo, hi, weight, end, vectors = _family(
+                xyz[a], xyz[b], sign, belt.angle, mesh.periodic, xyz[i + 1] - xyz[i])
+            area = spacing[cols] * width[cols]
+            length = np.linalg.norm(end - xyz[a, cols], axis=1)
+            # a quarter of the pair's cords per family: half a ply, half the area's cords
+            parts.append((grid[a, cols], np.stack([grid[b, lo], grid[b, hi]], axis=1),
+                          weight, 0.25 * stiffness * area / length, length, vectors,
+                          area, np.full(len(cols), i)))
+    return BeltChords(*(np.concatenate(column) for column in zip(*parts, strict=True)))
