@@ -7,6 +7,18 @@ job layer can record them as data instead of crashing a sweep.
 
 from __future__ import annotations
 
+import reprlib
+from typing import Any
+
+_SHORT = reprlib.Repr()
+_SHORT.maxstring = _SHORT.maxother = 60
+_SHORT.maxlevel, _SHORT.maxlist, _SHORT.maxdict = 2, 6, 4
+
+
+def shown(value: Any) -> str:
+    """``repr(value)`` cut short: an error line names a 1 MiB list, it does not print it."""
+    return _SHORT.repr(value)
+
 
 class FarmError(Exception):
     """Base class of every error raised by :mod:`farm`."""

@@ -15,11 +15,10 @@ The one merge behind a study's ``[model]`` table (:mod:`jobs.validate.spec_table
 from __future__ import annotations
 
 import dataclasses
-import reprlib
 from collections.abc import Set as AbstractSet
 from typing import Any, get_args, get_type_hints
 
-from farm.errors import SpecError
+from farm.errors import SpecError, shown
 from farm.presets import MATERIAL_PRESETS, default_model, mesh_presets
 from farm.specs import ModelKind, ModelSpec
 
@@ -48,9 +47,6 @@ OPTIONAL_PARTS = _optional_parts()
 
 # The same cut as jobs.validate.messages.shown: a model table's error reads like the rest
 # of the study file's (farm cannot import jobs).
-_SHORT = reprlib.Repr()
-_SHORT.maxstring = _SHORT.maxother = 60
-_SHORT.maxlevel, _SHORT.maxlist, _SHORT.maxdict = 2, 6, 4
 
 
 def model(data: Any, where: str = "model") -> ModelSpec:
@@ -59,15 +55,15 @@ def model(data: Any, where: str = "model") -> ModelSpec:
     t = _table(data, where, MODEL_KEYS, {"kind"})
     kind = t["kind"]
     if kind not in MODEL_KINDS:
-        raise _fail(f"{where}.kind", f"unknown model {_SHORT.repr(kind)}: choose "
+        raise _fail(f"{where}.kind", f"unknown model {shown(kind)}: choose "
                     f"{' or '.join(map(repr, MODEL_KINDS))}")
     materials = t.get("materials", "table-3.1")
     if isinstance(materials, str) and materials not in MATERIAL_PRESETS:
-        raise _fail(f"{where}.materials", f"unknown preset {_SHORT.repr(materials)}; presets: "
+        raise _fail(f"{where}.materials", f"unknown preset {shown(materials)}; presets: "
                     f"{', '.join(MATERIAL_PRESETS)} (or give a table per region)")
     mesh = t.get("mesh", "thesis")
     if isinstance(mesh, str) and mesh not in mesh_presets(kind):
-        raise _fail(f"{where}.mesh", f"unknown mesh preset {_SHORT.repr(mesh)} for the {kind} "
+        raise _fail(f"{where}.mesh", f"unknown mesh preset {shown(mesh)} for the {kind} "
                     f"model; presets: {', '.join(mesh_presets(kind))} (or give a table of "
                     "counts)")
     base = default_model(kind, materials if isinstance(materials, str) else "table-3.1",
@@ -106,7 +102,7 @@ def _table(data: Any, where: str, allowed: AbstractSet[str],
     """``data`` if it is a table with only ``allowed`` keys and every ``required`` one
     (the messages of :func:`jobs.validate.scalars.table`)."""
     if not isinstance(data, dict):
-        raise _fail(where, f"must be a table, got {type(data).__name__} {_SHORT.repr(data)}")
+        raise _fail(where, f"must be a table, got {type(data).__name__} {shown(data)}")
     unknown = sorted(set(data) - allowed)
     if unknown:
         raise _fail(f"{where}.{unknown[0]}",

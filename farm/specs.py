@@ -15,12 +15,11 @@ import hashlib
 import itertools
 import json
 import math
-import reprlib
 import typing
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, Literal, get_args, get_type_hints
 
-from farm.errors import SpecError
+from farm.errors import SpecError, shown
 from farm.reinforcement import Reinforcement
 from farm.spacing import half_steps
 
@@ -43,13 +42,11 @@ MAX_INCREMENTS = 1_000_000
 MAX_THROUGH = 4  # elements through the wall (issue 15 asks for 2+); 4 keeps the 10 mm
 # sidewall's elements 2.5 mm thick, not slivers, on the coarse meshes
 
-_SHORT = reprlib.Repr()
-_SHORT.maxstring = _SHORT.maxother = 60
 
 
 def _positive(name: str, value: float) -> None:
     if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
-        raise SpecError(f"{name} must be a positive number, got {_SHORT.repr(value)}")
+        raise SpecError(f"{name} must be a positive number, got {shown(value)}")
 
 
 def _within(name: str, value: float, bounds: tuple[float, float], unit: str) -> None:
@@ -57,7 +54,7 @@ def _within(name: str, value: float, bounds: tuple[float, float], unit: str) -> 
     if not (isinstance(value, int | float) and not isinstance(value, bool)
             and math.isfinite(value) and low <= value <= high):
         raise SpecError(f"{name} must be a number in [{low:g}, {high:g}] {unit}, "
-                        f"got {_SHORT.repr(value)}")
+                        f"got {shown(value)}")
 
 
 @dataclass(frozen=True)
@@ -167,7 +164,7 @@ class MeshDensity:
             v = getattr(self, f.name)
             if not (isinstance(v, int) and not isinstance(v, bool) and v >= 1):
                 raise SpecError(f"mesh.{f.name} must be a positive integer, got "
-                                f"{_SHORT.repr(v)}")
+                                f"{shown(v)}")
         if self.tread % 2:
             raise SpecError(
                 f"mesh.tread must be even (a node row on the tyre's centre line), got {self.tread}"
@@ -186,10 +183,10 @@ class MeshDensity:
         w, k = self.window, self.window_elements
         if not (isinstance(w, int | float) and not isinstance(w, bool) and 0 <= w < 180):
             raise SpecError(f"mesh.window must be a number of degrees in [0, 180) (0: a "
-                            f"uniform mesh), got {_SHORT.repr(w)}")
+                            f"uniform mesh), got {shown(w)}")
         if not (isinstance(k, int) and not isinstance(k, bool) and k >= 0):
             raise SpecError(f"mesh.window_elements must be a whole number >= 0, got "
-                            f"{_SHORT.repr(k)}")
+                            f"{shown(k)}")
         if (w == 0) != (k == 0):
             raise SpecError("mesh.window and mesh.window_elements go together: both 0 (a "
                             f"uniform mesh) or both positive, got window={w:g}, "
@@ -231,7 +228,7 @@ class Material:
         nu = self.poisson_ratio
         if not (isinstance(nu, int | float) and -1.0 < nu < 0.5):
             raise SpecError(f"material.poisson_ratio must lie in (-1, 0.5), got "
-                            f"{_SHORT.repr(nu)}")
+                            f"{shown(nu)}")
 
     @property
     def c10(self) -> float:
@@ -509,14 +506,14 @@ class LoadPath:
     def _check_motion(self) -> None:
         if self.motion is not None and not isinstance(self.motion, RoadMotion):
             raise SpecError(f"motion must be a RoadMotion or None, got "
-                            f"{_SHORT.repr(self.motion)}")
+                            f"{shown(self.motion)}")
         if self.motion is not None and self.motion.is_identity:
             object.__setattr__(self, "motion", None)  # the vertical path, same ids
         try:
             f = tuple(float(v) for v in self.motion_fractions)
         except (TypeError, ValueError):
             raise SpecError(f"motion_fractions must be a list of numbers, got "
-                            f"{_SHORT.repr(self.motion_fractions)}") from None
+                            f"{shown(self.motion_fractions)}") from None
         object.__setattr__(self, "motion_fractions", f)
         if f == (1.0,):
             return
@@ -610,14 +607,14 @@ def _check_literal(name: str, value: Any, literal: Any) -> None:
     allowed = get_args(literal)
     if value not in allowed:
         raise SpecError(f"{name} must be one of {', '.join(map(repr, allowed))}, "
-                    f"got {_SHORT.repr(value)}")
+                    f"got {shown(value)}")
 
 
 def _from_dict(cls: type, data: Any, where: str) -> Any:
     """Build a (nested) frozen dataclass from plain data, rejecting unknown keys."""
     if not isinstance(data, dict):
         raise SpecError(f"{where} must be a table of keys, got {type(data).__name__} "
-                        f"{_SHORT.repr(data)}")
+                        f"{shown(data)}")
     hints = get_type_hints(cls)
     names = {f.name for f in dataclasses.fields(cls)}
     unknown = sorted(set(data) - names)
@@ -632,13 +629,13 @@ def _from_dict(cls: type, data: Any, where: str) -> Any:
             value = _from_dict(hint, value, f"{where}.{name}")
         elif typing.get_origin(hint) is tuple:
             if not isinstance(value, list | tuple):
-                raise SpecError(f"{where}.{name} must be a list, got {_SHORT.repr(value)}")
+                raise SpecError(f"{where}.{name} must be a list, got {shown(value)}")
             value = tuple(value)
         elif hint is float and isinstance(value, int) and not isinstance(value, bool):
             value = float(value)
         elif hint in (float, int) and not _is_number(value, hint):
             raise SpecError(f"{where}.{name} must be a {hint.__name__}, "
-                            f"got {_SHORT.repr(value)}")
+                            f"got {shown(value)}")
         kwargs[name] = value
     try:
         return cls(**kwargs)

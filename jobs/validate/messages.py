@@ -9,21 +9,11 @@ from (``loads.deflection_mm.step``, ``conditions[1].repeats``), and raises one
 
 from __future__ import annotations
 
-import reprlib
 from collections.abc import Iterator
 from contextlib import contextmanager
-from typing import Any
 
+from farm.errors import shown  # noqa: F401 (re-exported: the study checks' messages)
 from jobs.errors import StudyError
-
-_SHORT = reprlib.Repr()
-_SHORT.maxstring = _SHORT.maxother = 60
-_SHORT.maxlevel, _SHORT.maxlist, _SHORT.maxdict = 2, 6, 4
-
-
-def shown(value: Any) -> str:
-    """``repr(value)`` cut short: an error line names a 1 MiB list, it does not print it."""
-    return _SHORT.repr(value)
 
 
 def fail(where: str, message: str) -> StudyError:
