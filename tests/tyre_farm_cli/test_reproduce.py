@@ -36,6 +36,12 @@ def test_reproduce_writes_a_complete_report_and_is_idempotent(tmp_path):
             assert frame["weight"].isna().eq(frame["setting"] == "none").all()
             assert frame["thesis_Fz"].isna().eq(frame["condition"] == "distribution").all()
             numeric = numeric.drop(columns=["weight", "thesis_nodal_std", "thesis_Fz"])
+        if "training" in frame:  # noise tables: a refitted model has no analytic std, NaN
+            # exactly on the rows trained on noisy inputs (analysis.noise, issue 25)
+            analytic = [c for c in frame if c.endswith("_analytic")]
+            assert not analytic or frame[analytic].isna().all(axis=1).eq(
+                frame["training"] == "noisy").all(), name
+            numeric = numeric.drop(columns=analytic)
         assert np.isfinite(numeric.to_numpy()).all(), name
     curves = tables["validation__force_deflection_thesis_fig_3_3"]
     assert list(curves["deflection mm"]) == [5, 10, 15, 20, 25, 30, 35, 40]
