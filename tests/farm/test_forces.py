@@ -13,7 +13,7 @@ import pytest
 
 from farm.errors import SpecError
 from farm.experiment import run_load_path
-from farm.measure import measure
+from farm.measure.measurement import measure
 from farm.mesh import mesh_for
 from farm.presets import default_model
 from farm.solve.forces import (

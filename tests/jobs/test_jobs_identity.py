@@ -10,7 +10,7 @@ from conftest import ccx_runs, study_text
 
 import farm.mesh.version as version
 import storage
-from farm.measure import Measurement
+from farm.measure.measurement import Measurement
 from farm.specs import SolverSettings
 from jobs import identity
 from jobs.calibrate.evaluate import curve_evaluation

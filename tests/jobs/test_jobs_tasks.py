@@ -12,7 +12,7 @@ from conftest import study_text
 
 import storage
 from farm.errors import SolverError
-from farm.measure import Measurement
+from farm.measure.measurement import Measurement
 from jobs.expand import experiments, parameters, plan
 from jobs.storeio import ensure_group
 from jobs.study import parse_study
