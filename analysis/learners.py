@@ -1,0 +1,200 @@
+"""Learners that map sensor features to tyre forces, compared side by side (issue 27).
+
+- :class:`PLSCV`: the baseline. PLSR (SIMPLS) on block-scaled inputs and targets
+  (:class:`analysis.combined.BlockRegression`) with the component count chosen by k-fold
+  cross-validation on the training data only. Noisy copies of one experiment are one
+  *group*: they never sit on both sides of a fold, or the CV would score a model on
+  the very experiment it was trained on.
+- :class:`GPOnScores`: a Gaussian process on the PLS scores, the nonlinear learner of
+  the strain-based force-estimation literature (GP regression on reduced features);
+  an anisotropic RBF kernel plus a white-noise term, so the measurement noise in
+  the training data is learned rather than interpolated.
+
+Both follow scikit-learn's conventions (parameters in ``__init__``, ``fit`` returns
+self, learned attributes end in ``_``), so they can be persisted with skops and
+wrapped by :mod:`analysis.predict`.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pandas as pd
+from sklearn.base import BaseEstimator, MultiOutputMixin, RegressorMixin
+from sklearn.exceptions import ConvergenceWarning
+from sklearn.gaussian_process import GaussianProcessRegressor
+from sklearn.gaussian_process.kernels import RBF, ConstantKernel, WhiteKernel
+from sklearn.model_selection import GroupKFold, KFold
+from sklearn.utils.validation import check_is_fitted
+
+from analysis.combined import BlockRegression
+from analysis.errors import ComponentsError, ParameterError
+
+
+class PLSCV(MultiOutputMixin, RegressorMixin, BaseEstimator):
+    """PLSR on block-scaled X and Y, the component count chosen by k-fold CV.
+
+    Parameters
+    ----------
+    max_components : int, default=10
+        Largest count tried (fewer when the folds leave fewer experiments).
+    folds : int, default=5
+    x_blocks, y_blocks : sequence of int, optional
+        Column blocks of X and Y (:class:`analysis.combined.BlockScaler`).
+    seed : int, default=0
+        Shuffles the folds when no groups are given.
+
+    Attributes
+    ----------
+    n_components_ : int
+        The count with the least CV error (block-scaled mean squared error of Y; a tie
+        goes to the smaller count).
+    cv_table_ : pandas.DataFrame
+        ``n_components``, ``mse_mean``, ``mse_std`` over the folds.
+    model_ : BlockRegression
+        Refitted on all of X with ``n_components_``.
+    """
+
+    def __init__(self, max_components=10, folds=5, x_blocks=None, y_blocks=None, seed=0):
+        self.max_components = max_components
+        self.folds = folds
+        self.x_blocks = x_blocks
+        self.y_blocks = y_blocks
+        self.seed = seed
+
+    def fit(self, X, Y, groups=None):
+        """Fit on X (K, n_features), Y (K, n_targets); ``groups`` (K,) keeps the noisy
+        draws of one experiment in one fold. Returns self."""
+        X, Y = np.asarray(X, dtype=float), np.asarray(Y, dtype=float)
+        splits = self._splits(X.shape[0], groups)
+        smallest = min(len(train) for train, _ in splits)
+        top = min(int(self.max_components), smallest - 1)
+        if top < 1:
+            raise ComponentsError(f"{X.shape[0]} rows in {self.folds} folds leave no room "
+                                  "for one PLS component: give more experiments")
+        err = np.empty((len(splits), top))
+        for f, (train, test) in enumerate(splits):
+            err[f] = _fold_errors(X[train], Y[train], X[test], Y[test], top,
+                                  self.x_blocks, self.y_blocks)
+        mean = err.mean(axis=0)
+        self.cv_table_ = pd.DataFrame({"n_components": np.arange(1, top + 1),
+                                       "mse_mean": mean, "mse_std": err.std(axis=0)})
+        self.n_components_ = int(np.argmin(mean) + 1)
+        self.model_ = BlockRegression("plsr", self.n_components_, self.x_blocks,
+                                      self.y_blocks).fit(X, Y)
+        self.n_components_ = self.model_.n_components_
+        return self
+
+    def _splits(self, n: int, groups) -> list[tuple[np.ndarray, np.ndarray]]:
+        dummy = np.zeros(n)
+        if groups is not None:
+            k = len(np.unique(groups))
+            if not 2 <= self.folds <= k:
+                raise ParameterError(f"folds must be between 2 and the {k} training "
+                                     f"experiments, got {self.folds}")
+            return list(GroupKFold(self.folds).split(dummy, groups=groups))
+        if not 2 <= self.folds <= n:
+            raise ParameterError(f"folds must be between 2 and the {n} training rows, "
+                                 f"got {self.folds}")
+        return list(KFold(self.folds, shuffle=True, random_state=self.seed).split(dummy))
+
+    def predict(self, X):
+        """Predictions (K, n_targets) in Y's units."""
+        check_is_fitted(self)
+        return self.model_.predict(X)
+
+    def transform(self, X):
+        """PLS scores (K, n_components_) of block-scaled X."""
+        check_is_fitted(self)
+        return self.model_.model_.transform(self.model_.x_scaler_.transform(X))
+
+
+def _fold_errors(Xf, Yf, Xt, Yt, top: int, x_blocks, y_blocks) -> np.ndarray:
+    """Block-scaled MSE of the held-out rows for 1..top components (one SIMPLS fit:
+    its components are built one after the other)."""
+    fit = BlockRegression("plsr", top, x_blocks, y_blocks).fit(Xf, Yf)
+    pls = fit.model_
+    scores = pls.transform(fit.x_scaler_.transform(Xt))
+    target = fit.y_scaler_.transform(Yt)
+    pred = np.broadcast_to(pls.y_mean_, target.shape).copy()
+    out = np.empty(top)
+    for a in range(top):
+        if a < fit.n_components_:
+            pred += np.outer(scores[:, a], pls.y_loadings_[:, a])
+        out[a] = np.mean((pred - target) ** 2)
+    return out
+
+
+class GPOnScores(MultiOutputMixin, RegressorMixin, BaseEstimator):
+    """Gaussian process regression on PLS scores (nonlinear in the scores).
+
+    Parameters
+    ----------
+    max_components, folds, x_blocks, y_blocks, seed
+        As :class:`PLSCV`, which chooses the scores.
+    restarts : int, default=2
+        Restarts of the kernel's hyper-parameter optimiser.
+
+    Attributes
+    ----------
+    pls_ : PLSCV
+    score_scale_ : ndarray of shape (n_components_,)
+        Standard deviation of each training score (the GP sees unit-variance scores).
+    gp_ : sklearn.gaussian_process.GaussianProcessRegressor
+        Fitted on the scores and the block-scaled targets.
+    bound_warnings_ : list of str
+        scikit-learn's convergence warnings of the kernel fit (a hyper-parameter at its
+        bound), recorded instead of raised.
+    """
+
+    def __init__(self, max_components=10, folds=5, x_blocks=None, y_blocks=None, seed=0,
+                 restarts=2):
+        self.max_components = max_components
+        self.folds = folds
+        self.x_blocks = x_blocks
+        self.y_blocks = y_blocks
+        self.seed = seed
+        self.restarts = restarts
+
+    def fit(self, X, Y, groups=None):
+        """Fit on X (K, n_features), Y (K, n_targets); returns self."""
+        self.pls_ = PLSCV(self.max_components, self.folds, self.x_blocks, self.y_blocks,
+                          self.seed).fit(X, Y, groups)
+        T = self.pls_.transform(X)
+        scale = T.std(axis=0)
+        self.score_scale_ = np.where(scale > 0, scale, 1.0)
+        a = T.shape[1]
+        kernel = (ConstantKernel(1.0, (1e-3, 1e4))
+                  * RBF(np.ones(a), (1e-2, 1e3))
+                  + WhiteKernel(1e-2, (1e-8, 1e1)))
+        self.gp_ = GaussianProcessRegressor(kernel, normalize_y=True,
+                                            n_restarts_optimizer=int(self.restarts),
+                                            random_state=self.seed)
+        # A hyper-parameter at its bound is worth knowing, not worth a warning per fit
+        # in a study of hundreds: kept in ``bound_warnings_``.
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", ConvergenceWarning)
+            self.gp_.fit(T / self.score_scale_, self.pls_.model_.y_scaler_.transform(Y))
+        self.bound_warnings_ = [str(w.message) for w in caught
+                                if issubclass(w.category, ConvergenceWarning)]
+        self.n_components_ = a
+        return self
+
+    def predict(self, X):
+        """Predictions (K, n_targets) in Y's units."""
+        check_is_fitted(self)
+        T = self.pls_.transform(X) / self.score_scale_
+        pred = np.asarray(self.gp_.predict(T)).reshape(T.shape[0], -1)
+        return self.pls_.model_.y_scaler_.inverse_transform(pred)
+
+
+#: learner name -> class (the CLI's ``--learners``)
+LEARNERS = {"plsr": PLSCV, "gp": GPOnScores}
+
+
+def learner(name: str, **params):
+    """A learner by name; unknown names raise :class:`ParameterError` listing the known."""
+    if name not in LEARNERS:
+        raise ParameterError(f"unknown learner {name!r}; known: {', '.join(LEARNERS)}")
+    return LEARNERS[name](**params)
