@@ -17,6 +17,7 @@ from storage.errors import StoreError
 __all__ = [
     "AmbiguousGroupError",
     "AnalysisError",
+    "CloudError",
     "CommonMeshError",
     "ComponentsError",
     "DegenerateDesignWarning",
@@ -24,9 +25,11 @@ __all__ = [
     "EmptySelectionError",
     "IncompleteDesignError",
     "MissingVariableError",
+    "ModelFileError",
     "NoVarianceError",
     "NonFiniteError",
     "ParameterError",
+    "RegistrationError",
     "SchedulerError",
     "SelectionError",
     "StoreError",
@@ -97,6 +100,21 @@ class ParameterError(AnalysisError, ValueError):
 
 class DesignError(ParameterError):
     """A sensitivity design matrix lacks the structure SALib's analysis relies on."""
+
+
+class CloudError(AnalysisError, ValueError):
+    """A point-cloud file cannot be read (missing, empty, not numbers, too large...) or a
+    cloud is unusable (wrong shape, NaN/inf)."""
+
+
+class RegistrationError(AnalysisError, ValueError):
+    """Clouds cannot be registered (too few or degenerate points), or a transform (or its
+    file) is not a rigid/similarity transform."""
+
+
+class ModelFileError(AnalysisError, ValueError):
+    """A saved model cannot be written or loaded safely: missing or corrupt manifest,
+    checksum mismatch, unknown format version, not a skops file, or untrusted types."""
 
 
 class SchedulerError(AnalysisError, ConnectionError):

@@ -20,7 +20,6 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
-import pandas as pd
 from sklearn.base import BaseEstimator, MultiOutputMixin, RegressorMixin
 from sklearn.exceptions import ConvergenceWarning
 from sklearn.gaussian_process import GaussianProcessRegressor
@@ -50,7 +49,7 @@ class PLSCV(MultiOutputMixin, RegressorMixin, BaseEstimator):
     n_components_ : int
         The count with the least CV error (block-scaled mean squared error of Y; a tie
         goes to the smaller count).
-    cv_table_ : pandas.DataFrame
+    cv_table_ : dict of ndarray of shape (n_counts,)
         ``n_components``, ``mse_mean``, ``mse_std`` over the folds.
     model_ : BlockRegression
         Refitted on all of X with ``n_components_``.
@@ -78,8 +77,9 @@ class PLSCV(MultiOutputMixin, RegressorMixin, BaseEstimator):
             err[f] = _fold_errors(X[train], Y[train], X[test], Y[test], top,
                                   self.x_blocks, self.y_blocks)
         mean = err.mean(axis=0)
-        self.cv_table_ = pd.DataFrame({"n_components": np.arange(1, top + 1),
-                                       "mse_mean": mean, "mse_std": err.std(axis=0)})
+        # plain arrays, not a DataFrame: a fitted model is saved with skops
+        self.cv_table_ = {"n_components": np.arange(1, top + 1), "mse_mean": mean,
+                          "mse_std": err.std(axis=0)}
         self.n_components_ = int(np.argmin(mean) + 1)
         self.model_ = BlockRegression("plsr", self.n_components_, self.x_blocks,
                                       self.y_blocks).fit(X, Y)

@@ -35,6 +35,7 @@ from tyre_farm_cli import (
     converge,
     export,
     invert,
+    predict,
     reproduce,
     run,
     sweep,
@@ -93,6 +94,10 @@ app.command("export")(export.export)
 app.command("reproduce")(reproduce.reproduce)
 app.command("converge")(converge.converge)
 app.command("compare")(compare.compare)
+app.command("fit")(predict.fit)
+app.command("measure")(predict.measure)
+app.command("predict")(predict.predict)
+app.command("mismatch")(predict.mismatch)
 app.add_typer(analyse.app, name="analyse", help="Chapter-5 analyses of a store: "
               "cross-covariance PCA, PCR, PLSR, Monte Carlo noise.")
 use_panels(app)  # the cluster options in sections of their own, after each command's

@@ -1,4 +1,4 @@
-"""``farm analyse pca|pcr|plsr|noise|combined STORE``: one command per chapter-5 analysis.
+"""``farm analyse pca|pcr|plsr|noise|combined|sensor STORE``: one command per chapter-5 analysis.
 
 The ``farm`` CLI (:mod:`tyre_farm_cli`) mounts :data:`app` as ``farm analyse`` and turns
 :class:`~analysis.errors.AnalysisError` and :class:`storage.StoreError` into one line on
@@ -432,6 +432,78 @@ def _draws_at_least_one(draws: int) -> int:
     if not 1 <= draws <= MAX_DRAWS:
         raise ParameterError(f"--draws must be in [1, {MAX_DRAWS}], got {draws}")
     return draws
+
+
+# ------------------------------------------------------------------ the sensor (issue 27)
+
+SENSOR_HELP = ("Virtual camera: a preset (t2cam-2017, t2cam-2020, ideal-full), optionally "
+               "with field=value changes, e.g. 't2cam-2017,window_deg=90' "
+               "(docs/sensor.md lists the fields).")
+
+
+@app.command()
+@with_tls
+def sensor(
+    store: Store,
+    group: Group = None,
+    out: Out = None,
+    pressure: Pressure = None,
+    sensor_: Annotated[str, typer.Option("--sensor", help=SENSOR_HELP)] = "t2cam-2017",
+    windows: Annotated[
+        str, typer.Option(help="Windows (degrees about the contact centre) to try, comma "
+                          "list in (0, 360].")
+    ] = "10,20,40,90,360",
+    noises: Annotated[
+        str, typer.Option(help="Position noise levels σ (mm) to try, comma list.")
+    ] = "0,0.5,1,2",
+    spacings: Annotated[
+        str, typer.Option(help="Point spacings (mm) to try, comma list.")
+    ] = "5,10,20",
+    learners: Annotated[
+        str, typer.Option(help="Learners side by side: plsr (CV-chosen count) and gp "
+                          "(Gaussian process on the PLS scores).")
+    ] = "plsr,gp",
+    test_fraction: Annotated[
+        float, typer.Option(help="Share of the experiments held out for testing (seeded).")
+    ] = 0.25,
+    folds: Annotated[int, typer.Option(help="Folds of the grouped CV on the training part.")] = 5,
+    draws: Annotated[
+        int, typer.Option(help="Noisy measurements per experiment (training and test).")
+    ] = 3,
+    seed: Annotated[int, typer.Option(help="Seed of the split, folds and noise.")] = 0,
+    max_components: Annotated[int, typer.Option(help="Largest PLS count the CV tries.")] = 10,
+    scheduler: Scheduler = None,
+    storage_option: StorageOption = None,
+    as_json: Json = False,
+) -> None:
+    """Identifiability vs the sensor: held-out Fx, Fy, Fz, Mz errors over window, noise and
+    point spacing of a virtual T2Cam, PLSR beside a Gaussian process (issue 27)."""
+    from analysis.sensor import sensor_spec
+
+    with usage():
+        spec = sensor_spec(sensor_)
+        axes = dict(windows=_numbers(windows, "--windows", low=1e-9, high=360.0,
+                                     what="angles in (0, 360] degrees"),
+                    noises=_numbers(noises, "--noises", low=0.0),
+                    spacings=_numbers(spacings, "--spacings", low=0.5,
+                                      what="spacings of at least 0.5 mm"))
+        names = tuple(n.strip() for n in learners.split(",") if n.strip())
+        from analysis.learners import learner
+
+        for name in names:
+            learner(name)
+        if not 0.0 < test_fraction < 1.0:
+            raise ParameterError(f"--test-fraction must be in (0, 1), got {test_fraction}")
+        if folds < 2:
+            raise ParameterError(f"--folds must be at least 2, got {folds}")
+        _draws_at_least_one(draws)
+    folder = _out(out, "sensor")
+    with dask_scheduler(scheduler):
+        ds = _load(store, storage_option, group, pressure, None)
+        _done(_study("sensor").run(ds, folder, sensor=spec, learner_names=names,
+                                   test_fraction=test_fraction, folds=folds, draws=draws,
+                                   max_components=max_components, seed=seed, **axes),
+              as_json)
 
 
 # ------------------------------------------------------------------ sensitivity (issue 15)

@@ -207,3 +207,19 @@ def _per_multiple(part: pd.DataFrame, scale: float) -> float | None:
     if not ok.any():
         return None
     return float(part["sigma"].to_numpy()[ok][0] * scale / part["multiplier"].to_numpy()[ok][0])
+
+
+def lines(path: Path, series: Mapping[str, tuple[np.ndarray, np.ndarray]], *, xlabel: str,
+          ylabel: str, title: str, logx: bool = False) -> Path:
+    """One marked line per ``label -> (x, y)`` on one axis (the sensor study's error
+    curves)."""
+    fig, axes = _figure(1, 1, 7, 4.5)
+    ax = axes[0, 0]
+    for label, (x, y) in series.items():
+        ax.plot(x, y, "o-", ms=3, label=label)
+    if logx:
+        ax.set_xscale("log")
+    ax.set(xlabel=xlabel, ylabel=ylabel, title=title)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, ncols=2)
+    return _save(fig, path)

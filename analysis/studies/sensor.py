@@ -1,0 +1,255 @@
+"""`farm analyse sensor`: which forces the camera recovers, as a function of the sensor (issue 27).
+
+Every other analysis reads every inner-surface node exactly. This one measures the
+group's experiments with a virtual T2Cam (:mod:`analysis.sensor`): a window about the
+contact patch, points on a grid of their own, noisy reference and deformed clouds,
+strain by four CSTs from the noisy clouds (thesis §2.2). Around a base sensor it varies
+one thing at a time - the window (10°-360°), the position noise, the point spacing -
+and for each sensor:
+
+- a seeded held-out split of the experiments (the same for every sensor and learner);
+- features of the training experiments from ``draws`` noisy measurements each (what a
+  model trained on measurements sees), and again noise-free (``training`` column), and
+  of the held-out ones from ``draws`` noisy measurements;
+- each learner of :mod:`analysis.learners` (PLSR with the count chosen by grouped CV on
+  the training part; a Gaussian process on the PLS scores) fitted on the same rows;
+- held-out RMSE of Fx, Fy, Fz and Mz as % of each total's range over all selected
+  experiments, beside the published anchors (Fz 1.8, Fy 3, Fx 4.7 %) and issue 27's
+  goals (Fz 1.5, Fy 2.5, Fx 4, Mz 5 %).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import xarray as xr
+
+from analysis import learners
+from analysis.errors import MissingVariableError, ParameterError, TooFewExperimentsError
+from analysis.render import markdown, plots
+from analysis.sensor import InnerSurface, SensorSpec, VirtualSensor
+from analysis.studies.combined import check_combined, split
+from analysis.studies.common import Report
+
+TARGETS = ("Fx", "Fy", "Fz", "Mz")
+UNITS = {"Fx": "N", "Fy": "N", "Fz": "N", "Mz": "N mm"}
+#: published recovery from inner-liner strains (% of range) and issue 27's goals
+ANCHORS = {"Fz": 1.8, "Fy": 3.0, "Fx": 4.7, "Mz": float("nan")}
+GOALS = {"Fz": 1.5, "Fy": 2.5, "Fx": 4.0, "Mz": 5.0}
+WINDOWS = (10.0, 20.0, 40.0, 90.0, 360.0)
+NOISES = (0.0, 0.5, 1.0, 2.0)
+SPACINGS = (5.0, 10.0, 20.0)
+INPUTS = ("displacement", "surface_strain")
+
+
+@dataclass(frozen=True)
+class Setup:
+    """What every sensor of one study shares."""
+
+    train: np.ndarray
+    test: np.ndarray
+    learners: tuple[str, ...]
+    inputs: tuple[str, ...]
+    draws: int
+    folds: int
+    max_components: int
+    seed: int
+
+
+def targets(ds: xr.Dataset) -> np.ndarray:
+    """(K, 4): Fx, Fy, Fz (N) from ``total_force``, Mz (N mm) from ``moment``."""
+    for var in ("total_force", "moment", "displacement"):
+        if var not in ds:
+            raise MissingVariableError(f"group {ds.attrs.get('group', '?')!r} has no {var!r}")
+    f = np.asarray(ds["total_force"].sel(component=["x", "y", "z"]).values, dtype=float)
+    m = np.asarray(ds["moment"].sel(component=["z"]).values, dtype=float)
+    return np.concatenate([f, m], axis=1)
+
+
+def displacements(ds: xr.Dataset) -> np.ndarray:
+    """(K, N, 3) inner-surface displacements in the store's node order."""
+    arr = ds["displacement"].transpose("experiment", "inner_node", "component")
+    return np.asarray(arr.sel(component=["x", "y", "z"]).values, dtype=float)
+
+
+def variants(base: SensorSpec, windows=WINDOWS, noises=NOISES,
+             spacings=SPACINGS) -> list[tuple[str, SensorSpec]]:
+    """(varied axis, sensor): the base sensor, then one axis changed at a time."""
+    out = [("base", base)]
+    out += [("window", replace(base, window_deg=w)) for w in windows if w != base.window_deg]
+    out += [("noise", replace(base, noise_mm=n)) for n in noises if n != base.noise_mm]
+    out += [("spacing", replace(base, spacing_mm=s)) for s in spacings
+            if s != base.spacing_mm]
+    return out
+
+
+def run(
+    ds: xr.Dataset,
+    out: Path,
+    *,
+    sensor: SensorSpec,
+    windows=WINDOWS,
+    noises=NOISES,
+    spacings=SPACINGS,
+    learner_names=("plsr", "gp"),
+    inputs=INPUTS,
+    test_fraction: float = 0.25,
+    folds: int = 5,
+    draws: int = 3,
+    max_components: int = 10,
+    seed: int = 0,
+) -> Report:
+    """Run the sensor study on one loaded group; tables, figures and summary in ``out``."""
+    varying = check_combined(ds)
+    Y = targets(ds)
+    K = Y.shape[0]
+    if 2 * folds > K:
+        raise TooFewExperimentsError(f"the sensor study needs at least {2 * folds} done "
+                                     f"experiments ({folds} CV folds), the selection has {K}")
+    if draws < 1:
+        raise ParameterError(f"draws must be at least 1, got {draws}")
+    for name in learner_names:
+        learners.learner(name)  # unknown names fail here, before any work
+    train, test = split(K, test_fraction, seed)
+    setup = Setup(train, test, tuple(learner_names), tuple(inputs), draws, folds,
+                  max_components, seed)
+    surface = InnerSurface.from_dataset(ds)
+    U = displacements(ds)
+    report = Report(Path(out))
+    rows, points = [], []
+    for k, (axis, spec) in enumerate(variants(sensor, windows, noises, spacings)):
+        virtual = VirtualSensor(spec, surface)
+        points.append({"axis": axis, **spec.to_dict(),
+                       "points": int(np.prod(virtual.layout.xyz.shape[:2]))})
+        rows += _one_sensor(virtual, U, Y, setup, k, axis)
+    errors = pd.DataFrame(rows)
+    report.csv("errors", errors)
+    report.csv("sensors", pd.DataFrame(points))
+    figures = _figures(report, errors, sensor)
+    _summary(report, ds, sensor, errors, setup, varying, figures)
+    return report
+
+
+def _one_sensor(virtual: VirtualSensor, U: np.ndarray, Y: np.ndarray, setup: Setup,
+                k: int, axis: str) -> list[dict]:
+    """Every learner and training of one sensor, on the study's split."""
+    clean = virtual.clean(U)
+    rng = np.random.default_rng([setup.seed, k])
+    noisy = virtual.spec.noise_free() != virtual.spec
+    reps = setup.draws if noisy else 1
+    Xt, blocks = measured_features(virtual, clean[setup.test], reps, rng,
+                                  setup.inputs)
+    Yt = np.tile(Y[setup.test], (reps, 1))
+    span = np.ptp(Y, axis=0)
+    trainings = {"noisy": reps, "noise-free": 0} if noisy else {"noise-free": 0}
+    rows = []
+    for training, n in trainings.items():
+        Xf, _ = measured_features(virtual, clean[setup.train], n, rng, setup.inputs)
+        groups = np.tile(np.arange(setup.train.size), max(n, 1))
+        Yf = np.tile(Y[setup.train], (max(n, 1), 1))
+        for name in setup.learners:
+            model = learners.learner(name, max_components=setup.max_components,
+                                     folds=setup.folds, x_blocks=blocks,
+                                     y_blocks=[1] * len(TARGETS), seed=setup.seed)
+            P = model.fit(Xf, Yf, groups).predict(Xt)
+            rmse = np.sqrt(np.mean((P - Yt) ** 2, axis=0))
+            for j, target in enumerate(TARGETS):
+                rows.append({"axis": axis, **virtual.spec.to_dict(), "training": training,
+                             "learner": name, "n_components": model.n_components_,
+                             "target": target, "unit": UNITS[target],
+                             "rmse": float(rmse[j]), "range": float(span[j]),
+                             "rmse_pct_range": _pct(rmse[j], span[j])})
+    return rows
+
+
+def measured_features(virtual: VirtualSensor, clean: np.ndarray, draws: int,
+                      rng: np.random.Generator, inputs=INPUTS) -> tuple[np.ndarray, list[int]]:
+    """Features of ``draws`` noisy measurements of each experiment, stacked draw by draw,
+    from the point displacements ``clean`` (K, pr, pc, 3) of :meth:`VirtualSensor.clean`;
+    0 draws, or a noise-free sensor: the noise-free measurement once.
+
+    Returns ``(X, blocks)``: X of shape (K x draws, n_features), the column count of each
+    input.
+    """
+    if draws == 0 or virtual.spec.noise_free() == virtual.spec:
+        return virtual.features(*virtual.measure(clean, None), inputs)
+    parts = [virtual.features(*virtual.measure(clean, rng), inputs) for _ in range(draws)]
+    return np.concatenate([p[0] for p in parts]), parts[0][1]
+
+
+def _pct(rmse: float, span: float) -> float:
+    return 100.0 * float(rmse) / float(span) if span > 0 else float("nan")
+
+
+def _figures(report: Report, errors: pd.DataFrame, base: SensorSpec) -> list[Path]:
+    """Error vs window and error vs noise, one line per target and learner (noisy
+    training where the sensor has noise)."""
+    figures = []
+    for axis, column, label in (("window", "window_deg", "window (°)"),
+                                ("noise", "noise_mm", "position noise σ (mm)"),
+                                ("spacing", "spacing_mm", "point spacing (mm)")):
+        sel = errors[errors["axis"].isin(["base", axis])]
+        sel = sel[(sel["training"] == "noisy") | (sel[column] == 0) | ~_noisy(sel)]
+        if sel[column].nunique() < 2:
+            continue
+        series = {f"{t}, {lrn}": (g[column].to_numpy(float), g["rmse_pct_range"].to_numpy())
+                  for (t, lrn), g in sel.sort_values(column).groupby(["target", "learner"])}
+        path = report.out / f"error_vs_{axis}.png"
+        plots.lines(path, series, xlabel=label, ylabel="held-out RMSE (% of range)",
+                    title=f"Held-out error vs {label.split(' (')[0]} (base: {base.name})",
+                    logx=axis == "window")
+        report.files.append(path)
+        figures.append(path)
+    return figures
+
+
+def _noisy(frame: pd.DataFrame) -> pd.Series:
+    cols = [c for c in ("noise_mm", "correlated_mm", "rotation_deg", "scale",
+                        "drop_fraction") if c in frame]
+    return (frame[cols] > 0).any(axis=1)
+
+
+def best_table(errors: pd.DataFrame, axis: str = "base") -> pd.DataFrame:
+    """Held-out % of range per target (rows) and learner x training (columns) for one
+    axis of the study, beside the anchors and goals."""
+    sel = errors[errors["axis"] == axis]
+    table = sel.pivot_table(index="target", columns=["learner", "training"],
+                            values="rmse_pct_range", aggfunc="first")
+    table.columns = [f"{lrn}, trained {tr}" for lrn, tr in table.columns]
+    table = table.reindex(list(TARGETS))
+    table["published anchor"] = [ANCHORS[t] for t in table.index]
+    table["issue 27 goal"] = [GOALS[t] for t in table.index]
+    return table.reset_index()
+
+
+def _summary(report: Report, ds: xr.Dataset, sensor: SensorSpec, errors: pd.DataFrame,
+             setup: Setup, varying: list[str], figures: list[Path]) -> None:
+    lines = [
+        "# Identifiability vs the sensor (issue 27)", "",
+        f"Group {ds.attrs.get('group', '?')!r}: {ds.sizes['experiment']} done experiments, "
+        f"varying {', '.join(varying)}; {setup.train.size} for training, {setup.test.size} "
+        f"held out (seed {setup.seed}); inputs {', '.join(setup.inputs)}; {setup.draws} "
+        "noisy measurements per experiment; learners "
+        f"{', '.join(setup.learners)} (PLSR count by {setup.folds}-fold grouped CV).", "",
+        f"Base sensor `{sensor.name}`: " + ", ".join(
+            f"{k} {v}" for k, v in sensor.to_dict().items() if k != "name"), "",
+        "## Base sensor: held-out RMSE, % of range", "",
+        markdown.table(best_table(errors)), "",
+    ]
+    for axis in ("window", "noise", "spacing"):
+        sel = errors[errors["axis"] == axis]
+        if sel.empty:
+            continue
+        column = {"window": "window_deg", "noise": "noise_mm", "spacing": "spacing_mm"}[axis]
+        wide = sel.pivot_table(index=column, columns=["target", "learner", "training"],
+                               values="rmse_pct_range", aggfunc="first")
+        wide.columns = [", ".join(c) for c in wide.columns]
+        lines += [f"## Varying the {axis}", "", markdown.table(wide.reset_index()), ""]
+    lines += [f"![{p.stem}]({p.name})" for p in figures]
+    path = report.out / "summary.md"
+    path.write_text("\n".join(lines) + "\n")
+    report.files.append(path)
+

@@ -1,0 +1,163 @@
+"""`farm analyse sensor`, `farm fit`, `farm measure`, `farm predict`, `farm mismatch` on
+synthetic combined stores (issue 27): files, intervals that cover, one-line errors."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from tests.synthetic import make_combined_store
+
+SMALL = {"rows": 9, "cols": 24, "tread_rows": 4, "tread_cols": 8}
+#: a cheap sensor: the synthetic surface is a 300 mm cylinder, 200 mm wide
+SENSOR = "t2cam-2017,spacing_mm=20,noise_mm=0.2"
+
+
+@pytest.fixture(scope="module")
+def stores(tmp_path_factory):
+    """Two synthetic combined groups with different field-to-force couplings."""
+    root = tmp_path_factory.mktemp("sensor")
+    make_combined_store(root / "a.zarr", n_experiments=40, seed=1, **SMALL)
+    make_combined_store(root / "b.zarr", n_experiments=12, seed=5, coupling=0.3, **SMALL)
+    return root
+
+
+@pytest.fixture(scope="module")
+def model(stores, tmp_path_factory):
+    out = tmp_path_factory.mktemp("model") / "m"
+    code, stdout, stderr = _cli(["fit", stores / "a.zarr", "--out", out, "--sensor", SENSOR,
+                                 "--folds", 4, "--draws", 2, "--json"])
+    assert code in (0, None), stderr
+    return out, json.loads(stdout)
+
+
+def _cli(argv):
+    import contextlib
+    import io
+
+    from tyre_farm_cli import main
+
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        try:
+            code = main([str(a) for a in argv])
+        except SystemExit as e:
+            code = e.code
+    return code, out.getvalue(), err.getvalue()
+
+
+def test_sensor_study_writes_errors_per_window_noise_spacing(stores, tmp_path):
+    code, _out, err = _cli(["analyse", "sensor", stores / "a.zarr", "--out", tmp_path,
+                           "--sensor", SENSOR, "--windows", "20,360", "--noises", "0,1",
+                           "--spacings", "10", "--learners", "plsr", "--folds", 4,
+                           "--draws", 2])
+    assert code in (0, None), err
+    errors = pd.read_csv(tmp_path / "errors.csv")
+    assert set(errors["axis"]) == {"base", "window", "noise", "spacing"}
+    assert set(errors["target"]) == {"Fx", "Fy", "Fz", "Mz"}
+    assert set(errors["training"]) == {"noisy", "noise-free"}
+    assert (errors["rmse_pct_range"] >= 0).all()
+    # more position noise cannot make the held-out error of the noisy-trained model smaller
+    noise = errors[(errors["axis"].isin(["base", "noise"])) & (errors["target"] == "Fz")
+                   & ((errors["training"] == "noisy") | (errors["noise_mm"] == 0))]
+    by = noise.groupby("noise_mm")["rmse_pct_range"].first()
+    assert by.loc[1.0] > by.loc[0.0]
+    summary = (tmp_path / "summary.md").read_text()
+    assert "published anchor" in summary and "Varying the window" in summary
+    assert (tmp_path / "error_vs_window.png").stat().st_size > 0
+
+
+def test_fit_checks_its_intervals_on_held_out_experiments(model):
+    path, doc = model
+    check = pd.DataFrame(doc["check"])
+    assert list(check["target"]) == ["Fx", "Fy", "Fz", "Mz"]
+    assert (check["nominal_coverage"] == 0.9).all()
+    assert (check["heldout_coverage"] > 0.6).all()  # 20 rows: a loose, honest bound
+    assert (path / "manifest.json").exists()
+
+
+def test_measure_then_predict_recovers_the_forces_within_the_intervals(stores, model,
+                                                                       tmp_path):
+    path, _ = model
+    clouds = tmp_path / "clouds"
+    code, out, err = _cli(["measure", stores / "a.zarr", "--out", clouds, "--sensor", SENSOR,
+                           "--limit", 6, "--seed", 3])
+    assert code in (0, None), err
+    truth = pd.read_csv(clouds / "truth.csv")
+    files = [clouds / f"{e}.csv" for e in truth["experiment"]]
+    code, out, err = _cli(["predict", path, clouds / "reference.csv", *files, "--json"])
+    assert code in (0, None), err
+    pred = pd.DataFrame(json.loads(out)["predictions"])
+    span = np.ptp(truth[["Fx", "Fy", "Fz", "Mz"]].to_numpy(), axis=0)
+    for j, name in enumerate(["Fx", "Fy", "Fz", "Mz"]):
+        err_pct = 100 * np.sqrt(np.mean((pred[name] - truth[name]) ** 2)) / max(span[j], 1e-9)
+        assert err_pct < 25, (name, err_pct)
+    inside = ((pred["Fz_lower"] <= truth["Fz"]) & (truth["Fz"] <= pred["Fz_upper"])).mean()
+    assert inside >= 0.5
+
+
+def test_predict_registers_a_moved_camera_by_icp(stores, model, tmp_path):
+    """The same clouds seen from a camera moved by 2° and 3 mm: --align undoes it."""
+    from analysis.predict.clouds import read_cloud, write_cloud
+
+    path, _ = model
+    clouds = tmp_path / "clouds"
+    _cli(["measure", stores / "a.zarr", "--out", clouds, "--sensor", SENSOR, "--limit", 3])
+    truth = pd.read_csv(clouds / "truth.csv")
+    a = np.radians(2.0)
+    rot = np.array([[np.cos(a), 0, np.sin(a)], [0, 1, 0], [-np.sin(a), 0, np.cos(a)]])
+    moved = []
+    for name in ["reference", *truth["experiment"]]:
+        xyz = read_cloud(clouds / f"{name}.csv") @ rot.T + [3.0, -1.0, 2.0]
+        write_cloud(tmp_path / f"m_{name}.csv", xyz)
+        moved.append(tmp_path / f"m_{name}.csv")
+    runs = {}
+    for flag in ([], ["--align"]):
+        code, out, err = _cli(["predict", path, *moved, "--json", *flag])
+        assert code in (0, None), err
+        runs[bool(flag)] = pd.DataFrame(json.loads(out)["predictions"])
+    direct = _cli(["predict", path, clouds / "reference.csv",
+                   *[clouds / f"{e}.csv" for e in truth["experiment"]], "--json"])[1]
+    base = pd.DataFrame(json.loads(direct)["predictions"])
+    off = np.abs(runs[False]["Fz"] - base["Fz"]).max()
+    aligned = np.abs(runs[True]["Fz"] - base["Fz"]).max()
+    assert aligned < 0.2 * off
+
+
+def test_mismatch_reports_error_growth(stores, model):
+    path, _ = model
+    code, out, err = _cli(["mismatch", path, stores / "b.zarr", "--json"])
+    assert code in (0, None), err
+    table = pd.DataFrame(json.loads(out)["errors"])
+    assert list(table["target"]) == ["Fx", "Fy", "Fz", "Mz"]
+    assert np.isfinite(table["rmse_pct_range"]).all()
+    assert np.isfinite(table["trained_heldout_pct_range"]).all()
+
+
+@pytest.mark.parametrize(("argv", "needle"), [
+    (["analyse", "sensor", "{a}", "--sensor", "t2cam-1999"], "t2cam-1999"),
+    (["analyse", "sensor", "{a}", "--windows", "0,400"], "--windows"),
+    (["analyse", "sensor", "{a}", "--learners", "svm"], "svm"),
+    (["fit", "{a}", "--out", "{tmp}/m", "--learner", "svm"], "svm"),
+    (["predict", "{tmp}/nomodel", "{tmp}/r.csv", "{tmp}/c.csv"], "nomodel"),
+])
+def test_bad_input_is_one_line_and_nothing_is_written(stores, tmp_path, argv, needle):
+    argv = [a.format(a=stores / "a.zarr", tmp=tmp_path) for a in argv]
+    code, _out, err = _cli(argv)
+    assert code not in (0, None)
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1 and needle in lines[0], err
+    assert not (tmp_path / "m").exists()
+
+
+def test_predict_refuses_a_hostile_cloud_in_one_line(model, tmp_path):
+    path, _ = model
+    (tmp_path / "r.csv").write_text("x,y,z\n0,0,0\n1,1,1\n")
+    (tmp_path / "c.csv").write_text("x,y,z\n0,0,nope\n")
+    code, _out, err = _cli(["predict", path, tmp_path / "r.csv", tmp_path / "c.csv"])
+    assert code == 1
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1 and "c.csv" in lines[0], err

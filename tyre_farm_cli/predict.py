@@ -1,0 +1,204 @@
+"""``farm fit``, ``farm measure``, ``farm predict``, ``farm mismatch``: forces from point clouds
+(issue 27).
+
+- ``fit`` trains a force model on a store as a virtual T2Cam measures it and saves it with
+  its manifest (:mod:`analysis.predictor`, :mod:`analysis.predict.persist`);
+- ``measure`` writes what the virtual camera sees of stored experiments as point-cloud
+  files (a reference cloud, one cloud per experiment, and the true forces): example
+  input for ``predict``, and the other side of ``mismatch``;
+- ``predict`` reads measured clouds (CSV or any point format meshio reads), registers
+  them (a given transform, or ICP of the reference cloud onto the model's surface), and
+  prints Fx, Fy, Fz, Mz with conformal prediction intervals;
+- ``mismatch`` applies a model to another store's clouds: the error growth when the
+  tyre is not the one trained on.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import typer
+
+from tyre_farm_cli.analyse import (
+    SENSOR_HELP,
+    Group,
+    Json,
+    Pressure,
+    StorageOption,
+    Store,
+    _load,
+)
+from tyre_farm_cli.checks import output_folder
+from tyre_farm_cli.errors import usage
+
+ModelDir = Annotated[Path, typer.Argument(help="Model folder written by `farm fit`.")]
+
+
+def fit(
+    store: Store,
+    out: Annotated[Path, typer.Option("--out", help="Model folder to write.")],
+    group: Group = None,
+    pressure: Pressure = None,
+    sensor: Annotated[str, typer.Option("--sensor", help=SENSOR_HELP)] = "t2cam-2017",
+    learner: Annotated[str, typer.Option(help="plsr or gp (Gaussian process on the PLS "
+                                         "scores).")] = "plsr",
+    draws: Annotated[int, typer.Option(help="Noisy measurements per experiment.")] = 3,
+    alpha: Annotated[float, typer.Option(help="1 - nominal coverage of the intervals.")] = 0.1,
+    test_fraction: Annotated[float, typer.Option(help="Share held out to check the model "
+                                                 "and its intervals.")] = 0.25,
+    folds: Annotated[int, typer.Option(help="Folds of the grouped CV (count, intervals).")] = 5,
+    seed: Annotated[int, typer.Option(help="Seed of split, folds and noise.")] = 0,
+    storage_option: StorageOption = None,
+    as_json: Json = False,
+) -> None:
+    """Train a force model on a store as a virtual T2Cam sees it; save it with a manifest."""
+    from analysis import predictor
+    from analysis.learners import learner as check_learner
+    from analysis.sensor import sensor_spec
+
+    with usage():
+        spec = sensor_spec(sensor)
+        check_learner(learner)
+        output_folder(out, "--out")
+    ds = _load(store, storage_option, group, pressure, None)
+    model, check = predictor.fit(ds, spec, learner=learner, draws=draws, alpha=alpha,
+                                 test_fraction=test_fraction, folds=folds, seed=seed)
+    ids = [str(i) for i in np.asarray(ds["experiment"].values)[model.info["train"]]]
+    path = predictor.save(model, out, store=str(store), group=ds.attrs.get("group", "?"),
+                          ids=ids, check=check)
+    if as_json:
+        typer.echo(json.dumps({"model": str(path), "check": check.to_dict("records")},
+                              indent=1))
+        return
+    typer.echo(f"model: {path} ({learner}, sensor {spec.name}, {len(ids)} training "
+               f"experiments x {draws} noisy measurements)")
+    typer.echo(check.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+
+
+def measure(
+    store: Store,
+    out: Annotated[Path, typer.Option("--out", help="Folder for the cloud files.")],
+    group: Group = None,
+    pressure: Pressure = None,
+    sensor: Annotated[str, typer.Option("--sensor", help=SENSOR_HELP)] = "t2cam-2017",
+    limit: Annotated[int | None, typer.Option(help="At most this many experiments.")] = None,
+    seed: Annotated[int, typer.Option(help="Seed of the noise.")] = 0,
+    storage_option: StorageOption = None,
+) -> None:
+    """Write the virtual camera's clouds of stored experiments: reference.csv, one CSV per
+    experiment (named by its id) and truth.csv with the true Fx, Fy, Fz, Mz."""
+    import pandas as pd
+
+    from analysis.predict.clouds import write_cloud
+    from analysis.sensor import InnerSurface, VirtualSensor, sensor_spec
+    from analysis.studies.sensor import TARGETS, displacements, targets
+
+    with usage():
+        spec = sensor_spec(sensor)
+        output_folder(out, "--out")
+        if limit is not None and limit < 1:
+            raise typer.BadParameter(f"--limit must be at least 1, got {limit}")
+    ds = _load(store, storage_option, group, pressure, None)
+    if limit is not None:
+        ds = ds.isel(experiment=slice(0, limit))
+    virtual = VirtualSensor(spec, InnerSurface.from_dataset(ds))
+    rng = np.random.default_rng(seed) if spec.noise_free() != spec else None
+    refs, clouds = virtual.measure(virtual.clean(displacements(ds)), rng)
+    out.mkdir(parents=True, exist_ok=True)
+    write_cloud(out / "reference.csv", refs[0].reshape(-1, 3))
+    ids = [str(i) for i in np.asarray(ds["experiment"].values)]
+    for k, name in enumerate(ids):
+        write_cloud(out / f"{name}.csv", clouds[k].reshape(-1, 3))
+    truth = pd.DataFrame(targets(ds), columns=list(TARGETS)).assign(experiment=ids)
+    truth.to_csv(out / "truth.csv", index=False)
+    typer.echo(f"{len(ids)} clouds of {clouds[0].reshape(-1, 3).shape[0]} points, "
+               f"reference.csv and truth.csv in {out}")
+
+
+def predict(
+    model: ModelDir,
+    reference: Annotated[Path, typer.Argument(help="Reference cloud: the inflated, "
+                                              "unloaded tyre (same points as the clouds).")],
+    clouds: Annotated[list[Path], typer.Argument(help="Measured clouds (CSV, PLY, VTK...).")],
+    transform: Annotated[Path | None, typer.Option(
+        help="Camera-to-model transform: a 4x4 matrix (text) or JSON [default: none].")] = None,
+    align: Annotated[bool, typer.Option(
+        help="Register the reference cloud onto the model's surface by ICP (else the "
+        "clouds are taken as already in the model's frame).")] = False,
+    out: Annotated[Path | None, typer.Option(help="Also write the predictions as CSV [default: print only].")] = None,
+    as_json: Json = False,
+) -> None:
+    """Fx, Fy, Fz, Mz of measured point clouds, with conformal prediction intervals."""
+    from analysis import predictor
+    from analysis.errors import CloudError
+    from analysis.predict.clouds import read_cloud
+    from analysis.predict.registration import icp, read_transform
+    from analysis.sensor import VirtualSensor
+
+    with usage():
+        if transform is not None and align:
+            raise typer.BadParameter("give --transform or --align, not both")
+    fitted, manifest = predictor.load(model)
+    ref = read_cloud(reference)
+    measured = [read_cloud(p) for p in clouds]
+    for path, cloud in zip(clouds, measured, strict=True):
+        if cloud.shape != ref.shape:
+            raise CloudError(f"{path} has {cloud.shape[0]} points, the reference "
+                                     f"{reference} {ref.shape[0]}: a cloud must list the "
+                                     "reference's points in the same order")
+    rms = None
+    if transform is not None:
+        move = read_transform(transform)
+    elif align:
+        target = VirtualSensor(fitted.sensor, fitted.surface).layout.xyz.reshape(-1, 3)
+        seen = np.isfinite(ref).all(axis=1)
+        move, rms = icp(ref[seen], target)
+    else:
+        move = None
+    if move is not None:
+        ref, measured = move.apply(ref), [move.apply(c) for c in measured]
+    table = fitted.predict_clouds(ref, measured)
+    table.insert(0, "cloud", [str(p) for p in clouds])
+    if out is not None:
+        table.to_csv(out, index=False)
+    if as_json:
+        typer.echo(json.dumps({"model": str(model), "alpha": fitted.intervals.alpha,
+                               "registration_rms_mm": rms,
+                               "predictions": table.to_dict("records")}, indent=1))
+        return
+    level = 100 * (1 - fitted.intervals.alpha)
+    typer.echo(f"model {model} (sensor {manifest['sensor'].get('name')}); intervals: "
+               f"{level:g} % conformal" + ("" if rms is None else
+                                           f"; ICP residual {rms:.3g} mm"))
+    typer.echo(table.to_string(index=False, float_format=lambda v: f"{v:.5g}"))
+
+
+def mismatch(
+    model: ModelDir,
+    store: Store,
+    group: Group = None,
+    pressure: Pressure = None,
+    draws: Annotated[int, typer.Option(help="Noisy clouds per experiment.")] = 1,
+    seed: Annotated[int, typer.Option(help="Seed of the noise.")] = 0,
+    storage_option: StorageOption = None,
+    as_json: Json = False,
+) -> None:
+    """Apply a model to the clouds of another store (another model of the tyre): the error
+    growth beside the model's own held-out error."""
+    from analysis import predictor
+    from analysis.mismatch import mismatch as run
+
+    fitted, manifest = predictor.load(model)
+    ds = _load(store, storage_option, group, pressure, None)
+    table, _, _ = run(fitted, ds, draws=draws, seed=seed)
+    if as_json:
+        typer.echo(json.dumps({"model": str(model), "trained_on": manifest.get("group"),
+                               "applied_to": ds.attrs.get("group"),
+                               "errors": table.to_dict("records")}, indent=1))
+        return
+    typer.echo(f"trained on {manifest.get('store')} group {manifest.get('group')!r}; "
+               f"applied to {store} group {ds.attrs.get('group')!r}")
+    typer.echo(table.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
