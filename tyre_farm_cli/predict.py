@@ -128,7 +128,8 @@ def predict(
     align: Annotated[bool, typer.Option(
         help="Register the reference cloud onto the model's surface by ICP (else the "
         "clouds are taken as already in the model's frame).")] = False,
-    out: Annotated[Path | None, typer.Option(help="Also write the predictions as CSV [default: print only].")] = None,
+    out: Annotated[Path | None, typer.Option(
+        help="Also write the predictions as CSV [default: print only].")] = None,
     as_json: Json = False,
 ) -> None:
     """Fx, Fy, Fz, Mz of measured point clouds, with conformal prediction intervals."""
