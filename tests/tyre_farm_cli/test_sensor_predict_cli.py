@@ -161,3 +161,17 @@ def test_predict_refuses_a_hostile_cloud_in_one_line(model, tmp_path):
     assert code == 1
     lines = [line for line in err.splitlines() if line.strip()]
     assert len(lines) == 1 and "c.csv" in lines[0], err
+
+
+def test_a_gp_model_saves_loads_and_predicts(stores, tmp_path):
+    out = tmp_path / "gp"
+    code, stdout, err = _cli(["fit", stores / "a.zarr", "--out", out, "--sensor", SENSOR,
+                              "--learner", "gp", "--folds", 4, "--draws", 2, "--json"])
+    assert code in (0, None), err
+    clouds = tmp_path / "clouds"
+    _cli(["measure", stores / "a.zarr", "--out", clouds, "--sensor", SENSOR, "--limit", 2])
+    truth = pd.read_csv(clouds / "truth.csv")
+    code, stdout, err = _cli(["predict", out, clouds / "reference.csv",
+                              *[clouds / f"{e}.csv" for e in truth["experiment"]], "--json"])
+    assert code in (0, None), err
+    assert len(json.loads(stdout)["predictions"]) == 2
