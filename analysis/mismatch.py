@@ -29,8 +29,9 @@ def mismatch(model: ForceModel, ds: xr.Dataset, *, draws: int = 1,
     Returns
     -------
     table : pandas.DataFrame
-        Per target: RMSE and % of the other group's range, interval coverage, and the
-        trained model's own held-out % (``model.info["check"]`` when saved with it).
+        Per target: RMSE and % of the training group's range (``model.info["range"]``),
+        mean error (bias), interval coverage, and the trained model's own held-out %
+        (``model.info["check"]`` when saved with it) and the ratio of the two.
     truth, predicted : ndarray of shape (K x draws, 4)
     """
     other = VirtualSensor(model.sensor, InnerSurface.from_dataset(ds))
@@ -46,7 +47,9 @@ def mismatch(model: ForceModel, ds: xr.Dataset, *, draws: int = 1,
             truth.append(Y[k])
     P = model.predict_features(np.concatenate(rows))
     T = np.asarray(truth)
-    span = np.ptp(Y, axis=0)
+    # % of the *training* group's range, so the growth compares like with like (a
+    # small other group has a range of its own); its own range where the model has none
+    span = np.asarray(model.info.get("range", np.ptp(Y, axis=0)), dtype=float)
     own = {r["target"]: r["rmse_pct_range"] for r in model.info.get("check", [])}
     out = []
     for j, name in enumerate(model.targets):

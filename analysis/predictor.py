@@ -117,7 +117,8 @@ def fit(ds: xr.Dataset, sensor: SensorSpec, *, learner: str = "plsr", draws: int
     Yt = np.tile(Y[test], (Xt.shape[0] // test.size, 1))
     model = ForceModel(sensor, surface, estimator, intervals, tuple(inputs),
                        info={"train": train.tolist(), "test": test.tolist(),
-                             "learner": learner, "draws": draws, "seed": seed})
+                             "learner": learner, "draws": draws, "seed": seed,
+                             "range": np.ptp(Y, axis=0).tolist()})
     return model, _check(model, Xt, Yt, np.ptp(Y, axis=0), alpha)
 
 
