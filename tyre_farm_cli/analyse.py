@@ -439,6 +439,7 @@ def _draws_at_least_one(draws: int) -> int:
 SENSOR_HELP = ("Virtual camera: a preset (t2cam-2017, t2cam-2020, ideal-full), optionally "
                "with field=value changes, e.g. 't2cam-2017,window_deg=90' "
                "(docs/sensor.md lists the fields).")
+Sensor = Annotated[str, typer.Option("--sensor", help=SENSOR_HELP)]
 
 
 @app.command()
@@ -448,7 +449,7 @@ def sensor(
     group: Group = None,
     out: Out = None,
     pressure: Pressure = None,
-    sensor_: Annotated[str, typer.Option("--sensor", help=SENSOR_HELP)] = "t2cam-2017",
+    sensor_: Sensor = "t2cam-2017",
     windows: Annotated[
         str, typer.Option(help="Windows (degrees about the contact centre) to try, comma "
                           "list in (0, 360].")

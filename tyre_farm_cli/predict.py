@@ -23,10 +23,10 @@ import numpy as np
 import typer
 
 from tyre_farm_cli.analyse import (
-    SENSOR_HELP,
     Group,
     Json,
     Pressure,
+    Sensor,
     StorageOption,
     Store,
     _load,
@@ -42,7 +42,7 @@ def fit(
     out: Annotated[Path, typer.Option("--out", help="Model folder to write.")],
     group: Group = None,
     pressure: Pressure = None,
-    sensor: Annotated[str, typer.Option("--sensor", help=SENSOR_HELP)] = "t2cam-2017",
+    sensor: Sensor = "t2cam-2017",
     learner: Annotated[str, typer.Option(help="plsr or gp (Gaussian process on the PLS "
                                          "scores).")] = "plsr",
     draws: Annotated[int, typer.Option(help="Noisy measurements per experiment.")] = 3,
@@ -83,7 +83,7 @@ def measure(
     out: Annotated[Path, typer.Option("--out", help="Folder for the cloud files.")],
     group: Group = None,
     pressure: Pressure = None,
-    sensor: Annotated[str, typer.Option("--sensor", help=SENSOR_HELP)] = "t2cam-2017",
+    sensor: Sensor = "t2cam-2017",
     limit: Annotated[int | None, typer.Option(help="At most this many experiments.")] = None,
     seed: Annotated[int, typer.Option(help="Seed of the noise.")] = 0,
     storage_option: StorageOption = None,

@@ -102,13 +102,7 @@ class VirtualSensor:
             Deformed clouds, ``layout.xyz + u`` plus their own noise. Dropped points are
             NaN.
         """
-        u = np.asarray(u_points, dtype=float)
-        if u.ndim == 3:
-            u = u[None]
-        pr, pc = self.layout.shape
-        if u.ndim != 4 or u.shape[1:] != (pr, pc, 3):
-            raise ParameterError(f"point displacements for this sensor must have shape "
-                                 f"(K, {pr}, {pc}, 3), got {np.shape(u_points)}")
+        u = self._on_points(u_points, "point displacements")
         ref = np.broadcast_to(self.layout.xyz, u.shape)
         cur = self.layout.xyz + u
         if rng is None or self.spec.noise_free() == self.spec:
@@ -146,13 +140,8 @@ class VirtualSensor:
         if unknown or not len(inputs):
             raise ParameterError(f"unknown sensor input(s) {', '.join(map(repr, unknown))}; "
                                  f"choose from {', '.join(INPUTS)}")
-        cur = np.asarray(clouds, dtype=float)
-        if cur.ndim == 3:
-            cur = cur[None]
+        cur = self._on_points(clouds, "clouds")
         pr, pc = self.layout.shape
-        if cur.ndim != 4 or cur.shape[1:] != (pr, pc, 3):
-            raise ParameterError(f"clouds for this sensor must have shape (K, {pr}, {pc}, 3), "
-                                 f"got {np.shape(clouds)}")
         ref = np.asarray(ref_clouds, dtype=float)
         if ref.shape == (pr, pc, 3):
             ref = np.broadcast_to(ref, cur.shape)
@@ -166,6 +155,17 @@ class VirtualSensor:
             K, c = field.shape[0], field.shape[-1]
             blocks.append(field.reshape(K, pr * pc, c).transpose(0, 2, 1).reshape(K, -1))
         return np.concatenate(blocks, axis=1), [b.shape[1] for b in blocks]
+
+    def _on_points(self, values, what: str) -> np.ndarray:
+        """``values`` as (K, pr, pc, 3) on this sensor's points ((pr, pc, 3): K = 1)."""
+        arr = np.asarray(values, dtype=float)
+        if arr.ndim == 3:
+            arr = arr[None]
+        pr, pc = self.layout.shape
+        if arr.ndim != 4 or arr.shape[1:] != (pr, pc, 3):
+            raise ParameterError(f"{what} for this sensor must have shape (K, {pr}, {pc}, 3), "
+                                 f"got {np.shape(values)}")
+        return arr
 
     def sample(self, displacement: np.ndarray, rng: np.random.Generator | None = None,
                inputs: Sequence[str] = INPUTS) -> tuple[np.ndarray, list[int]]:
