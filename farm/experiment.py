@@ -114,7 +114,7 @@ def run_load_path(model: ModelSpec, path: LoadPath, settings: SolverSettings | N
     start = time.perf_counter()
     mesh = mesh_for(model)
     solution = solve_path(model, mesh, path, settings, should_stop)
-    measurements = measure(mesh, solution, path.pressure)
+    measurements = measure(mesh, solution, path.pressure, inflated=model.inflated)
     return PathResult(
         model=model, path=path, measurements=tuple(measurements), reference=solution.reference,
         states=solution.states,

@@ -92,7 +92,8 @@ def _write(task: PathTask, exps: list[Experiment], result) -> PathOutcome:
         storage.write_experiment(task.store, task.group, x.id,
                                  {**m.arrays(), **m.combined_arrays()}, {
             "solve_seconds": m.solve_seconds, "increments": result.increments,
-            "ccx_runs": result.ccx_runs, "contact_nodes": m.contact_nodes})
+            "ccx_runs": result.ccx_runs, "contact_nodes": m.contact_nodes,
+            **m.patch_values()})  # contact patch, inflation growth (issue 24)
     return PathOutcome(task.path.key, done=tuple(x.id for x in exps),
                        solve_seconds=result.solve_seconds, ccx_runs=result.ccx_runs)
 

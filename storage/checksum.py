@@ -11,7 +11,9 @@ them), ``"<label>:<data>"``, two blake2b-128 digests in hex:
   :data:`~storage.schema.CHECKED_NAMES`, then those of
   :data:`~storage.schema.COMBINED_NAMES` the group has and the slot records
   (combined-load groups only, so the checksums of every other group are those of
-  before), each as its name, dtype,
+  before), then those of :data:`~storage.schema.PATCH_NAMES` (contact patch, inflation
+  growth: issue 24) the group has and the slot records (groups created before them have
+  none, and their checksums stay those of before), each as its name, dtype,
   shape and C-order little-endian bytes (text as UTF-8, every NaN as the one canonical
   NaN).
 
@@ -36,6 +38,7 @@ from storage.schema import (
     COMBINED_NAMES,
     FIXED_VARIABLES,
     NOT_RECORDED,
+    PATCH_NAMES,
     STATUS_NAMES,
 )
 
@@ -83,16 +86,19 @@ def data_digest(label: str, status: int, values: Mapping[str, np.ndarray]) -> st
     h.update(f"label|{label}|status|{int(status)}|".encode())
     for name in CHECKED_NAMES:
         _feed(h, name, values[name])
-    for name in COMBINED_NAMES:  # only in combined-load groups, and only where recorded
+    # only in groups that have them (combined-load groups; groups created since issue
+    # 24), and only where recorded
+    for name in (*COMBINED_NAMES, *PATCH_NAMES):
         if name in values and not _unrecorded(name, values[name]):
             _feed(h, name, values[name])
     return h.hexdigest()
 
 
 def _unrecorded(name: str, value: object) -> bool:
-    """Whether a combined variable's slot holds only its fill (NaN, -1 for the status):
-    a vertical experiment of a combined group, or one written by a worker whose open
-    arrays predate the group's combined ones. Skipped in the digest, so both read back
+    """Whether a combined or patch variable's slot holds only its fill (NaN, -1 for the
+    status): a vertical experiment of a combined group, a failure, a model without
+    inflation, or one written by a worker whose open arrays predate the group's optional
+    ones. Skipped in the digest, so both read back
     alike; a recorded slot later lost reads as fill and no longer matches."""
     a = np.asarray(value)
     if FIXED_VARIABLES[name].dtype == "int8":

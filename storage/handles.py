@@ -29,7 +29,7 @@ from storage._zarr import AsyncArray, array, async_arrays, read, read_item
 from storage.errors import NotReservedError, reading
 from storage.paths import describe, open_group
 from storage.reserve import read_ids
-from storage.schema import COMBINED_NAMES, EXPERIMENT, WORKER_VARIABLES
+from storage.schema import COMBINED_NAMES, EXPERIMENT, OPTIONAL_NAMES, WORKER_VARIABLES
 
 _MAX_HANDLES = 16
 _HANDLES: OrderedDict[tuple[object, ...], Handle] = OrderedDict()
@@ -44,8 +44,9 @@ class Handle:
     ----------
     arrays : dict of str to zarr.AsyncArray
         ``experiment`` and every worker-written variable the group has (``checksum``
-        is missing from groups written before checksums, the combined-load variables
-        from groups that are not combined-load ones).
+        is missing from groups written before checksums, the patch variables from
+        groups written before issue 24, the combined-load variables from groups that
+        are not combined-load ones).
     index : dict of str to int
         Experiment id -> index, as far as known when loaded.
     params : dict of str to (K,) float64
@@ -83,7 +84,8 @@ def _load(store: Store, group: str) -> Handle:
         ids = read_ids(g)
         members = dict(g.arrays())
         names = [EXPERIMENT.name,
-                 *(v.name for v in WORKER_VARIABLES if v.name != "checksum" or v.name in members),
+                 *(v.name for v in WORKER_VARIABLES
+                   if v.name not in OPTIONAL_NAMES or v.name in members),
                  *(n for n in COMBINED_NAMES if n in members)]  # combined-load groups only
         params = {name: np.asarray(a[...], dtype=np.float64) for name, a in members.items()
                   if a.attrs.get("role") == "parameter"}

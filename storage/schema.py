@@ -19,6 +19,12 @@ Combined loads (issue 13, docs/combined-loads.md): a group whose client reserves
 (created by :func:`storage.reserve`, under the client lock). Every other group, and
 every group written before them, has neither: its bytes, checksums and verification are
 those of before.
+
+Contact patch and inflation growth (issue 24): :data:`PATCH_VARIABLES`, one float64 per
+experiment (NaN: not recorded), are worker variables of every group created since; groups
+created before lack them and stay readable, writable and verifiable as they were (a
+worker writes only the arrays a group has, and a checksum covers these only where the
+group has them and the slot records them, :func:`checked_names`).
 """
 
 from __future__ import annotations
@@ -186,31 +192,62 @@ INFO_VARIABLES = (
        "worker"),
 )
 
+#: Worker variables of the contact patch and the inflation growth (issue 24,
+#: farm.measure.patch), NaN where not recorded (a failure, a group's arrays opened by a
+#: worker that predates them; ``inflation_growth`` of a model without inflation). Groups
+#: created before them lack them: optional, as ``checksum`` is.
+PATCH_VARIABLES = (
+    _v("patch_area", "experiment", "float64", "mm2",
+       "contact patch area: tributary area of the tread nodes carrying road force",
+       "worker"),
+    _v("patch_length", "experiment", "float64", "mm",
+       "contact patch length: extent of the loaded tread nodes along x", "worker"),
+    _v("patch_width", "experiment", "float64", "mm",
+       "contact patch width: extent of the loaded tread nodes along y", "worker"),
+    _v("peak_pressure", "experiment", "float64", "MPa",
+       "largest nodal contact pressure (normal force over tributary area)", "worker"),
+    _v("mean_pressure", "experiment", "float64", "MPa",
+       "road-normal force of the patch over its area", "worker"),
+    _v("nodal_force_mean", "experiment", "float64", "N",
+       "mean road-normal force of the loaded tread nodes", "worker"),
+    _v("nodal_force_std", "experiment", "float64", "N",
+       "standard deviation of the road-normal force of the loaded tread nodes", "worker"),
+    _v("inflation_growth", "experiment", "float64", "mm",
+       "radial growth of the tread under inflation (the path's inflated reference)",
+       "worker"),
+)
+
 ERROR = _v("error", "experiment", "str", "-", "failure reason (empty unless failed)", "worker")
 CHECKSUM = _v("checksum", "experiment", "str", "-",
               "digest of the id, load case, status and data of a done or failed experiment",
               "worker")
 STATUS = _v("status", "experiment", "int8", "-", "0 pending, 1 done, 2 failed", "worker")
 
-#: Everything a worker writes, in write order: ``status`` last. ``checksum`` is absent
-#: from groups written before checksums existed (they stay readable and writable).
-WORKER_VARIABLES = (*RESULT_VARIABLES, *INFO_VARIABLES, ERROR, CHECKSUM, STATUS)
+#: Everything a worker writes, in write order: ``status`` last. ``checksum`` and
+#: :data:`PATCH_VARIABLES` are absent from groups written before they existed (those
+#: stay readable and writable: :data:`OPTIONAL_NAMES`).
+WORKER_VARIABLES = (*RESULT_VARIABLES, *INFO_VARIABLES, *PATCH_VARIABLES, ERROR, CHECKSUM,
+                    STATUS)
 
 FIXED_VARIABLES = {v.name: v for v in (*MESH_VARIABLES, EXPERIMENT, *WORKER_VARIABLES,
                                          *COMBINED_VARIABLES)}
 RESULT_NAMES = tuple(v.name for v in RESULT_VARIABLES)
 INFO_NAMES = tuple(v.name for v in INFO_VARIABLES)
 COMBINED_NAMES = tuple(v.name for v in COMBINED_VARIABLES)
-#: The worker variables a checksum covers (with the status), in this order.
+PATCH_NAMES = tuple(v.name for v in PATCH_VARIABLES)
+#: Worker variables of every new group that older groups may lack.
+OPTIONAL_NAMES = (CHECKSUM.name, *PATCH_NAMES)
+#: The worker variables a checksum covers in every group (with the status), in this
+#: order; then those of :func:`checked_names`.
 CHECKED_NAMES = (*RESULT_NAMES, *INFO_NAMES, ERROR.name)
 
 
 def checked_names(present) -> tuple[str, ...]:
     """The variables a checksum covers in a group holding the arrays ``present``:
-    :data:`CHECKED_NAMES`, then the combined ones the group has (none in other groups,
-    so their checksums are those of before)."""
+    :data:`CHECKED_NAMES`, then the combined ones and the patch ones the group has (none
+    in groups made before them, so their checksums are those of before)."""
     present = set(present)
-    return (*CHECKED_NAMES, *(n for n in COMBINED_NAMES if n in present))
+    return (*CHECKED_NAMES, *(n for n in (*COMBINED_NAMES, *PATCH_NAMES) if n in present))
 
 
 def parameter(name: str, units: str) -> Variable:

@@ -70,16 +70,19 @@ from storage.schema import (
     EXPERIMENT_ID,
     FAILED,
     FIXED_VARIABLES,
+    OPTIONAL_NAMES,
+    PATCH_NAMES,
     PENDING,
     REQUIRED_PARAMETERS,
     STATUS_NAMES,
     checked_names,
 )
 
-#: Arrays every experiment group has (``checksum`` is optional: older groups lack it;
-#: the combined-load variables exist in combined-load groups only).
+#: Arrays every experiment group has (``checksum`` and the patch variables are optional:
+#: older groups lack them; the combined-load variables exist in combined-load groups
+#: only).
 REQUIRED_ARRAYS = tuple(sorted((set(FIXED_VARIABLES) | set(REQUIRED_PARAMETERS))
-                               - {"checksum", *COMBINED_NAMES}))
+                               - {*OPTIONAL_NAMES, *COMBINED_NAMES}))
 _SHOWN = 20  # damage lines shown per group (the JSON report has all)
 _ORPHAN = ("is {state} but has no experiment id (the ids chunk of its slot is missing or "
            "damaged)")
@@ -378,7 +381,10 @@ class _GroupCheck:
                 return False
         children = [c for c in list_dir(self.zs, self.group)
                     if c != "zarr.json" and not c.startswith(".")]
-        for name in sorted(set(children) | set(REQUIRED_ARRAYS) | {"checksum"}):
+        # patch arrays are optional (older groups lack them), but one the consolidated
+        # metadata lists was there: its loss is damage, as a required array's is
+        listed = {n for n in PATCH_NAMES if f"{self.group}/{n}" in self.copies}
+        for name in sorted(set(children) | set(REQUIRED_ARRAYS) | {"checksum"} | listed):
             self._open_array(name, present=name in children)
         return True
 

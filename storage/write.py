@@ -13,6 +13,8 @@ status and data), so that a reader can tell a slot damaged later from one writte
 whole. Groups made before checksums have no ``checksum`` array; writes there skip it.
 Only combined-load groups have the combined variables (:data:`COMBINED_NAMES`); a
 result may carry them only there, and a vertical one there stores them as not recorded.
+The contact patch and inflation growth (:data:`PATCH_NAMES`, issue 24) come with the
+info; groups created before them lack their arrays, and writes there skip them.
 """
 
 from __future__ import annotations
@@ -42,6 +44,7 @@ from storage.schema import (
     FIXED_VARIABLES,
     INFO_NAMES,
     NOT_RECORDED,
+    PATCH_NAMES,
     PENDING,
     RESULT_NAMES,
     result_shape,
@@ -150,14 +153,18 @@ def _fill(name: str, shape: tuple[int, ...]) -> np.ndarray:
 
 
 def check_info(info: Mapping[str, Any], *, complete: bool) -> dict[str, np.ndarray]:
-    """Validate run bookkeeping: ``solve_seconds`` (s, >= 0) and integer counts.
+    """Validate run bookkeeping: ``solve_seconds`` (s, >= 0) and integer counts, and the
+    optional contact patch and inflation growth (:data:`PATCH_NAMES`: real numbers, NaN
+    for not recorded).
 
     With ``complete`` every name of :data:`INFO_NAMES` is required; otherwise a missing
-    one is stored as not recorded (NaN seconds, -1 counts).
+    one is stored as not recorded (NaN seconds, -1 counts). A missing patch name is
+    never required (NaN).
     """
-    unknown = sorted(set(info) - set(INFO_NAMES))
+    unknown = sorted(set(info) - set(INFO_NAMES) - set(PATCH_NAMES))
     if unknown:
-        raise SchemaError(f"unknown info key {unknown[0]!r}; info holds {', '.join(INFO_NAMES)}")
+        raise SchemaError(f"unknown info key {unknown[0]!r}; info holds "
+                          f"{', '.join((*INFO_NAMES, *PATCH_NAMES))}")
     missing = [n for n in INFO_NAMES if n not in info]
     if complete and missing:
         raise SchemaError(f"info {missing[0]!r} is missing: a done experiment records "
@@ -176,7 +183,20 @@ def check_info(info: Mapping[str, Any], *, complete: bool) -> dict[str, np.ndarr
         ):
             raise SchemaError(f"info {name!r} must be an integer >= 0, got {v!r}")
         out[name] = np.array([v], dtype=np.int32)
+    for name in PATCH_NAMES:
+        v = info.get(name, math.nan)
+        if not (isinstance(v, numbers.Real) and not isinstance(v, bool)
+                and not math.isinf(float(v))):
+            raise SchemaError(f"info {name!r} must be a finite number (NaN: not recorded), "
+                              f"got {v!r}")
+        out[name] = np.array([v], dtype=np.float64)
     return out
+
+
+def _present(h: Handle, values: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """``values`` less the patch variables the group has no arrays for (groups created
+    before them: issue 24)."""
+    return {n: v for n, v in values.items() if n not in PATCH_NAMES or n in h.arrays}
 
 
 def _signed(h: Handle, i: int, experiment_id: str, values: dict[str, np.ndarray],
@@ -232,7 +252,11 @@ def write_experiment(
         1 stick, 2 slip), ``tread_slip`` (M, 3) mm, ``road_reaction`` (3,) N and
         ``road_moment`` (3,) N mm (all four or none).
     info : mapping
-        ``solve_seconds`` (s), ``increments``, ``ccx_runs``, ``contact_nodes``.
+        ``solve_seconds`` (s), ``increments``, ``ccx_runs``, ``contact_nodes``; and,
+        optionally (NaN when not given; skipped in groups created before them), the
+        contact patch ``patch_area`` (mm2), ``patch_length``, ``patch_width`` (mm),
+        ``peak_pressure``, ``mean_pressure`` (MPa), ``nodal_force_mean``,
+        ``nodal_force_std`` (N) and ``inflation_growth`` (mm).
     mesh_key : str, optional
         When given, must be the group's mesh key.
     """
@@ -242,7 +266,8 @@ def write_experiment(
         # a handle opened before a client made the group a combined-load one
         h, i = locate(zs, group, experiment_id, fresh=True)
     _check_mesh_key(h, group, mesh_key)
-    values: dict[str, np.ndarray] = {**check_result(result, h), **check_info(info, complete=True)}
+    values: dict[str, np.ndarray] = {**check_result(result, h),
+                                      **_present(h, check_info(info, complete=True))}
     values["error"] = np.array([""], dtype=object)
     values = _signed(h, i, experiment_id, values, DONE)
     _write(h, i, values, DONE, f"experiment {experiment_id!r} into group {group!r}")
@@ -262,7 +287,8 @@ def write_failure(
 
     Result arrays of the slot are reset to NaN. ``reason`` longer than
     :data:`storage.schema.MAX_ERROR_CHARS` is cut in the middle. ``info`` may hold any
-    of ``solve_seconds``, ``increments``, ``ccx_runs``, ``contact_nodes``.
+    of ``solve_seconds``, ``increments``, ``ccx_runs``, ``contact_nodes`` (and of the
+    patch names, which a failure normally leaves NaN).
 
     Raises
     ------
@@ -274,7 +300,7 @@ def write_failure(
     zs = open_store(store)
     h, i = locate(zs, group, _check_id(experiment_id))
     _check_mesh_key(h, group, mesh_key)
-    values = check_info(info, complete=False)
+    values = _present(h, check_info(info, complete=False))
     if int(read_item(h.arrays["status"], i)) == DONE:
         raise AlreadyDoneError(
             f"experiment {experiment_id!r} in group {group!r} is done; not recording the "

@@ -6,7 +6,8 @@ Each done experiment also shows its resultant road force (``total_force``, N): F
 every group, Fx and Fy in combined-load groups, where the road slides and tilts (in a
 vertical group they are solver noise about zero). A failed or pending experiment has
 no forces (None: ``-`` in the table, ``null`` in JSON): its slot holds NaN or the
-partial chunks of a writer that died.
+partial chunks of a writer that died. Groups created since issue 24 also show each done
+experiment's contact patch area (``patch_area``, mm2); older groups have none.
 """
 
 from __future__ import annotations
@@ -20,7 +21,10 @@ UNITS = {"deflection": ("deflection_mm", 1.0), "pressure": ("pressure_kpa", 1000
 #: record key -> component of ``total_force``, in column order
 FORCES = {"fx_n": "x", "fy_n": "y", "fz_n": "z"}
 #: record key suffix -> unit, for table headers
-SUFFIXES = {"_mm": " mm", "_kpa": " kPa", "_n": " N"}
+SUFFIXES = {"_mm": " mm", "_mm2": " mm2", "_kpa": " kPa", "_n": " N"}
+#: record key -> stored per-experiment variable shown for done experiments (issue 24;
+#: groups created before it lack them, and list without the column)
+SCALARS = {"patch_area_mm2": "patch_area"}
 
 
 def experiments(store: StoreLike, group: str | None, status: str | None = None
@@ -48,7 +52,9 @@ def _group_rows(store: StoreLike, group: str, status: str | None) -> list[dict]:
     ds = storage.open_dataset(store, group)
     names = storage.parameters(ds)
     forces = _force_keys(ds, names)
-    extra = [*(["error"] if "error" in ds else []), *(["total_force"] if forces else [])]
+    scalars = {key: name for key, name in SCALARS.items() if name in ds}
+    extra = [*(["error"] if "error" in ds else []), *(["total_force"] if forces else []),
+             *scalars.values()]
     small = ds[["status", *extra]].load()  # the parameters are coordinates, in memory
     codes = np.asarray(small["status"].values).astype(int)
     force = {key: small["total_force"].sel(component=FORCES[key]).values for key in forces}
@@ -63,6 +69,8 @@ def _group_rows(store: StoreLike, group: str, status: str | None) -> list[dict]:
             row[key] = _number(small[p].values[k], factor)
         for key in forces:
             row[key] = _number(force[key][k], 1.0) if codes[k] == DONE else None
+        for key, var in scalars.items():
+            row[key] = _number(small[var].values[k], 1.0) if codes[k] == DONE else None
         error = str(small["error"].values[k]) if "error" in small else ""
         row.update(status=name, error=error)
         rows.append(row)

@@ -4,7 +4,8 @@ Reads the done experiments of the full and the reduced model's groups (their mod
 specs from the groups' ``model_spec`` attribute) and returns the tables of the report -
 the reduced model at 30 mm (§3.3.1), the full model's nodal forces at 30 mm / 80 kPa
 (§3.3.2), the force-deflection curves (Fig. 3.3), the thesis' reference points (§3.3,
-§3.4), Table 3.1 - and the force-deflection figure.
+§3.4), Table 3.1, the contact patch and inflation growth of each experiment (groups
+created since issue 24 store them) - and the force-deflection figure.
 """
 
 from __future__ import annotations
@@ -29,6 +30,14 @@ FULL_NODAL = "full model at 30 mm, 80 kPa: nodal forces (thesis §3.3.2)"
 REDUCED_30 = "reduced model at 30 mm (thesis §3.3.1)"
 FORCE_DEFLECTION = "force-deflection (thesis Fig. 3.3)"
 MODELS = "models (thesis Table 3.1)"
+CONTACT_PATCH = "contact patch and inflation growth"
+#: stored variable -> column of the contact-patch table, factor from the store's unit
+PATCH_COLUMNS = {
+    "patch_area": ("patch area mm2", 1.0), "patch_length": ("length mm", 1.0),
+    "patch_width": ("width mm", 1.0), "mean_pressure": ("mean pressure kPa", 1000.0),
+    "peak_pressure": ("peak pressure kPa", 1000.0),
+    "inflation_growth": ("inflation growth mm", 1.0),
+}
 
 
 def validation(store, full: str, reduced: str, figures: Path) -> StageResult:
@@ -38,6 +47,7 @@ def validation(store, full: str, reduced: str, figures: Path) -> StageResult:
     points: list[dict] = []
     specs: list[dict] = []
     nodal: dict[str, pd.DataFrame] = {}
+    patches: list[dict] = []
     for group in (full, reduced):
         ds = load(store, group)
         spec = model_spec(ds)
@@ -45,6 +55,7 @@ def validation(store, full: str, reduced: str, figures: Path) -> StageResult:
         for name, column in force_curves(ds, spec).items():
             curves.setdefault(name, {}).update(column)
         points += reference_points(ds, spec)
+        patches += patch_rows(ds, spec)
         if spec["kind"] != "full":
             nodal[REDUCED_30] = reduced_30(ds)
         elif len(table := full_30_80(ds)):
@@ -57,6 +68,8 @@ def validation(store, full: str, reduced: str, figures: Path) -> StageResult:
     stage.tables[FORCE_DEFLECTION] = table
     stage.tables[REFERENCE_POINTS] = pd.DataFrame(points)
     stage.tables[MODELS] = table_3_1(*specs)
+    if patches:  # groups created before issue 24 hold no patches
+        stage.tables[CONTACT_PATCH] = pd.DataFrame(patches)
     stage.figures["force-deflection"] = force_plot(table, figures)
     return stage
 
@@ -94,6 +107,25 @@ def reference_points(ds: xr.Dataset, spec: dict) -> list[dict]:
             rows.append({"case": f"{_label(spec, p)}, {d:g} mm", "measured Fz N": float(f),
                          "thesis Fz N": ref, "difference %": 100 * (f - ref) / ref})
     return rows
+
+
+def patch_rows(ds: xr.Dataset, spec: dict) -> list[dict]:
+    """One row per experiment with a recorded contact patch: case, Fz and the patch
+    (``farm.measure.patch``: area, extents, pressures in kPa) and the inflation growth
+    (NaN for a model without inflation); none for a group that stores no patches."""
+    if "patch_area" not in ds:
+        return []
+    fz = ds["total_force"].sel(component="z").values
+    rows = []
+    for k, (d, p) in enumerate(zip(ds["deflection"].values, ds["pressure"].values,
+                                   strict=True)):
+        if not np.isfinite(ds["patch_area"].values[k]):
+            continue
+        row = {"case": f"{_label(spec, p)}, {d:g} mm", "Fz N": float(fz[k])}
+        row |= {column: factor * float(ds[name].values[k])
+                for name, (column, factor) in PATCH_COLUMNS.items() if name in ds}
+        rows.append((float(p), float(d), row))
+    return [row for *_, row in sorted(rows, key=lambda r: r[:2])]
 
 
 def nodal_forces(ds: xr.Dataset, deflection: float,

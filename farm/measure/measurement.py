@@ -8,11 +8,13 @@ because T2Cam measures against a reference point cloud of the inflated but unloa
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
 
+from farm.measure.patch import PatchMetrics, inflation_growth, patch_metrics, tread_areas
 from farm.measure.surface import cst_surface_strain, rotate_to_surface, surface_frames
 from farm.mesh.tyremesh import TyreMesh
 from farm.solve.states import PathSolution, SolvedState
@@ -57,6 +59,17 @@ class Measurement:
     road_moment : ndarray, shape (3,)
         Moment of the road's reactions about the contact centre, N mm (a check of
         ``moment``; differs by the force times the tread's float above the road).
+
+    Contact patch and inflation growth (issue 24, :mod:`farm.measure.patch`):
+
+    patch : ndarray, shape (7,), or None
+        The contact patch of this state (:func:`patch_array`: the values of
+        :attr:`PATCH_FIELDS`, in that order; None: not measured). Plain float64, so that
+        the loops' evaluation cache (``jobs.loops.cache``) stores it without pickle.
+    inflation_growth : float or None
+        Radial growth of the tread in the path's inflated reference state, mm; the same
+        for every state of the path; NaN for a model without inflation (None: not
+        measured, e.g. a cached evaluation of an older farm).
     """
 
     deflection: float
@@ -74,6 +87,8 @@ class Measurement:
     contact_status: np.ndarray | None = None
     tread_slip: np.ndarray | None = None
     road_moment: np.ndarray | None = None
+    patch: np.ndarray | None = None
+    inflation_growth: float | None = None
 
     # units of the arrays of combined_arrays() (the store's `units` attributes)
     COMBINED_UNITS: ClassVar[dict[str, str]] = {
@@ -103,6 +118,34 @@ class Measurement:
         return {"contact_status": self.contact_status, "tread_slip": self.tread_slip,
                 "road_reaction": self.road_reaction, "road_moment": self.road_moment}
 
+    # the store's names of patch's values, in order -> the PatchMetrics field of each
+    PATCH_FIELDS: ClassVar[dict[str, str]] = {
+        "patch_area": "area", "patch_length": "length", "patch_width": "width",
+        "peak_pressure": "peak_pressure", "mean_pressure": "mean_pressure",
+        "nodal_force_mean": "nodal_mean", "nodal_force_std": "nodal_std",
+    }
+    # units of patch_values() (the store's `units` attributes)
+    PATCH_UNITS: ClassVar[dict[str, str]] = {
+        "patch_area": "mm2", "patch_length": "mm", "patch_width": "mm",
+        "peak_pressure": "MPa", "mean_pressure": "MPa", "nodal_force_mean": "N",
+        "nodal_force_std": "N", "inflation_growth": "mm",
+    }
+
+    def patch_values(self) -> dict[str, float]:
+        """The contact patch and the inflation growth by the store's names (units in
+        :attr:`PATCH_UNITS`), NaN where not measured."""
+        values = (np.full(len(self.PATCH_FIELDS), np.nan) if self.patch is None
+                  else np.asarray(self.patch, dtype=np.float64))
+        out = {name: float(v) for name, v in zip(self.PATCH_FIELDS, values, strict=True)}
+        out["inflation_growth"] = (math.nan if self.inflation_growth is None
+                                   else float(self.inflation_growth))
+        return out
+
+
+def patch_array(metrics: PatchMetrics) -> np.ndarray:
+    """The values of :attr:`Measurement.PATCH_FIELDS` of ``metrics``, in order."""
+    return np.array([float(getattr(metrics, f)) for f in Measurement.PATCH_FIELDS.values()])
+
 
 def tread_totals(mesh: TyreMesh, state: SolvedState) -> tuple[np.ndarray, np.ndarray]:
     """Total force and moment about the contact centre from the tread node forces.
@@ -117,14 +160,19 @@ def tread_totals(mesh: TyreMesh, state: SolvedState) -> tuple[np.ndarray, np.nda
     return force.sum(axis=0), np.cross(arms, force).sum(axis=0)
 
 
-def measure(mesh: TyreMesh, solution: PathSolution, pressure: float) -> list[Measurement]:
-    """Derive the measurements of every state of a solved load path."""
+def measure(mesh: TyreMesh, solution: PathSolution, pressure: float, *,
+            inflated: bool = False) -> list[Measurement]:
+    """Derive the measurements of every state of a solved load path; ``inflated``: the
+    path's reference is the inflated tyre (the full model), whose growth is measured
+    (NaN otherwise)."""
     ref = solution.reference
     grid = mesh.inner_grid
     shape = (*grid.shape, 3)
     x0 = mesh.xyz(mesh.inner_nodes)
     ref_xyz = (x0 + ref.displacement[mesh.inner_nodes - 1]).reshape(shape)
     frames = surface_frames(x0.reshape(shape)).reshape(-1, 3, 3)
+    areas = tread_areas(mesh)
+    growth = inflation_growth(mesh, ref) if inflated else math.nan
     out = []
     for state in solution.states:
         u = state.displacement[mesh.inner_nodes - 1]
@@ -140,6 +188,7 @@ def measure(mesh: TyreMesh, solution: PathSolution, pressure: float) -> list[Mea
             contact_nodes=int(np.count_nonzero(np.abs(state.tread_force).sum(axis=1))),
             solve_seconds=state.solve_seconds, motion=state.motion,
             contact_status=state.contact_status, tread_slip=state.tread_slip,
-            road_moment=state.road_moment,
+            road_moment=state.road_moment, patch=patch_array(patch_metrics(mesh, state, areas)),
+            inflation_growth=growth,
         ))
     return out

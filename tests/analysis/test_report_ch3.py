@@ -133,3 +133,28 @@ def test_the_figure_is_a_png(stage):
 
 
 # That analysis/report imports neither farm nor jobs is tests/test_layering.py's check.
+
+
+def test_groups_without_patches_have_no_patch_table(stage):
+    assert ch3.CONTACT_PATCH not in stage.tables  # written without patches (NaN)
+
+
+def test_the_contact_patch_table_lists_each_recorded_patch(tmp_path):
+    """Issue 24: groups created since store each experiment's patch and growth."""
+    store = tmp_path / "s.zarr"
+    spec = _spec("full", (60.0, 20.0, 5.0), 0.4,
+                 {"tread": 8, "sidewall": 5, "bead": 2, "circumferential": 40})
+    _group(store, "g", spec, [(30.0, 0.2, 4000.0), (10.0, 0.2, 1000.0)])
+    ds = storage.open_dataset(store, "g")
+    storage.write_experiment(store, "g", "g-3", {
+        "displacement": np.zeros((N_INNER, 3)), "strain": np.zeros((N_INNER, 3)),
+        "surface_strain": np.zeros((N_INNER, 3)), "reaction_force": np.zeros((N_TREAD, 3)),
+        "total_force": np.array([0.0, 0.0, 1000.0]), "moment": np.zeros(3)},
+        {"solve_seconds": 1.0, "increments": 1, "ccx_runs": 1, "contact_nodes": 1,
+         "patch_area": 5000.0, "mean_pressure": 0.2, "inflation_growth": 4.5})
+    rows = ch3.patch_rows(storage.done(storage.open_dataset(store, "g")), spec)
+    assert "patch_area" in ds
+    (row,) = rows  # g-2 (30 mm) recorded no patch
+    assert row["case"] == "full 200 kPa, 10 mm" and row["Fz N"] == 1000.0
+    assert row["patch area mm2"] == 5000.0 and row["mean pressure kPa"] == 200.0
+    assert row["inflation growth mm"] == 4.5 and np.isnan(row["width mm"])

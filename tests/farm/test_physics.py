@@ -144,3 +144,34 @@ def test_refined_mesh_changes_force_little():
                                                            circumferential=80))
     fine = run_load_path(fine_spec, LoadPath((20.0,), 0.2), SETTINGS).measurements[0]
     assert fine.total_force[2] == pytest.approx(coarse.total_force[2], rel=0.02)
+
+
+def test_contact_patch_and_growth_of_every_state(full_200):
+    """Issue 24: the patch and the inflation growth the worker stores, from the real
+    solver. ``mean_pressure`` is the loaded nodes' road-normal force over ``patch_area``
+    (farm.measure.patch), so on a level road their product is Fz less the force of the
+    nodes below ``LOADED_N`` (at most 1e-6 N each), up to rounding."""
+    from farm.measure.patch import LOADED_N
+
+    mesh = mesh_for(FULL)
+    growth = full_200.growth(mesh)
+    assert np.isfinite(growth) and growth > 0  # inflation pushes the tread outward
+    slack = mesh.tread_nodes.size * LOADED_N
+    for m in full_200.measurements:
+        v = m.patch_values()
+        fz = m.total_force[2]
+        assert fz > 0 and v["patch_area"] > 0
+        assert v["mean_pressure"] * v["patch_area"] == pytest.approx(fz, rel=1e-9, abs=slack)
+        assert v["patch_length"] > 0 and v["patch_width"] > 0
+        assert v["peak_pressure"] >= v["mean_pressure"] > 0
+        assert v["nodal_force_mean"] > 0 and v["nodal_force_std"] >= 0
+        assert v["inflation_growth"] == growth  # one reference per path
+    areas = [m.patch_values()["patch_area"] for m in full_200.measurements]
+    assert areas == sorted(areas)  # the patch grows with the deflection
+
+
+def test_growth_is_not_recorded_without_inflation(reduced):
+    for m in reduced.measurements:
+        v = m.patch_values()
+        assert np.isnan(v["inflation_growth"])
+        assert v["patch_area"] > 0 and np.isfinite(list(v.values())[:-1]).all()

@@ -237,6 +237,26 @@ def test_cache_round_trips_exactly_and_leaves_no_temporary_files(tmp_path):
         cache.get("../../etc/passwd")
 
 
+def test_the_contact_patch_round_trips_and_older_files_still_read(tmp_path):
+    """Issue 24: a measurement's patch and growth are plain floats in the cache file (no
+    pickle); a file written before them reads with both None (not re-solved)."""
+    from jobs.loops.cache import decode, encode
+
+    m = dataclasses.replace(measurement(np.ones((7, 3)), np.zeros((7, 3))),
+                            patch=np.arange(7.0), inflation_growth=float("nan"))
+    cache = EvaluationCache(tmp_path / "c")
+    cache.put("a" * 64, Solved((m,), 1.0))
+    (again,) = EvaluationCache(tmp_path / "c").get("a" * 64).measurements
+    np.testing.assert_array_equal(again.patch, m.patch)
+    assert np.isnan(again.inflation_growth)
+    assert again.patch_values()["patch_length"] == 1.0
+    older = {k: v for k, v in encode(Solved((m,), 1.0)).items()
+             if k not in ("m0.patch", "m0.inflation_growth")}
+    (old,) = decode(older).measurements
+    assert old.patch is None and old.inflation_growth is None
+    assert all(np.isnan(v) for v in old.patch_values().values())
+
+
 def test_a_kept_solver_state_round_trips_byte_for_byte(tmp_path):
     state = bytes(range(256)) * 40 + b"\x00"  # any bytes, trailing zeros included
     m = measurement(np.zeros((2, 3)), np.zeros((2, 3)), fz=1.0)

@@ -34,6 +34,16 @@ def test_sweep_fills_the_store_and_resubmission_solves_nothing(write_study, coun
     assert ds.sizes["experiment"] == 6
     fz = ds["total_force"].sel(component="z").values[np.argsort(ds["deflection"].values)]
     assert np.all(np.diff(fz) > 0)
+    # issue 24: the contact patch of each experiment, stored by the worker. mean_pressure
+    # is the loaded nodes' normal force over patch_area (farm.measure.patch), so their
+    # product is Fz less the nodes under LOADED_N (1e-6 N each), up to rounding
+    fz = ds["total_force"].sel(component="z").values
+    area = ds["patch_area"].values
+    assert (fz > 0).all() and (area > 0).all()
+    np.testing.assert_allclose(ds["mean_pressure"].values * area, fz, rtol=1e-9,
+                               atol=ds.sizes["tread_node"] * 1e-6)
+    assert (ds["peak_pressure"].values >= ds["mean_pressure"].values).all()
+    assert np.isnan(ds["inflation_growth"].values).all()  # the reduced model: no inflation
 
     again = run_sweep(study, workers=2)
     assert again.ok and again.skipped == 6 and not again.done

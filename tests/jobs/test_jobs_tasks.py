@@ -12,7 +12,8 @@ from conftest import study_text
 
 import storage
 from farm.errors import SolverError
-from farm.measure.measurement import Measurement
+from farm.measure.measurement import Measurement, patch_array
+from farm.measure.patch import PatchMetrics
 from jobs.expand import experiments, parameters, plan
 from jobs.storeio import ensure_group
 from jobs.study import parse_study
@@ -46,7 +47,9 @@ class FakeSolver:
             raise SolverError(self.outcome, ["ccx", "-i", "path"], 201, "*ERROR: boom")
         ms = tuple(Measurement(d, 0.0, np.full((self.n_inner, 3), d), np.zeros((self.n_inner, 3)),
                                np.zeros((self.n_inner, 3)), np.zeros((self.n_tread, 3)),
-                               np.array([0, 0, d]), np.zeros(3), np.array([0, 0, d]), 1, 1.0)
+                               np.array([0, 0, d]), np.zeros(3), np.array([0, 0, d]), 1, 1.0,
+                               patch=patch_array(PatchMetrics(3, 2, 10.0 * d, d, 2.0, 0.5, 0.1, 1.0,
+                                                             0.5)))
                    for d in path.deflections)
         return type("R", (), {"measurements": ms, "increments": 3, "ccx_runs": 1,
                               "solve_seconds": 1.0})()
@@ -119,3 +122,40 @@ def test_group_of_another_model_is_refused(setup, tmp_path):
 
     with pytest.raises(StudyError, match="holds another model"):
         ensure_group(other, SOLVER)
+
+
+def test_patch_metrics_go_into_the_store(setup, monkeypatch):
+    """Issue 24: the worker stores each state's contact patch; the reduced model has no
+    inflation, so no growth (NaN)."""
+    study, task = setup
+    _fake(monkeypatch, study)
+    run_path(task)
+    assert storage.verify(study.store).ok
+    ds = storage.done(storage.open_dataset(study.store, study.group_name))
+    d = ds["deflection"].values
+    np.testing.assert_array_equal(ds["patch_area"].values, 10.0 * d)
+    np.testing.assert_array_equal(ds["patch_length"].values, d)
+    assert (ds["mean_pressure"].values == 0.1).all()
+    assert np.isnan(ds["inflation_growth"].values).all()
+    assert ds["patch_area"].attrs["units"] == "mm2"
+
+
+def test_a_group_made_before_patch_metrics_resumes(setup, monkeypatch):
+    """A group created before issue 24 has no patch arrays: today's worker skips them."""
+    import shutil
+
+    from storage.paths import publish
+    from storage.schema import PATCH_NAMES
+
+    study, task = setup
+    root = Path(str(study.store)) / study.group_name
+    for name in PATCH_NAMES:
+        shutil.rmtree(root / name)
+    publish(storage.open_store(study.store))
+    storage.handles.forget()
+    _fake(monkeypatch, study)
+    out = run_path(task)
+    assert len(out.done) == 3 and not out.failed
+    assert storage.verify(study.store).ok
+    ds = storage.done(storage.open_dataset(study.store, study.group_name))
+    assert ds.sizes["experiment"] == 3 and not set(ds.variables) & set(PATCH_NAMES)

@@ -81,7 +81,14 @@ def make_info(experiment_id: str) -> dict[str, float | int]:
         "increments": int(rng.integers(1, 50)),
         "ccx_runs": int(rng.integers(1, 4)),
         "contact_nodes": int(rng.integers(0, 100)),
+        **make_patch(experiment_id),
     }
+
+
+def make_patch(experiment_id: str) -> dict[str, float]:
+    """Contact patch and inflation growth of one experiment (issue 24), by store name."""
+    rng = _rng(experiment_id + "/patch")
+    return {name: float(rng.uniform(0.1, 100)) for name in storage.schema.PATCH_NAMES}
 
 
 def make_params(ids: list[str]) -> dict[str, np.ndarray]:

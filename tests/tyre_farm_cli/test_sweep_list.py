@@ -89,3 +89,27 @@ def test_json_and_table(vertical, capsys):
                                             ("status", "status")])
 def test_headers_carry_units(key, shown):
     assert header(key) == shown
+
+
+def test_a_group_with_contact_patches_lists_their_area(tmp_path):
+    """Issue 24: groups created since store each experiment's patch area; the table
+    shows it for done experiments (older groups, above, list without it)."""
+    path = tmp_path / "p.zarr"
+    nodes = storage.MeshNodes(
+        inner_ids=np.arange(4) + 1, inner_xyz=np.zeros((4, 3)), inner_row=np.arange(4),
+        inner_col=np.zeros(4, int), tread_ids=np.arange(2) + 10, tread_xyz=np.zeros((2, 3)),
+        tread_row=np.arange(2), tread_col=np.zeros(2, int))
+    attrs = storage.GroupAttrs(model_spec="{}", mesh_key="k", solver="CalculiX 2.20",
+                               package_versions={})
+    storage.create_group(path, "g", nodes, attrs)
+    storage.reserve(path, "g", ["a", "b"], {"deflection": [10.0, 20.0], "pressure": 0.2})
+    result = {"displacement": np.zeros((4, 3)), "strain": np.zeros((4, 3)),
+              "surface_strain": np.zeros((4, 3)), "reaction_force": np.ones((2, 3)),
+              "total_force": np.array([0.0, 0.0, 2.0]), "moment": np.zeros(3)}
+    info = {"solve_seconds": 1.0, "increments": 1, "ccx_runs": 1, "contact_nodes": 2,
+            "patch_area": 123.5}
+    storage.write_experiment(path, "g", "a", result, info)
+    storage.write_failure(path, "g", "b", "boom", {})
+    rows = {r["experiment"]: r for r in experiments(str(path), None)}
+    assert rows["a"]["patch_area_mm2"] == 123.5 and rows["b"]["patch_area_mm2"] is None
+    assert header("patch_area_mm2") == "patch_area mm2"
