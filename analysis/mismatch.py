@@ -38,7 +38,7 @@ def mismatch(model: ForceModel, ds: xr.Dataset, *, draws: int = 1,
     clean = other.clean(displacements(ds))
     Y = targets(ds)
     rng = np.random.default_rng(seed)
-    noisy = model.sensor.noise_free() != model.sensor
+    noisy = model.sensor.noisy
     rows, truth = [], []
     for _ in range(draws if noisy else 1):
         refs, clouds = other.measure(clean, rng if noisy else None)

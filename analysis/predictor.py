@@ -54,10 +54,15 @@ class ForceModel:
     targets: tuple[str, ...] = TARGETS
     info: dict = field(default_factory=dict)
 
+    def __post_init__(self) -> None:
+        # built once: its layout's interpolation matrix (and a correlated-noise factor)
+        # would otherwise be rebuilt for every cloud predicted
+        self.virtual = VirtualSensor(self.sensor, self.surface)
+
     def features(self, ref_points: np.ndarray, points: np.ndarray) -> np.ndarray:
         """Features (1, F) of one measured cloud against its reference cloud, both (M, 3)
         in the model's frame (registered), resampled on the sensor's points."""
-        virtual = VirtualSensor(self.sensor, self.surface)
+        virtual = self.virtual
         seen = np.isfinite(ref_points).all(axis=1) & np.isfinite(points).all(axis=1)
         ref, cloud = to_layout(self.surface, virtual.layout, ref_points[seen], points[seen])
         X, _ = virtual.features(ref[None], cloud[None], self.inputs)

@@ -105,7 +105,7 @@ def measure(
     if limit is not None:
         ds = ds.isel(experiment=slice(0, limit))
     virtual = VirtualSensor(spec, InnerSurface.from_dataset(ds))
-    rng = np.random.default_rng(seed) if spec.noise_free() != spec else None
+    rng = np.random.default_rng(seed) if spec.noisy else None
     refs, clouds = virtual.measure(virtual.clean(displacements(ds)), rng)
     out.mkdir(parents=True, exist_ok=True)
     write_cloud(out / "reference.csv", refs[0].reshape(-1, 3))
@@ -137,8 +137,6 @@ def predict(
     from analysis.errors import CloudError
     from analysis.predict.clouds import read_cloud
     from analysis.predict.registration import icp, read_transform
-    from analysis.sensor import VirtualSensor
-
     with usage():
         if transform is not None and align:
             raise typer.BadParameter("give --transform or --align, not both")
@@ -154,7 +152,7 @@ def predict(
     if transform is not None:
         move = read_transform(transform)
     elif align:
-        target = VirtualSensor(fitted.sensor, fitted.surface).layout.xyz.reshape(-1, 3)
+        target = fitted.virtual.layout.xyz.reshape(-1, 3)
         seen = np.isfinite(ref).all(axis=1)
         move, rms = icp(ref[seen], target)
     else:

@@ -105,7 +105,7 @@ class VirtualSensor:
         u = self._on_points(u_points, "point displacements")
         ref = np.broadcast_to(self.layout.xyz, u.shape)
         cur = self.layout.xyz + u
-        if rng is None or self.spec.noise_free() == self.spec:
+        if rng is None or not self.spec.noisy:
             return ref.copy(), cur
         chol = self.chol
         return (perturb(ref, self.spec, rng, chol),

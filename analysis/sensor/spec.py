@@ -165,11 +165,16 @@ class SensorSpec:
                        drop_fraction=0.0)
 
     @property
+    def noisy(self) -> bool:
+        """Whether any field of :data:`NOISE_FIELDS` is non-zero."""
+        return any(getattr(self, name) != 0 for name in NOISE_FIELDS)
+
+    @property
     def is_ideal(self) -> bool:
         """Whether it reads every inner node exactly (``ideal-full``: today's analyses):
         a 360° window, the whole meridian, points at the FE nodes and no noise."""
         return (self.window_deg == 360.0 and self.width_mm is None
-                and self.spacing_mm is None and self.noise_free() == self)
+                and self.spacing_mm is None and not self.noisy)
 
 
 FIELDS = tuple(f.name for f in fields(SensorSpec))

@@ -31,6 +31,7 @@ from analysis import learners
 from analysis.errors import MissingVariableError, ParameterError, TooFewExperimentsError
 from analysis.render import markdown, plots
 from analysis.sensor import InnerSurface, SensorSpec, VirtualSensor
+from analysis.sensor.spec import NOISE_FIELDS
 from analysis.studies.combined import check_combined, split
 from analysis.studies.common import Report
 
@@ -138,7 +139,7 @@ def _one_sensor(virtual: VirtualSensor, U: np.ndarray, Y: np.ndarray, setup: Set
     """Every learner and training of one sensor, on the study's split."""
     clean = virtual.clean(U)
     rng = np.random.default_rng([setup.seed, k])
-    noisy = virtual.spec.noise_free() != virtual.spec
+    noisy = virtual.spec.noisy
     reps = setup.draws if noisy else 1
     Xt, blocks = measured_features(virtual, clean[setup.test], reps, rng,
                                   setup.inputs)
@@ -174,7 +175,7 @@ def measured_features(virtual: VirtualSensor, clean: np.ndarray, draws: int,
     Returns ``(X, blocks)``: X of shape (K x draws, n_features), the column count of each
     input.
     """
-    if draws == 0 or virtual.spec.noise_free() == virtual.spec:
+    if draws == 0 or not virtual.spec.noisy:
         return virtual.features(*virtual.measure(clean, None), inputs)
     parts = [virtual.features(*virtual.measure(clean, rng), inputs) for _ in range(draws)]
     return np.concatenate([p[0] for p in parts]), parts[0][1]
@@ -206,8 +207,7 @@ def _figures(report: Report, errors: pd.DataFrame, base: SensorSpec) -> list[Pat
 
 
 def _noisy(frame: pd.DataFrame) -> pd.Series:
-    cols = [c for c in ("noise_mm", "correlated_mm", "rotation_deg", "scale",
-                        "drop_fraction") if c in frame]
+    cols = [c for c in NOISE_FIELDS if c in frame]
     return (frame[cols] > 0).any(axis=1)
 
 

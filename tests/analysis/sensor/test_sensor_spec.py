@@ -101,3 +101,11 @@ def test_bad_sensor_text_is_one_line_listing_what_is_allowed(text, needles):
     assert "\n" not in message
     for needle in needles:
         assert needle in message
+
+
+@pytest.mark.parametrize("field", ["noise_mm", "correlated_mm", "rotation_deg", "scale",
+                                   "drop_fraction"])
+def test_noisy_is_any_noise_field_and_agrees_with_noise_free(field):
+    spec = SensorSpec(**{field: 0.1})
+    assert spec.noisy and spec.noise_free() != spec
+    assert not spec.noise_free().noisy
