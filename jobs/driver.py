@@ -32,7 +32,6 @@ import sys
 import time
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
-from dataclasses import dataclass
 from typing import Any, Generic, TypeVar
 
 from farm.ccx.runner import ccx_version
@@ -40,41 +39,7 @@ from jobs.cluster import ClusterSpec, DaskCluster, ResubmittingClient, dashboard
 from jobs.errors import ClusterError
 from jobs.loops.cache import EvaluationCache
 from jobs.loops.evaluator import Evaluator
-
-
-@dataclass(frozen=True)
-class Session:
-    """The cluster a run has: client, the workers' solver version, dashboard, workers."""
-
-    client: Any
-    solver: str
-    dashboard: str
-    workers: int
-
-
-@dataclass(kw_only=True)
-class RunReport:
-    """What every run reports beside its own results (filled in by :func:`drive`)."""
-
-    dashboard: str = ""
-    workers: int = 0
-    solver: str = ""
-    wall_seconds: float = 0.0
-
-    @property
-    def ok(self) -> bool:  # pragma: no cover - every report says what success is
-        raise NotImplementedError
-
-
-class Progress:
-    """Callbacks a front end implements to follow a run (all optional).
-
-    ``state`` is the strategy's live view (:meth:`Strategy.state`).
-    """
-
-    def started(self, session: Session, state: Any) -> None: ...
-    def advanced(self, state: Any) -> None: ...
-    def finished(self, report: RunReport) -> None: ...
+from jobs.progress import Progress, RunReport, Session
 
 
 class Announce(Progress):

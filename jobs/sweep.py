@@ -28,8 +28,9 @@ from typing import Any
 import storage
 from jobs.cluster import Attempts, ClusterSpec
 from jobs.design import model_design
-from jobs.driver import Progress, RunReport, Session, Strategy, cluster_spec, drive, solver_version
+from jobs.driver import Strategy, cluster_spec, drive, solver_version
 from jobs.expand import Experiment, PathPlan, experiments, parameters, plan
+from jobs.progress import Progress, RunReport, Session
 from jobs.storeio import ensure_group
 from jobs.study import Study
 from jobs.tasks import PathOutcome, PathTask, run_path

@@ -61,7 +61,9 @@ def _graph() -> dict[str, set[str]]:
     graph = {}
     for name, path in files.items():
         targets = set()
-        for imp in _imports(path):
+        # A lazy package names its exports in __init__.pyi (lazy_loader): arrows too.
+        stub = path.with_suffix(".pyi")
+        for imp in _imports(path) | (_imports(stub) if stub.exists() else set()):
             while imp and imp not in files:  # `from pkg.mod import name` -> pkg.mod
                 imp = imp.rpartition(".")[0]
             if imp and imp != name:

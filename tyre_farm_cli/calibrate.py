@@ -9,7 +9,7 @@ from pathlib import Path
 import typer
 from rich.console import Console
 
-from jobs.driver import Progress
+from jobs.progress import Progress
 from jobs.wording import plural
 from tyre_farm_cli.errors import usage
 from tyre_farm_cli.frames import print_frame
@@ -20,7 +20,7 @@ from tyre_farm_cli.progress import console as stderr_console
 
 
 class CalibrationLines(Progress):
-    """Progress of a calibration (:class:`jobs.driver.Progress`) on stderr: one line per
+    """Progress of a calibration (:class:`jobs.progress.Progress`) on stderr: one line per
     new parameter set - budget, rounds, best cost, worst point. On a terminal every one;
     elsewhere timestamped and rate-limited (:class:`tyre_farm_cli.progress.LogLines`)."""
 

@@ -6,6 +6,7 @@ import math
 import statistics
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import typer
 from rich.console import Console
@@ -19,13 +20,15 @@ from rich.progress import (
 )
 
 from jobs.wording import plural
-from storage.paths import StoreLike
 from tyre_farm_cli.errors import usage
 from tyre_farm_cli.frames import print_frame
 from tyre_farm_cli.jsondoc import JSON, dump, records
 from tyre_farm_cli.options import SCHEDULER, WORKERS, with_cluster
 from tyre_farm_cli.progress import LogLines, interactive
 from tyre_farm_cli.progress import console as stderr_console
+
+if TYPE_CHECKING:  # storage.paths loads zarr: not at `farm --help`
+    from storage.paths import StoreLike
 
 STUDY = typer.Argument(..., help="Inverse study file (TOML), e.g. examples/inverse_thesis.toml.")
 OUT = typer.Option(None, "--out", help="Folder for the tables (CSV) and histograms (PNG) "

@@ -15,7 +15,6 @@ from pathlib import Path
 import typer
 from rich.console import Console
 
-from jobs.cluster import resolve_scheduler
 from tyre_farm_cli.errors import usage
 from tyre_farm_cli.invert import loop_progress
 from tyre_farm_cli.options import SCHEDULER, WORKERS, with_cluster
@@ -41,7 +40,7 @@ def reproduce(
     """Run the thesis study (chapters 3-5) on the farm and write OUT/report.md."""
     from analysis.report import reproduction
     from farm.ccx.runner import ccx_version, find_ccx
-    from jobs.cluster import DaskCluster
+    from jobs.cluster import DaskCluster, resolve_scheduler
     from jobs.reproduce import Options
     from jobs.validate import locations
     from tyre_farm_cli.checks import output_folder

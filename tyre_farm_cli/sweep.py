@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import typer
 from rich.console import Console
@@ -20,7 +21,6 @@ from rich.progress import (
 from rich.table import Table
 
 from jobs.wording import plural
-from storage.paths import StoreLike
 from tyre_farm_cli.options import (
     APP_SETTINGS,
     SCHEDULER,
@@ -31,6 +31,9 @@ from tyre_farm_cli.options import (
 )
 from tyre_farm_cli.progress import LogLines, interactive
 from tyre_farm_cli.progress import console as stderr_console
+
+if TYPE_CHECKING:  # storage.paths loads zarr: not at `farm --help`
+    from storage.paths import StoreLike
 
 app = typer.Typer(help="Sweeps of virtual experiments on Dask: submit, resume, status, list, "
                   "verify.", no_args_is_help=True, **APP_SETTINGS)

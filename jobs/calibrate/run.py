@@ -23,9 +23,10 @@ from jobs.calibrate.fit import CalibrationResult, CalibrationSettings, Calibrati
 from jobs.calibrate.params import Parameters
 from jobs.calibrate.references import ReferencePoint
 from jobs.cluster import ClusterSpec
-from jobs.driver import LoopThreads, Progress, RunReport, Session, drive
+from jobs.driver import LoopThreads, drive
 from jobs.guard import Failed
 from jobs.loops.evaluator import Evaluator
+from jobs.progress import Progress, RunReport, Session
 
 CURVE_DEFLECTIONS = (5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 35.0, 40.0)
 

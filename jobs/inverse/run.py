@@ -18,7 +18,7 @@ import numpy as np
 
 from farm.mesh import mesh_for
 from jobs.cluster import ClusterSpec
-from jobs.driver import LoopThreads, Progress, RunReport, Session, drive
+from jobs.driver import LoopThreads, drive
 from jobs.inverse.distribution import (
     TyreDistribution,
     check_mesh,
@@ -31,6 +31,7 @@ from jobs.inverse.problem import Problem, build_problem
 from jobs.inverse.store import write_results
 from jobs.inverse.study import InverseStudy
 from jobs.loops.evaluator import Interrupted, LoopStats
+from jobs.progress import Progress, RunReport, Session
 from jobs.wording import plural
 
 

@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 Log = Callable[[str], None]
-#: A study's name -> the progress display of its run (a :class:`jobs.driver.Progress`).
+#: A study's name -> the progress display of its run (a :class:`jobs.progress.Progress`).
 ProgressFor = Callable[[str], Any]
 
 _logger = logging.getLogger("jobs.reproduce")

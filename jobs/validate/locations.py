@@ -19,7 +19,6 @@ from typing import Any
 from jobs.validate.limits import MAX_PATH_CHARS
 from jobs.validate.messages import fail, shown
 from jobs.validate.scalars import string
-from storage import open_store
 from storage.errors import StoreError
 
 WINDOWS_PATH = re.compile(r"[A-Za-z]:[\\/]")  # C:\farm or C:/farm
@@ -78,6 +77,10 @@ def store_location(value: Any, where: str, base: Path | None = None) -> str:
     """A store: :func:`location`, then what the storage layer accepts as a store
     (:func:`storage.open_store`, no I/O: schemes, buckets, control characters), so that
     a store no worker can write is refused before a cluster starts."""
+    # Imported here: storage.paths loads zarr (0.2 s), and the CLI imports this module to
+    # declare its options, so ``farm --help`` would pay for it (issue 25).
+    from storage.paths import open_store
+
     text = location(value, where, "a directory path or URL", base)
     try:
         open_store(value)  # as written: "s3:/bucket" is a typo, not a folder "s3:"

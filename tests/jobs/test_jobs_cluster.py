@@ -15,8 +15,9 @@ import pytest
 from dask.utils import parse_timedelta
 
 from jobs.cluster import connect, dashboard_link, resolve_scheduler
-from jobs.driver import Announce, Session
+from jobs.driver import Announce
 from jobs.errors import ClusterError
+from jobs.progress import Session
 
 # what Python hides from users by default (distributed leaves a ResourceWarning behind)
 HIDDEN = (ResourceWarning, DeprecationWarning, PendingDeprecationWarning, ImportWarning)

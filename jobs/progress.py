@@ -1,0 +1,47 @@
+"""What a run tells its front end: the cluster it got (:class:`Session`), the summary
+every report shares (:class:`RunReport`) and the callbacks of a progress display
+(:class:`Progress`).
+
+Apart from :mod:`jobs.driver`, which fills them in, so that a front end (the CLI, at
+start-up) names these types without importing dask.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+
+@dataclass(frozen=True)
+class Session:
+    """The cluster a run has: client, the workers' solver version, dashboard, workers."""
+
+    client: Any
+    solver: str
+    dashboard: str
+    workers: int
+
+
+@dataclass(kw_only=True)
+class RunReport:
+    """What every run reports beside its own results (filled in by :func:`drive`)."""
+
+    dashboard: str = ""
+    workers: int = 0
+    solver: str = ""
+    wall_seconds: float = 0.0
+
+    @property
+    def ok(self) -> bool:  # pragma: no cover - every report says what success is
+        raise NotImplementedError
+
+
+class Progress:
+    """Callbacks a front end implements to follow a run (all optional).
+
+    ``state`` is the strategy's live view (:meth:`Strategy.state`).
+    """
+
+    def started(self, session: Session, state: Any) -> None: ...
+    def advanced(self, state: Any) -> None: ...
+    def finished(self, report: RunReport) -> None: ...
