@@ -15,6 +15,7 @@ The one merge behind a study's ``[model]`` table (:mod:`jobs.validate.spec_table
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from collections.abc import Set as AbstractSet
 from typing import Any, get_args, get_type_hints
 
@@ -52,7 +53,7 @@ OPTIONAL_PARTS = _optional_parts()
 def model(data: Any, where: str = "model") -> ModelSpec:
     """A ``[model]`` table -> :class:`ModelSpec`: ``kind``, a ``materials`` preset name (or
     a table per region over ``table-3.1``) and overrides of the preset's other keys."""
-    t = _table(data, where, MODEL_KEYS, {"kind"})
+    t = table(data, where, MODEL_KEYS, {"kind"})
     kind = t["kind"]
     if kind not in MODEL_KINDS:
         raise _fail(f"{where}.kind", f"unknown model {shown(kind)}: choose "
@@ -86,7 +87,7 @@ def override_model(base: ModelSpec, overrides: dict[str, Any], where: str = "mod
 
 def merge(base: dict, override: dict, where: str) -> dict:
     """``base`` with the keys of ``override`` (each one of ``base``'s), tables merged."""
-    out = dict(_table(override, where, set(base)))
+    out = dict(table(override, where, set(base)))
     for key, value in override.items():
         if isinstance(base[key], dict):
             out[key] = merge(base[key], value, f"{where}.{key}")
@@ -97,17 +98,19 @@ def _fail(where: str, message: str) -> SpecError:
     return SpecError(f"{where}: {message}")
 
 
-def _table(data: Any, where: str, allowed: AbstractSet[str],
-           required: AbstractSet[str] = frozenset()) -> dict[str, Any]:
-    """``data`` if it is a table with only ``allowed`` keys and every ``required`` one
-    (the messages of :func:`jobs.validate.scalars.table`)."""
+def table(data: Any, where: str, allowed: AbstractSet[str],
+          required: AbstractSet[str] = frozenset(),
+          fail: Callable[[str, str], Exception] = _fail) -> dict[str, Any]:
+    """``data`` if it is a table with only ``allowed`` keys and every ``required`` one;
+    otherwise ``fail(where, message)`` is raised (a :class:`SpecError` here; the study
+    checks, :func:`jobs.validate.scalars.table`, pass their own)."""
     if not isinstance(data, dict):
-        raise _fail(where, f"must be a table, got {type(data).__name__} {shown(data)}")
+        raise fail(where, f"must be a table, got {type(data).__name__} {shown(data)}")
     unknown = sorted(set(data) - allowed)
     if unknown:
-        raise _fail(f"{where}.{unknown[0]}",
-                    f"unknown key; allowed: {', '.join(sorted(allowed))}")
+        raise fail(f"{where}.{unknown[0]}",
+                   f"unknown key; allowed: {', '.join(sorted(allowed))}")
     missing = sorted(required - set(data))
     if missing:
-        raise _fail(f"{where}.{missing[0]}", "is required")
+        raise fail(f"{where}.{missing[0]}", "is required")
     return data

@@ -10,6 +10,7 @@ import math
 from collections.abc import Set as AbstractSet
 from typing import Any
 
+from farm.overrides import table as checked_table
 from jobs.validate.messages import fail, shown
 from storage.schema import GROUP_NAME
 
@@ -20,15 +21,7 @@ RESERVED_NAMES = frozenset({"zarr.json"})  # Zarr v3's metadata file in every gr
 def table(data: Any, where: str, allowed: AbstractSet[str],
           required: AbstractSet[str] = frozenset()) -> dict[str, Any]:
     """``data`` if it is a table with only ``allowed`` keys and every ``required`` one."""
-    if not isinstance(data, dict):
-        raise fail(where, f"must be a table, got {type(data).__name__} {shown(data)}")
-    unknown = sorted(set(data) - allowed)
-    if unknown:
-        raise fail(f"{where}.{unknown[0]}", f"unknown key; allowed: {', '.join(sorted(allowed))}")
-    missing = sorted(required - set(data))
-    if missing:
-        raise fail(f"{where}.{missing[0]}", "is required")
-    return data
+    return checked_table(data, where, allowed, required, fail=fail)
 
 
 def _bounds(low: float | None, high: float | None, strict: bool) -> str:
