@@ -2,6 +2,7 @@
 # The test command (README, .ci/run): set up, lint, then run the default test suite.
 #   bash scripts/test.sh            default suite (what CI runs)
 #   bash scripts/test.sh --slow     only the slow tests (default-size meshes, long sweeps)
+#   bash scripts/test.sh --e2e      only the end-to-end runs (CI runs them after the default suite)
 #   bash scripts/test.sh -k frd     any other arguments go to pytest
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
@@ -12,5 +13,9 @@ mypy  # [tool.mypy] in pyproject.toml names what it checks
 if [ "${1:-}" = "--slow" ]; then
     shift
     exec python -m pytest -m slow "$@"
+fi
+if [ "${1:-}" = "--e2e" ]; then
+    shift
+    exec python -m pytest -m e2e "$@"
 fi
 exec python -m pytest "$@"

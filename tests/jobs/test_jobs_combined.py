@@ -226,6 +226,7 @@ def _check_store(path: Path) -> None:
 
 
 @pytest.mark.ccx
+@pytest.mark.e2e  # end to end: run by .ci/run through `scripts/test.sh --e2e`
 def test_quick_combined_study_end_to_end(tmp_path, counting_ccx, capsys):
     """2 combined experiments of examples/combined_quick.toml (the smallest that has two
     paths on two workers; shallow deflections, the cheapest) through `farm sweep submit`:

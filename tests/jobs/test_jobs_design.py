@@ -230,6 +230,7 @@ def _cli(args, capsys) -> tuple[int, dict]:
 
 
 @pytest.mark.ccx
+@pytest.mark.e2e  # end to end: run by .ci/run through `scripts/test.sh --e2e`
 def test_the_quick_model_space_study_runs_resumes_and_keeps_its_physics(
         tmp_path, monkeypatch, capsys, counting_ccx):
     import storage

@@ -21,7 +21,7 @@ from jobs.study import load_study
 from jobs.sweep import run_sweep
 from tyre_farm_cli import main
 
-pytestmark = pytest.mark.ccx
+pytestmark = [pytest.mark.ccx, pytest.mark.e2e]  # real scheduler and worker processes
 DASK = str(Path(sys.executable).with_name("dask"))
 
 

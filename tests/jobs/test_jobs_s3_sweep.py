@@ -74,6 +74,7 @@ def test_a_study_without_options_keeps_its_store_text(tmp_path):
 
 
 @pytest.mark.ccx
+@pytest.mark.e2e  # end to end: run by .ci/run through `scripts/test.sh --e2e`
 def test_sweep_status_and_pca_on_s3(bucket, s3_endpoint, tmp_path, capsys):
     from analysis import data
     from analysis.studies import crosscov

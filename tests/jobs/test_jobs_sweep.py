@@ -75,6 +75,7 @@ def _wait_for_done(store, group, n, timeout=120):
     raise AssertionError(f"fewer than {n} experiments done after {timeout} s")
 
 
+@pytest.mark.e2e  # end to end: run by .ci/run through `scripts/test.sh --e2e`
 def test_killed_client_then_resume_solves_only_what_was_left(write_study, counting_ccx):
     path = write_study(deflections="{ start = 2, stop = 40, step = 2 }")
     study = load_study(path)

@@ -9,7 +9,7 @@ import pytest
 
 from tyre_farm_cli import main
 
-pytestmark = pytest.mark.ccx
+pytestmark = [pytest.mark.ccx, pytest.mark.e2e]  # the main job end to end
 
 
 def _run(out):
