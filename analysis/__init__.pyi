@@ -11,12 +11,14 @@ from .pls import SIMPLSRegression, pctvar_from_scores
 from .selection import cross_validate_simpls, select_n_components
 from .sensitivity import MorrisScreening, SobolIndices
 from .sensitivity_data import OutputRequest, read_outputs
+from .surrogate import FieldSurrogate
 
 __all__ = [
     "AnalysisError",
     "BlockRegression",
     "BlockScaler",
     "CrossCovariancePCA",
+    "FieldSurrogate",
     "Moments",
     "MorrisScreening",
     "NoiseResult",

@@ -65,6 +65,7 @@ TRUSTED_TYPES: tuple[str, ...] = (
     "analysis.pcr.PCRegression",
     "analysis.pls.SIMPLSRegression",
     "analysis.predict.intervals.ConformalIntervals",
+    "analysis.surrogate.FieldSurrogate",
     *(f"sklearn.gaussian_process.kernels.{k}" for k in (
         "CompoundKernel", "ConstantKernel", "DotProduct", "ExpSineSquared", "Exponentiation",
         "Matern", "PairwiseKernel", "Product", "RBF", "RationalQuadratic", "Sum",
