@@ -1,4 +1,4 @@
-"""``farm analyse pca|pcr|plsr|noise|combined|sensor STORE``: one command per chapter-5 analysis.
+"""``farm analyse pca|pcr|plsr|noise|combined|sensor|surrogate STORE``: one command per analysis.
 
 The ``farm`` CLI (:mod:`tyre_farm_cli`) mounts :data:`app` as ``farm analyse`` and turns
 :class:`~analysis.errors.AnalysisError` and :class:`storage.StoreError` into one line on
@@ -505,6 +505,45 @@ def sensor(
                                    test_fraction=test_fraction, folds=folds, draws=draws,
                                    max_components=max_components, seed=seed, **axes),
               as_json)
+
+
+# ------------------------------------------------------------------ surrogate (issue 28)
+
+@app.command()
+@with_tls
+def surrogate(
+    store: Store,
+    group: Group = None,
+    out: Out = None,
+    pressure: Pressure = None,
+    field: Annotated[
+        str, typer.Option(help="Inner-surface field the surrogate predicts beside the six "
+                          "totals: displacement or strain.")
+    ] = "displacement",
+    folds: Annotated[int, typer.Option(help="Folds of the cross-validation.")] = 5,
+    seed: Annotated[int, typer.Option(help="Seed of the folds and kernel restarts.")] = 0,
+    restarts: Annotated[
+        int, typer.Option(help="Restarts of each Gaussian process' kernel optimiser.")
+    ] = 3,
+    scheduler: Scheduler = None,
+    storage_option: StorageOption = None,
+    as_json: Json = False,
+) -> None:
+    """A surrogate of the experiments: Gaussian processes from the varied load parameters
+    to the field and the six totals, its held-out errors and uncertainty, and the fitted
+    model in OUT/surrogate (issue 28)."""
+    with usage():
+        if folds < 2:
+            raise ParameterError(f"--folds must be at least 2, got {folds}")
+        if restarts < 0:
+            raise ParameterError(f"--restarts must be at least 0, got {restarts}")
+        if field not in ("displacement", "strain"):
+            raise ParameterError(f"--field must be displacement or strain, got {field!r}")
+    folder = _out(out, "surrogate")
+    with dask_scheduler(scheduler):
+        ds = _load(store, storage_option, group, pressure, None)
+        _done(_study("surrogate").run(ds, folder, field=field, folds=folds, seed=seed,
+                                      restarts=restarts), as_json)
 
 
 # ------------------------------------------------------------------ sensitivity (issue 15)

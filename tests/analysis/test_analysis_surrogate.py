@@ -13,7 +13,7 @@ from analysis.predict.persist import load_model, save_model
 from analysis.surrogate import FieldSurrogate
 
 NODES = np.linspace(0.0, 1.0, 60)
-BLOCKS = [60, 1, 1, 1]  # the field, then each force its own block
+N_FIELD = 60  # the field's columns; then 3 'forces'
 
 
 def _truth(P: np.ndarray) -> np.ndarray:
@@ -34,7 +34,7 @@ def _lhs(n: int, seed: int, low=(0.0, 0.0), high=(1.0, 1.0)) -> np.ndarray:
 @pytest.fixture(scope="module")
 def fitted():
     P = _lhs(30, seed=1)
-    return FieldSurrogate(blocks=BLOCKS).fit(P, _truth(P)), P
+    return FieldSurrogate(n_field=N_FIELD).fit(P, _truth(P)), P
 
 
 def test_held_out_predictions_are_within_one_percent_of_range(fitted):
@@ -58,7 +58,7 @@ def test_the_uncertainty_covers_the_error_and_grows_away_from_the_data(fitted):
 
 def test_a_batch_goes_where_the_data_are_not_and_spreads_out():
     P = _lhs(12, seed=4, high=(0.5, 1.0))  # only the left half of the square is known
-    model = FieldSurrogate(blocks=BLOCKS).fit(P, _truth(P))
+    model = FieldSurrogate(n_field=N_FIELD).fit(P, _truth(P))
     g = np.linspace(0, 1, 11)
     candidates = np.array([(a, b) for a in g for b in g])
     batch = model.next_batch(candidates, 4)
@@ -72,7 +72,7 @@ def test_a_batch_goes_where_the_data_are_not_and_spreads_out():
 
 def test_adding_the_chosen_batch_lowers_the_held_out_error():
     P = _lhs(10, seed=5, high=(0.5, 1.0))
-    model = FieldSurrogate(blocks=BLOCKS).fit(P, _truth(P))
+    model = FieldSurrogate(n_field=N_FIELD).fit(P, _truth(P))
     g = np.linspace(0, 1, 11)
     candidates = np.array([(a, b) for a in g for b in g])
     Q = _lhs(40, seed=6)
@@ -96,10 +96,21 @@ def test_a_saved_surrogate_loads_and_predicts_the_same(fitted, tmp_path):
     (np.zeros((2, 2)), np.zeros((2, 3)), "at least 3"),
     (np.full((5, 2), np.nan), np.zeros((5, 3)), "finite 2-D"),
     (np.zeros(5), np.zeros((5, 3)), "finite 2-D"),
+    (np.zeros((5, 2)), np.zeros((5, 3)), "n_field=4 must be between 0 and the 3 columns"),
 ])
 def test_bad_input_is_one_clear_error(P, Y, match):
     with pytest.raises(ParameterError, match=match):
-        FieldSurrogate().fit(P, Y)
+        FieldSurrogate(n_field=4 if "n_field" in match else None).fit(P, Y)
+
+
+@pytest.mark.parametrize("n_field", [0, 63])
+def test_only_scalars_or_only_a_field_work_too(n_field):
+    P = _lhs(20, seed=8)
+    model = FieldSurrogate(n_field=n_field).fit(P, _truth(P))
+    Q = _lhs(10, seed=9)
+    pred, std = model.predict(Q, return_std=True)
+    assert pred.shape == std.shape == (10, 63)
+    assert np.abs(pred - _truth(Q)).max(axis=0).max() < 0.1 * np.ptp(_truth(Q), axis=0).max()
 
 
 def test_an_unfitted_surrogate_says_so():
