@@ -24,7 +24,7 @@ import numpy as np
 from sklearn.exceptions import ConvergenceWarning
 
 from analysis import data
-from analysis.studies.combined import _totals, varying_parameters
+from analysis.studies.combined import totals, varying_parameters
 from analysis.surrogate import FieldSurrogate
 
 SHOWN = {"Fx": 0, "Fy": 1, "Fz": 2, "Mz": 5}
@@ -66,7 +66,7 @@ def main() -> None:
     ds = data.load(args.store, args.group)
     params = varying_parameters(ds)
     P = np.column_stack([np.asarray(ds[p].values, dtype=float) for p in params])
-    Y = _totals(ds)
+    Y = totals(ds)
     print(f"{args.store}: {len(P)} done experiments, parameters {', '.join(params)}; "
           f"test {args.test}, start {args.start}, batch {args.batch}, {args.seeds} seeds")
     curves = {True: [], False: []}

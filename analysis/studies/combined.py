@@ -105,7 +105,9 @@ def split(n: int, test_fraction: float, seed: int) -> tuple[np.ndarray, np.ndarr
     return np.sort(perm[n_test:]), np.sort(perm[:n_test])
 
 
-def _field(ds: xr.Dataset, var: str) -> np.ndarray:
+def field_matrix(ds: xr.Dataset, var: str) -> np.ndarray:
+    """(K, N x components) of inner-surface field ``var``, component-major: the first
+    component of every inner node, then the second, ..."""
     if var not in ds:
         raise MissingVariableError(f"group {ds.attrs.get('group', '?')!r} has no {var!r}")
     arr = ds[var].transpose("experiment", "inner_node", ...)
@@ -238,7 +240,7 @@ def _targets(ds: xr.Dataset) -> dict[str, tuple[np.ndarray, list[int]]]:
                                                        "component").values, dtype=float)
     M = forces.shape[1]
     Y_map = np.concatenate([forces[:, :, j] for j in range(3)], axis=1)
-    return {"totals": (_totals(ds), [1] * 6), "nodal": (Y_map, [M, M, M])}
+    return {"totals": (totals(ds), [1] * 6), "nodal": (Y_map, [M, M, M])}
 
 
 def _scenario_sigmas(vars_: tuple[str, ...], blocks: list[np.ndarray]) -> dict[str, np.ndarray]:
@@ -258,7 +260,7 @@ def _study_input_set(ds: xr.Dataset, name: str, targets: dict, setup: _Setup,
     """Every model of one input set: per target, training and scenario, choose the count
     by CV, fit, predict the held-out experiments and record the errors."""
     vars_ = INPUT_SETS[name]
-    blocks = [_field(ds, v) for v in vars_]
+    blocks = [field_matrix(ds, v) for v in vars_]
     X = np.concatenate(blocks, axis=1)
     x_blocks = [b.shape[1] for b in blocks]
     sigmas = _scenario_sigmas(vars_, blocks)
@@ -354,7 +356,7 @@ def _input_sets(ds: xr.Dataset, spec: str | None) -> list[str]:
     return items
 
 
-def _totals(ds: xr.Dataset) -> np.ndarray:
+def totals(ds: xr.Dataset) -> np.ndarray:
     """(K, 6): Fx, Fy, Fz (N) from total_force, Mx, My, Mz (N mm) from moment."""
     for var in ("total_force", "moment"):
         if var not in ds:
@@ -420,7 +422,7 @@ def _pca_table(ds: xr.Dataset, sets: list[str], varying: list[str]) -> pd.DataFr
     fields: dict[str, np.ndarray] = {}
     for name in sets:
         for var in INPUT_SETS[name]:
-            fields.setdefault(var, _field(ds, var))
+            fields.setdefault(var, field_matrix(ds, var))
     items = []
     for var, X in fields.items():
         n = X.shape[1] // 3

@@ -32,7 +32,7 @@ from analysis.errors import MissingVariableError, ParameterError, TooFewExperime
 from analysis.render import markdown, plots
 from analysis.sensor import InnerSurface, SensorSpec, VirtualSensor
 from analysis.sensor.spec import NOISE_FIELDS
-from analysis.studies.combined import check_combined, split
+from analysis.studies.combined import TOTALS, check_combined, split, totals
 from analysis.studies.common import Report
 
 TARGETS = ("Fx", "Fy", "Fz", "Mz")
@@ -62,12 +62,9 @@ class Setup:
 
 def targets(ds: xr.Dataset) -> np.ndarray:
     """(K, 4): Fx, Fy, Fz (N) from ``total_force``, Mz (N mm) from ``moment``."""
-    for var in ("total_force", "moment", "displacement"):
-        if var not in ds:
-            raise MissingVariableError(f"group {ds.attrs.get('group', '?')!r} has no {var!r}")
-    f = np.asarray(ds["total_force"].sel(component=["x", "y", "z"]).values, dtype=float)
-    m = np.asarray(ds["moment"].sel(component=["z"]).values, dtype=float)
-    return np.concatenate([f, m], axis=1)
+    if "displacement" not in ds:
+        raise MissingVariableError(f"group {ds.attrs.get('group', '?')!r} has no 'displacement'")
+    return totals(ds)[:, [TOTALS.index(name) for name in ("Fx", "Fy", "Fz", "Mz")]]
 
 
 def displacements(ds: xr.Dataset) -> np.ndarray:

@@ -20,7 +20,7 @@ from sklearn.model_selection import KFold
 from analysis.errors import MissingVariableError, NoVarianceError, TooFewExperimentsError
 from analysis.predict.persist import save_model
 from analysis.render import markdown
-from analysis.studies.combined import TOTALS, _field, _totals, varying_parameters
+from analysis.studies.combined import TOTALS, field_matrix, totals, varying_parameters
 from analysis.studies.common import Report
 from analysis.surrogate import FieldSurrogate
 
@@ -45,7 +45,7 @@ def run(ds: xr.Dataset, out: Path, *, field: str = "displacement", folds: int = 
         raise TooFewExperimentsError(f"{n} experiments are too few for {folds}-fold "
                                      f"cross-validation of a surrogate: need {folds + 2}")
     P = np.column_stack([np.asarray(ds[p].values, dtype=float) for p in params])
-    F, T = _field(ds, field), _totals(ds)
+    F, T = field_matrix(ds, field), totals(ds)
     Y = np.hstack([F, T])
     pred, std = np.empty_like(Y), np.empty_like(Y)
     for train, test in KFold(folds, shuffle=True, random_state=seed).split(P):
