@@ -532,13 +532,14 @@ def surrogate(
     """A surrogate of the experiments: Gaussian processes from the varied load parameters
     to the field and the six totals, its held-out errors and uncertainty, and the fitted
     model in OUT/surrogate (issue 28)."""
+    fields = _study("surrogate").FIELDS
     with usage():
         if folds < 2:
             raise ParameterError(f"--folds must be at least 2, got {folds}")
         if restarts < 0:
             raise ParameterError(f"--restarts must be at least 0, got {restarts}")
-        if field not in ("displacement", "strain"):
-            raise ParameterError(f"--field must be displacement or strain, got {field!r}")
+        if field not in fields:
+            raise ParameterError(f"--field must be {' or '.join(fields)}, got {field!r}")
     folder = _out(out, "surrogate")
     with dask_scheduler(scheduler):
         ds = _load(store, storage_option, group, pressure, None)

@@ -137,6 +137,7 @@ def predict(
     from analysis.errors import CloudError
     from analysis.predict.clouds import read_cloud
     from analysis.predict.registration import icp, read_transform
+
     with usage():
         if transform is not None and align:
             raise typer.BadParameter("give --transform or --align, not both")
