@@ -24,7 +24,7 @@ class Session:
 
 @dataclass(kw_only=True)
 class RunReport:
-    """What every run reports beside its own results (filled in by :func:`drive`)."""
+    """What every run reports beside its own results (filled in by :func:`jobs.driver.drive`)."""
 
     dashboard: str = ""
     workers: int = 0
@@ -39,7 +39,7 @@ class RunReport:
 class Progress:
     """Callbacks a front end implements to follow a run (all optional).
 
-    ``state`` is the strategy's live view (:meth:`Strategy.state`).
+    ``state`` is the strategy's live view (:meth:`jobs.driver.Strategy.state`).
     """
 
     def started(self, session: Session, state: Any) -> None: ...
