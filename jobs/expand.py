@@ -69,7 +69,8 @@ def cases(study: Study) -> list[tuple[float, float, RoadMotion | None]]:
         unit = engine.random(s.n)
         points = qmc.scale(unit, [low for _, low, _ in s.ranges],
                            [high for _, _, high in s.ranges])
-        rows = [dict(zip(names, row, strict=True)) for row in points]
+        # then the points an adaptive study's rounds added (jobs.adaptive), in order
+        rows = [dict(zip(names, row, strict=True)) for row in [*points, *s.points]]
         order = (*order, *(n for n in names if n not in order))
     out: list[tuple[float, float, RoadMotion | None]] = []
     axes: list[tuple[str, Sequence[float | None]]]

@@ -7,6 +7,10 @@ A study names a store, a model and its load cases::
     store = "results/thesis.zarr"     # a directory or an fsspec URL
     group = "full-table-3.1"          # optional: default "<kind>-<model hash>"
 
+    [study.adaptive]                  # optional: rounds chosen by a surrogate, after
+    rounds = 4                        #   the [loads.sample] design (jobs/adaptive/,
+    batch = 4                         #   jobs/validate/adaptive.py)
+
     [study.storage_options]           # optional, URL stores only: fsspec options
     endpoint_url = "http://minio:9000" # (s3fs: endpoint_url, anon, client_kwargs, ...)
 
@@ -77,6 +81,7 @@ from jobs.design import ModelsSpec, design, parse_models
 from jobs.errors import StudyError
 from jobs.identity import model_hash
 from jobs.validate import limits, lists, locations, reading, scalars, spec_tables
+from jobs.validate.adaptive import AdaptiveSpec, check_loads, parse_adaptive
 from jobs.validate.messages import fail, located, shown
 from storage.paths import describe
 
@@ -104,6 +109,9 @@ class Sampling:
     n: int
     seed: int
     ranges: tuple[tuple[str, float, float], ...]  # (parameter, low, high), internal units
+    #: design points added to the sampled ones, in ``ranges`` order and internal units:
+    #: the points an adaptive study's rounds chose (jobs.adaptive), none in a study file
+    points: tuple[tuple[float, ...], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -131,6 +139,7 @@ class Study:
     models: ModelsSpec | None = None  # a design over model fields (jobs.design)
     # combined loads: (parameter, listed values) of the motion keys listed in [loads]
     motions: tuple[tuple[str, tuple[float, ...]], ...] = ()
+    adaptive: AdaptiveSpec | None = None  # [study.adaptive]: rounds chosen by a surrogate
 
     @property
     def combined(self) -> bool:
@@ -247,7 +256,8 @@ def parse_study(text: str, source: str = "<study>") -> Study:
     with located(source):
         scalars.table(data, "study file", {"study", "model", "loads", "solver", "models"},
                       {"study", "model", "loads"})
-        head = scalars.table(data["study"], "study", {"name", "store", "group", "storage_options"},
+        head = scalars.table(data["study"], "study",
+                             {"name", "store", "group", "storage_options", "adaptive"},
                              {"store"})
         store = scalars.string(head["store"], "study.store", "a path or URL string", blank=False)
         locations.store_location(store, "study.store")  # checked here, resolved by load_study
@@ -268,13 +278,25 @@ def parse_study(text: str, source: str = "<study>") -> Study:
                            "(<kind>-<model hash>): drop study.group")
             models = parse_models(data["models"], model)
             _check_count(pressures, deflections, sampling, models, motions)
+        adaptive = (_adaptive(head["adaptive"], pressures, deflections, sampling, motions,
+                              models is not None) if "adaptive" in head else None)
         study = Study(name, store, group, model, pressures, deflections, sampling,
                       solver.settings, solver.max_path_length, solver.retry_smaller_increments,
-                      source, options, models, motions)
+                      source, options, models, motions, adaptive)
         _check_loads(study)
         if models is not None:
             _check_models(study)
         return with_storage_options(study) if options else study
+
+
+def _adaptive(data: Any, pressures: tuple, deflections: tuple, sampling: Sampling | None,
+              motions: tuple, models: bool) -> AdaptiveSpec:
+    spec = parse_adaptive(data)
+    listed = {"pressure_kpa": pressures, "deflection_mm": deflections,
+              **{key: dict(motions).get(name, ()) for key, (name, _) in MOTION_KEYS.items()}}
+    sampled = tuple(name for name, _, _ in sampling.ranges) if sampling else ()
+    check_loads(spec, sampled, listed, sampling.n if sampling else 0, models)
+    return spec
 
 
 def with_storage_options(study: Study) -> Study:

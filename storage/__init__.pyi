@@ -28,6 +28,7 @@ from .read import (
     verify_done,
 )
 from .reserve import reserve
+from .rounds import read_rounds, write_rounds
 from .schema import DONE, FAILED, PENDING, SCHEMA_VERSION
 from .solves import SolveRecord, SolvesAttrs, Unknowns, open_solves, write_solves
 from .verify import VerifyReport, verify
@@ -68,6 +69,7 @@ __all__ = [
     "open_store",
     "package_versions",
     "parameters",
+    "read_rounds",
     "reserve",
     "select",
     "status_counts",
@@ -77,5 +79,6 @@ __all__ = [
     "verify_done",
     "write_experiment",
     "write_failure",
+    "write_rounds",
     "write_solves",
 ]

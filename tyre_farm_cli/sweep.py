@@ -194,12 +194,34 @@ def _run(study_file: Path, cluster, retry_failed, as_json: bool) -> None:
     from jobs.sweep import run_sweep
 
     study = load_study(study_file)  # everything is validated before anything starts
+    if study.adaptive is not None:
+        _run_adaptive(study, cluster, retry_failed, as_json)
     report = run_sweep(study, cluster=cluster, retry_failed=retry_failed,
                        progress=sweep_progress(study.name))
     if as_json:
         _dump(_summary_dict(report))
     else:
         _summary(report, Console())
+    raise typer.Exit(0 if report.ok else 1)
+
+
+def _run_adaptive(study, cluster, retry_failed, as_json: bool) -> None:
+    """An adaptive study: rounds of sweeps, each chosen by a surrogate (issue 28)."""
+    from analysis.adaptive import SurrogateChooser
+    from jobs.adaptive.loop import run_adaptive
+    from tyre_farm_cli.adaptive import RoundLines, rounds_table
+
+    lines = RoundLines(study)
+    report = run_adaptive(study, SurrogateChooser(seed=study.adaptive.seed), cluster=cluster,
+                          retry_failed=retry_failed, progress=sweep_progress(study.name),
+                          on_round=lines.fitted)
+    last = report.sweeps[-1]
+    if as_json:
+        _dump({**_summary_dict(last), "adaptive": report.log.to_json(study.name)})
+    else:
+        console = Console()
+        console.print(rounds_table(report.log, study))
+        _summary(last, console)
     raise typer.Exit(0 if report.ok else 1)
 
 
@@ -233,6 +255,10 @@ def _target(target: str, group: str | None, options: list[str] | None = None
     if not target.endswith(".toml"):
         return open_target(target, options), [group] if group else None, target, {}
     study = load_study(target)
+    if study.adaptive is not None:  # the points its rounds chose so far count too
+        from jobs.adaptive import log
+
+        study = log.with_points(study, log.read(study))
     expected = _expected(study)
     groups = [group] if group else list(expected)
     return study.store, groups, study.location, expected

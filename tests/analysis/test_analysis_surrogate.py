@@ -121,3 +121,27 @@ def test_an_unfitted_surrogate_says_so():
 def test_a_batch_larger_than_the_candidates_is_refused(fitted):
     with pytest.raises(ParameterError, match="batch size 9"):
         fitted[0].next_batch(np.zeros((3, 2)), 9)
+
+
+def test_closed_form_leave_one_out_equals_refits_without_each_experiment(fitted):
+    """loo_predict is the GP's prediction at an experiment from the others, kernels and
+    PCA basis fixed: the same as refitting (optimizer off) without that experiment."""
+    from sklearn.gaussian_process import GaussianProcessRegressor
+
+    model, P = fitted
+    loo = model.loo_predict()
+    Ps = model._p(P)
+    for i in (0, 7, 29):
+        keep = np.arange(len(P)) != i
+        targets = []
+        for gp in model.gps_:
+            refit = GaussianProcessRegressor(gp.kernel_, optimizer=None)
+            refit.fit(Ps[keep], gp.y_train_[keep])
+            targets.append(refit.predict(Ps[i:i + 1])[0])
+        T = np.asarray(targets) * model.t_scale_ + model.t_mean_
+        c = model.n_components_
+        expected = np.concatenate([model.pca_.inverse_transform(T[None, :c])[0], T[c:]])
+        np.testing.assert_allclose(loo[i], expected, rtol=1e-6, atol=1e-6 * np.abs(expected).max())
+    # and it is a held-out error: larger than the (interpolating) training fit
+    Y = _truth(P)
+    assert np.abs(loo - Y).mean() > np.abs(model.predict(P) - Y).mean()
