@@ -54,6 +54,14 @@ class SolverError(FarmError, RuntimeError):
         Exit status, ``None`` when the process was killed on timeout.
     tail : str
         The last lines of the solver's output.
+    hint : str
+        How to fix it.
+    reached : float or None
+        Step time of the last converged increment (from the ``.sta`` file; 0 when none
+        converged, None when unknown): where along its load path the run stopped.
+    where : str
+        What the load path was doing at ``reached`` (e.g. "in the slide, 40 % of it"),
+        when the caller knows its path's time layout (:meth:`located`).
     """
 
     def __init__(
@@ -63,18 +71,31 @@ class SolverError(FarmError, RuntimeError):
         returncode: int | None,
         tail: str,
         hint: str = "",
+        reached: float | None = None,
+        where: str = "",
     ) -> None:
         self.outcome = outcome
         self.command = list(command)
         self.returncode = returncode
         self.tail = tail
+        self.hint, self.reached, self.where = hint, reached, where
         last = " | ".join(line.strip() for line in tail.strip().splitlines()[-3:] if line.strip())
         msg = f"ccx failed ({outcome}, exit code {returncode}) running {' '.join(command)}"
         if last:
             msg += f": {last}"
+        if reached is not None:
+            msg += (f"; last converged increment at step time {reached:.4g}" if reached > 0
+                    else "; no increment converged")
+            msg += f" ({where})" if where else ""
         if hint:
             msg += f". {hint}"
         super().__init__(msg)
 
+    def located(self, where: str) -> SolverError:
+        """The same failure, saying what the load path was doing when it stopped."""
+        return SolverError(self.outcome, self.command, self.returncode, self.tail, self.hint,
+                           self.reached, where)
+
     def __reduce__(self):  # keep the fields when the error crosses a process boundary
-        return (type(self), (self.outcome, self.command, self.returncode, self.tail))
+        return (type(self), (self.outcome, self.command, self.returncode, self.tail,
+                             self.hint, self.reached, self.where))

@@ -334,5 +334,7 @@ def run_ccx(
     run = CcxRun(command, workdir, jobname, returncode, seconds, outcome, tail,
                  increments, cutbacks, tuple(progress.marks))
     if check and outcome is not Outcome.CONVERGED:
-        raise SolverError(outcome.value, list(command), returncode, tail, HINTS.get(outcome, ""))
+        reached = _sta_rows(workdir / f"{jobname}.sta")
+        raise SolverError(outcome.value, list(command), returncode, tail, HINTS.get(outcome, ""),
+                          reached[-1] if reached else 0.0)
     return run

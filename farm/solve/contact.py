@@ -32,7 +32,7 @@ from farm.atomic import write_text
 from farm.ccx import deck as D
 from farm.ccx.frd import FrdFile, read_frd
 from farm.ccx.runner import CcxRun, ccx_version, run_ccx, scratch_dir
-from farm.errors import ResultsError
+from farm.errors import ResultsError, SolverError
 from farm.mesh.cache import cache_dir
 from farm.mesh.tyremesh import HEX_FACES, REGIONS, TyreMesh
 from farm.solve.states import (
@@ -131,6 +131,26 @@ def path_deck(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: SolverS
         pressure, D.output_lines(time_points=True, contact=True), ["*END STEP"],
     )
     return deck, times, z_road
+
+
+def stage(spec: ModelSpec, path: LoadPath, time: float) -> str:
+    """What a path's deck does at step ``time`` (:func:`path_deck`'s time layout): the
+    inflation, a tilted road's turn, the rise (at which deflection: first touch is 0),
+    or the slide (how far along it)."""
+    t0 = 1.0 if spec.inflated else 0.0
+    if time < t0:
+        return f"in the inflation, {100 * time:.0f} % of the pressure"
+    motion = path.motion
+    gap = _combined_gap(spec, path) if motion is not None else road_gap(spec)
+    tilt = TILT_TIME if motion is not None and motion.tilt else 0.0
+    if time < t0 + tilt:
+        return f"while the road turns to its tilt, {100 * (time - t0) / tilt:.0f} % of it"
+    if time <= t0 + 1.0 or motion is None or not motion.moves:
+        travel = gap + path.deflections[-1]
+        d = travel * min(1.0, (time - t0 - tilt) / (1.0 - tilt)) - gap
+        return (f"in the rise, {d:.2f} mm deflection" if d >= 0 else
+                f"in the rise, {-d:.2f} mm before first touch")
+    return f"in the slide, {100 * min(1.0, time - t0 - 1.0):.0f} % of it"
 
 
 def _road(spec: ModelSpec, mesh: TyreMesh, z_road: float) -> D.Road:
@@ -360,7 +380,10 @@ def solve_contact_path(spec: ModelSpec, mesh: TyreMesh, path: LoadPath,
         touch_z, run = touch_height(spec, mesh, path.pressure, settings, should_stop)
         runs += [run] if run is not None else []
     deck, times, z_start = path_deck(spec, mesh, path, settings, touch_z)
-    run, frd = _solve(deck, settings, should_stop, "path")
+    try:
+        run, frd = _solve(deck, settings, should_stop, "path")
+    except SolverError as e:  # say where along the path it stopped (issue 29: failures are data)
+        raise (e.located(stage(spec, path, e.reached)) if e.reached is not None else e) from e
     runs.append(run)
     faces = slave_faces(mesh)
     gap = road_gap(spec)

@@ -18,7 +18,7 @@ from farm.errors import SpecError
 from farm.experiment import run_load_path
 from farm.mesh import mesh_for
 from farm.presets import default_model
-from farm.solve.contact import path_deck
+from farm.solve.contact import TILT_TIME, path_deck, stage
 from farm.solve.states import OPEN, SLIP, STICK
 from farm.specs import LoadPath, MeshDensity, RoadMotion, SolverSettings
 
@@ -42,6 +42,26 @@ def _normal(tilt_deg: float) -> np.ndarray:
 
 
 # --- spec and deck (no solver) ----------------------------------------------------------
+
+@pytest.mark.parametrize("motion", [None, RoadMotion(friction=0.5, shift_y=3.0, tilt=TILT)],
+                         ids=["vertical", "slide"])
+def test_a_failure_time_is_named_by_what_the_path_does_then(motion):
+    """stage() reads the deck's own time layout: at each deflection's output time it names
+    that deflection, at the slide's output times the fraction of the slide."""
+    mesh = mesh_for(COARSE)
+    path = LoadPath((10.0, DEFLECTION), PRESSURE, motion, (0.25, 1.0) if motion else (1.0,))
+    _, times, _ = path_deck(COARSE, mesh, path, SETTINGS, -400.0)
+    for t, d in zip(times, path.deflections, strict=False):
+        assert stage(COARSE, path, t) == f"in the rise, {d:.2f} mm deflection"
+    assert stage(COARSE, path, 0.5) == "in the inflation, 50 % of the pressure"
+    start = 1.0 + (TILT_TIME if motion else 0.0)  # the rise starts, the road still clear
+    assert stage(COARSE, path, start).startswith("in the rise, ")
+    assert stage(COARSE, path, start).endswith(" mm before first touch")
+    if motion:
+        assert stage(COARSE, path, 1.0 + TILT_TIME / 2) == \
+            "while the road turns to its tilt, 50 % of it"
+        assert [stage(COARSE, path, t) for t in times[2:]] == [
+            "in the slide, 25 % of it", "in the slide, 100 % of it"]
 
 def test_no_motion_is_the_vertical_path_and_its_deck():
     mesh = mesh_for(COARSE)

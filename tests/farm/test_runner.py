@@ -79,6 +79,22 @@ def test_failure_raises_with_command_code_and_tail(tmp_path):
     assert err.outcome == "increment_below_minimum" and err.returncode == 201
     assert err.command[1:] == ["-i", "job"] and "increment size smaller" in err.tail
     assert "increment_below_minimum" in str(err) and "\n" not in str(err)
+    assert err.reached == 0.0 and "no increment converged" in str(err)
+
+
+@pytest.mark.ccx
+def test_a_failure_says_where_its_path_stopped_and_keeps_it_across_processes(tmp_path):
+    import pickle
+
+    with pytest.raises(SolverError) as info:
+        run_ccx(DECKS[Outcome.MAX_INCREMENTS], tmp_path)  # 3 increments of 0.01 converge
+    err = info.value
+    assert err.reached == pytest.approx(0.03)
+    assert "last converged increment at step time 0.03" in str(err)
+    located = err.located("in the rise, 1.20 mm deflection")
+    assert "step time 0.03 (in the rise, 1.20 mm deflection). Raise" in str(located)
+    back = pickle.loads(pickle.dumps(located))  # a worker's error reaches the client whole
+    assert str(back) == str(located) and back.reached == located.reached
 
 
 def _ccx_children_in(workdir: Path) -> list[psutil.Process]:
