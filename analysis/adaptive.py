@@ -5,7 +5,10 @@ on a group's done experiments, report its held-out errors, pick the next batch.
 it in: jobs does not import analysis). The surrogate maps the sampled load parameters to
 the inner-surface field and the six totals; its errors are the closed-form leave-one-out
 RMSE in % of each output's range (:meth:`FieldSurrogate.loo_predict`), and its batch the
-kriging-believer choice of :meth:`FieldSurrogate.next_batch` over the round's candidates.
+kriging-believer choice of :meth:`FieldSurrogate.next_batch` over the round's candidates,
+with the group's failed experiments counted as observed: a round does not return to where
+ccx just failed (measured: such neighbourhoods are the most uncertain, and an adaptive
+design lost 2 of its 24 picks to failures there, README "Adaptive studies").
 """
 
 from __future__ import annotations
@@ -17,6 +20,7 @@ from typing import Any
 import numpy as np
 from sklearn.exceptions import ConvergenceWarning
 
+import storage
 from analysis import data
 from analysis.errors import TooFewExperimentsError
 from analysis.studies.combined import field_matrix, totals
@@ -36,6 +40,14 @@ class Choice:
     picks: tuple[int, ...]
     fitted_on: int
     errors: dict[str, float | None] = field(default_factory=dict)
+
+
+def failed_points(store: Any, group: str, names: tuple[str, ...]) -> np.ndarray:
+    """The load parameters ``names`` of the group's failed experiments: (J, len(names))."""
+    ds = data.open_group(store, group)
+    failed = np.asarray(ds["status"].values) == storage.FAILED
+    return np.column_stack([np.asarray(ds[p].values, dtype=float)[failed] for p in names]
+                           ).reshape(int(failed.sum()), len(names))
 
 
 class SurrogateChooser:
@@ -77,6 +89,6 @@ class SurrogateChooser:
         errors = {(FIELD if name == field else name): (None if np.isnan(pct) else pct)
                   for name, (_, pct) in rmse_pct(Y, self.model_.loo_predict(), F.shape[1],
                                                  field).items()}
-        picks = (tuple(int(k) for k in self.model_.next_batch(candidates, size))
-                 if size else ())
+        picks = (tuple(int(k) for k in self.model_.next_batch(
+            candidates, size, avoid=failed_points(store, group, names))) if size else ())
         return Choice(picks, n, errors)

@@ -164,12 +164,15 @@ class FieldSurrogate(MultiOutputMixin, RegressorMixin, BaseEstimator):
         check_is_fitted(self)
         return self._targets(self._p(P))[1] ** 2 @ self.weight_
 
-    def next_batch(self, candidates, size):
+    def next_batch(self, candidates, size, avoid=None):
         """Indices of ``size`` rows of ``candidates`` (K, n_parameters) to run next.
 
         Greedy: the row of largest :meth:`uncertainty`, then the same with that row added
         to the training set (at any value: a GP's variance does not depend on it) and the
-        kernels kept, and so on.
+        kernels kept, and so on. ``avoid`` (J, n_parameters): points to count as observed
+        although they are not in the training set - an adaptive study's failed
+        experiments, so that a batch does not return to where ccx just failed (their
+        neighbourhood is the most uncertain, having no data).
         """
         check_is_fitted(self)
         C = self._p(candidates)
@@ -177,6 +180,8 @@ class FieldSurrogate(MultiOutputMixin, RegressorMixin, BaseEstimator):
             raise ParameterError(f"batch size {size} must be between 1 and the "
                                  f"{len(C)} candidates")
         X = self.gps_[0].X_train_
+        if avoid is not None and len(avoid):
+            X = np.vstack([X, self._p(avoid)])
         believers = [GaussianProcessRegressor(gp.kernel_, optimizer=None) for gp in self.gps_]
         weights = (self.t_scale_ * self.std_scale_) ** 2 * self.weight_
         chosen: list[int] = []

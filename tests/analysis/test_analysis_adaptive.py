@@ -55,3 +55,19 @@ def test_too_few_done_experiments_is_one_clear_error(tmp_path):
     group = data.resolve_group(path, None)
     with pytest.raises(TooFewExperimentsError, match=r"2 done experiments.*needs 3"):
         SurrogateChooser()(path, group, NAMES, "displacement", _candidates(8, 1), 2)
+
+
+def test_failed_points_are_the_failed_experiments_load_cases(tmp_path):
+    import storage
+    from analysis.adaptive import failed_points
+    from tests.synthetic import make_store
+
+    path = tmp_path / "s.zarr"
+    group = make_store(path, n_experiments=6, n_failed=2, n_pending=1, rows=4, cols=6,
+                       tread_rows=3, tread_cols=4)
+    points = failed_points(path, group, ("deflection", "pressure"))
+    ds = storage.open_dataset(path, group)
+    failed = ds["status"].values == storage.FAILED
+    assert points.shape == (2, 2)
+    np.testing.assert_array_equal(points[:, 0], ds["deflection"].values[failed])
+    assert failed_points(path, group, ("deflection",)).shape == (2, 1)

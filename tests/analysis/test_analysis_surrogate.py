@@ -145,3 +145,13 @@ def test_closed_form_leave_one_out_equals_refits_without_each_experiment(fitted)
     # and it is a held-out error: larger than the (interpolating) training fit
     Y = _truth(P)
     assert np.abs(loo - Y).mean() > np.abs(model.predict(P) - Y).mean()
+
+
+def test_a_batch_avoids_points_counted_as_observed(fitted):
+    """``avoid`` points lower the variance around them: the first pick moves away."""
+    model, _ = fitted
+    C = _lhs(200, seed=9, low=(-0.5, -0.5), high=(1.5, 1.5))  # partly outside the data
+    first = model.next_batch(C, 1)[0]
+    again = model.next_batch(C, 1, avoid=C[[first]])[0]
+    assert again != first
+    assert np.linalg.norm(C[again] - C[first]) > 0.2  # not its neighbour either
