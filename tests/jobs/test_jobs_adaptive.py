@@ -171,6 +171,20 @@ def test_a_stopped_adaptive_study_resumes_at_its_round(tmp_path, counting_ccx):
     assert out["groups"][0]["counts"] == {"done": 8, "failed": 0, "pending": 0}
 
 
+@pytest.mark.ccx
+def test_an_adaptive_study_stops_once_its_target_is_met(tmp_path, counting_ccx):
+    """A target every output meets after the initial design: no round is chosen."""
+    from analysis.adaptive import SurrogateChooser
+
+    path = tmp_path / "study.toml"
+    path.write_text(_text(tmp_path, adaptive=ADAPTIVE + "target_pct = 100\n"))
+    study = load_study(path)
+    report = run_adaptive(study, SurrogateChooser(restarts=1), workers=2)
+    assert report.log.rounds == () and report.log.stopped == "target"
+    assert report.log.final.fitted_on == 4 and ccx_runs(counting_ccx) == 4
+    assert all(e is None or e <= 100 for e in report.log.final.errors.values())
+
+
 def _cli(argv: list[str]) -> dict:
     import contextlib
     import io
