@@ -119,6 +119,19 @@ def _ended_text(state) -> str:
             f"{plural(result.stats.rounds, 'round')}, {result.wall_seconds:.0f} s")
 
 
+def _surrogate(study):
+    """The surrogate guess of ``initial = "surrogate"`` conditions (issue 28), trained on
+    the [distribution] group without the experiments at the reference load; None when no
+    condition uses it."""
+    if all(c.initial != "surrogate" for c in study.conditions):
+        return None
+    from analysis.surrogate_guess import from_group
+
+    spec = study.distribution
+    return from_group(spec.store, spec.group, exclude={"deflection": study.deflection},
+                      within=spec.exclude_within)
+
+
 def _default_out(study) -> Path:
     if "://" in study.location:
         return Path(f"{study.group}-report").resolve()
@@ -150,7 +163,8 @@ def invert(study_file: Path = STUDY, scheduler: str = SCHEDULER, workers: int = 
             output_folder(out, "--out")
     if cluster.embedded:
         find_ccx()
-    report = run_inverse(study, cluster=cluster, progress=loop_progress())
+    report = run_inverse(study, cluster=cluster, progress=loop_progress(),
+                         surrogate=_surrogate(study))
     folder = (out or _default_out(study)).expanduser()
     console = Console(width=None if sys.stdout.isatty() else 180)
     frames, figures = _report(study.store, study.group, folder) if report.results else ({}, [])

@@ -8,6 +8,11 @@
   condition has noise) inner surface offset by the wall thickness gives the outer
   surface; its vertical displacement prescribed on the unknown nodes gives reaction
   forces (one ccx run, :func:`farm.solve.forces.offset_outer_uz`), + N(0, σ);
+- ``surrogate``: the load read from the measured field by inverting a surrogate of a
+  sweep group of the same mesh (the ``[distribution]`` group), and the surrogate's
+  tread force map at that load on the unknowns (issue 28; a :class:`FieldGuess`, built
+  by analysis/surrogate_guess.py and handed in by ``farm invert``), times ``scale``;
+  + N(0, σ). No solver run;
 - ``distribution``: the statistical "tyre distribution" of §6.2
   (:mod:`jobs.inverse.distribution`), trained on a sweep group of the same mesh: its
   normalised force map at the reference deflection on the unknowns, times the uniform
@@ -21,6 +26,7 @@ every method and optimiser of a repeat, so that they start from the same point.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Protocol
 
 import numpy as np
 
@@ -38,15 +44,23 @@ class GuessError(JobError, RuntimeError):
     """The thickness-offset guess could not be solved."""
 
 
+class FieldGuess(Protocol):
+    """Vertical force guesses (n,) on the unknown tread ``nodes`` from a measured inner
+    displacement field (N, 3) (:class:`analysis.surrogate_guess.SurrogateGuess`)."""
+
+    def __call__(self, measured: np.ndarray, nodes: np.ndarray) -> np.ndarray: ...
+
+
 def guess_stream(seed: Sequence[int]) -> list[int]:
     return [*seed, 3]
 
 
 def initial_guess(problem: Problem, condition: Condition, seed: Sequence[int],
                   objective: Objective, evaluator: Evaluator, stats: LoopStats,
-                  distribution: TyreDistribution | None = None) -> np.ndarray:
-    """x0 of one loop, shape (n,), N (``distribution``: the trained model, for
-    ``initial = "distribution"``)."""
+                  distribution: TyreDistribution | None = None,
+                  surrogate: FieldGuess | None = None) -> np.ndarray:
+    """x0 of one loop, shape (n,), N (``distribution``, ``surrogate``: the trained
+    models, for ``initial = "distribution"`` and ``"surrogate"``)."""
     rng = np.random.default_rng(guess_stream(seed))
     jitter = rng.normal(0.0, condition.guess_sigma, problem.n) if condition.guess_sigma else 0.0
     if condition.initial == "scaled":
@@ -60,6 +74,11 @@ def initial_guess(problem: Problem, condition: Condition, seed: Sequence[int],
         total = float(problem.reference.total_force[2])
         base = guess_from(distribution, problem.mesh.tread_nodes, problem.nodes,
                           {"deflection": problem.deflection}, condition.scale * total)
+    elif condition.initial == "surrogate":
+        if surrogate is None:
+            raise GuessError("initial = \"surrogate\" without a trained surrogate")
+        measured_u, _ = objective.measured(0)  # what the loop's camera sees, noise included
+        base = condition.scale * np.asarray(surrogate(measured_u, problem.nodes), dtype=float)
     else:
         base = offset_guess(problem, objective, evaluator, stats)
     return base + jitter

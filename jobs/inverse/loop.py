@@ -21,7 +21,7 @@ from farm.specs import content_hash
 from jobs.guard import Failed
 from jobs.identity import value_key
 from jobs.inverse.distribution import TyreDistribution
-from jobs.inverse.guesses import initial_guess
+from jobs.inverse.guesses import FieldGuess, initial_guess
 from jobs.inverse.objective import Objective, field_rmse
 from jobs.inverse.problem import Problem
 from jobs.inverse.regularisation import discrepancy_weight, expected_noise_norm
@@ -71,8 +71,8 @@ def loop_id(study: InverseStudy, spec: LoopSpec) -> str:
     body = {"problem": study.problem_hash(), "seed": loop_seed(study, spec),
             "condition": vars(spec.condition) | {"repeats": None},
             "method": spec.method, "optimizer": optimizer}
-    if spec.condition.initial == "distribution":
-        body["distribution"] = vars(study.distribution)
+    if spec.condition.initial in ("distribution", "surrogate"):
+        body["distribution"] = vars(study.distribution)  # the training group of either
     return value_key(body)
 
 
@@ -128,17 +128,19 @@ def _objective(study: InverseStudy, problem: Problem, spec: LoopSpec, seed,
 def run_loop(study: InverseStudy, problem: Problem, spec: LoopSpec, evaluator: Evaluator,
              state: LoopState, mask: np.ndarray | None = None,
              stop: Callable[[np.ndarray, float], bool] | None = None,
-             distribution: TyreDistribution | None = None) -> LoopResult:
+             distribution: TyreDistribution | None = None,
+             surrogate: FieldGuess | None = None) -> LoopResult:
     """Run one loop to its end; raises :class:`Interrupted` if the run shuts down.
 
-    ``distribution``: the trained "tyre distribution", for ``initial = "distribution"``.
+    ``distribution``: the trained "tyre distribution", for ``initial = "distribution"``;
+    ``surrogate``: the trained surrogate guess, for ``initial = "surrogate"``.
     """
     start = time.perf_counter()
     state.status = "running"
     seed = loop_seed(study, spec)
     probe = _objective(study, problem, spec, seed, mask, 1.0)
     x0 = initial_guess(problem, spec.condition, seed, probe, evaluator, state.stats,
-                       distribution)
+                       distribution, surrogate)
     scale = max(float(np.mean(np.abs(x0))), 1e-9)
     opt = spec.optimizer
     xs: list[np.ndarray] = []

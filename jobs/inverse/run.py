@@ -19,12 +19,14 @@ import numpy as np
 from farm.mesh import mesh_for
 from jobs.cluster import ClusterSpec
 from jobs.driver import LoopThreads, drive
+from jobs.errors import StudyError
 from jobs.inverse.distribution import (
     TyreDistribution,
     check_mesh,
     fit_distribution,
     training_set,
 )
+from jobs.inverse.guesses import FieldGuess
 from jobs.inverse.loop import LoopResult, LoopState, expand_loops, run_loop
 from jobs.inverse.mask import masks_for
 from jobs.inverse.problem import Problem, build_problem
@@ -63,9 +65,15 @@ class Inverse(LoopThreads[InverseReport]):
     """The inverse strategy: the reference, then one loop per condition x method x
     optimiser x repeat; the progress state is the list of :class:`LoopState`."""
 
-    def __init__(self, study: InverseStudy, write: bool = True) -> None:
+    def __init__(self, study: InverseStudy, write: bool = True,
+                 surrogate: FieldGuess | None = None) -> None:
         super().__init__(study.cache)
-        self.study, self.write = study, write
+        self.study, self.write, self.surrogate = study, write, surrogate
+        if surrogate is None and any(c.initial == "surrogate" for c in study.conditions):
+            raise StudyError("initial = \"surrogate\" needs the trained surrogate guess: "
+                             "`farm invert` builds it from the [distribution] group; in Python "
+                             "pass run_inverse(..., surrogate=analysis.surrogate_guess."
+                             "from_group(store, group))")
         self.specs = expand_loops(study)
         mesh = mesh_for(study.model)
         self.masks = masks_for(study.mask, mesh.inner_nodes,
@@ -79,7 +87,7 @@ class Inverse(LoopThreads[InverseReport]):
         study, ev = self.study, self.started_evaluator
         self.report.problem = problem = build_problem(study, ev, session.solver)
         return [functools.partial(run_loop, study, problem, s, ev, st, self.masks.get(s.method),
-                                  distribution=self.distribution)
+                                  distribution=self.distribution, surrogate=self.surrogate)
                 for s, st in zip(self.specs, self.states, strict=True)]
 
     def collected(self, index: int, result, error) -> None:
@@ -121,9 +129,11 @@ def train_distribution(study: InverseStudy, mesh) -> TyreDistribution | None:
 def run_inverse(study: InverseStudy, *, scheduler: str | None = None,
                 workers: int | None = None, progress: Progress | None = None,
                 on_client: Callable[[object], None] | None = None,
-                write: bool = True, cluster: ClusterSpec | None = None) -> InverseReport:
+                write: bool = True, cluster: ClusterSpec | None = None,
+                surrogate: FieldGuess | None = None) -> InverseReport:
     """Run every loop of ``study`` and write the results group; return the report.
 
-    ``cluster`` (:class:`jobs.cluster.ClusterSpec`) replaces ``scheduler``/``workers``."""
-    return drive(Inverse(study, write), cluster=cluster, scheduler=scheduler,
+    ``cluster`` (:class:`jobs.cluster.ClusterSpec`) replaces ``scheduler``/``workers``;
+    ``surrogate`` is the guess of ``initial = "surrogate"`` conditions."""
+    return drive(Inverse(study, write, surrogate), cluster=cluster, scheduler=scheduler,
                  workers=workers, progress=progress, on_client=on_client)

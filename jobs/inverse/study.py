@@ -42,7 +42,7 @@
     eigen_vectors = "pca/eigen_vectors.csv"   # from `farm analyse pca --out pca`
     keep = 0.5
 
-    [distribution]                        # for initial = "distribution" (§6.2)
+    [distribution]                        # for initial = "distribution" (§6.2) or "surrogate"
     store = "results/thesis.zarr"         # a sweep group of the same mesh
     group = "reduced-table-3.1-default"
     components = 3                        # PCA modes of the normalised force maps
@@ -53,7 +53,7 @@
     name = "ideal"
     methods = ["displacement", "strain"]  # eq. 4.1, eq. 4.2, or "combined"
     noise = false
-    initial = "scaled"                    # or "uniform", "offset", "distribution"
+    initial = "scaled"                    # or "uniform", "offset", "distribution", "surrogate"
     scale = 0.9
     guess_sigma_n = 0.0
     repeats = 1
@@ -80,7 +80,7 @@ from storage.paths import describe
 
 METHODS = ("displacement", "strain", "combined")
 OPTIMIZERS = ("nelder-mead", "least-squares")
-INITIALS = ("scaled", "uniform", "offset", "distribution")
+INITIALS = ("scaled", "uniform", "offset", "distribution", "surrogate")
 # weight = λ, or "discrepancy": the loop chooses λ (jobs/inverse/regularisation.py)
 WEIGHT_RULES = ("fixed", "discrepancy")
 NOISE_DRAWS = ("per_evaluation", "per_solve")
@@ -409,8 +409,8 @@ def _parse(data: dict, source: str, base: Path) -> InverseStudy:
     mask = _mask(data["mask"], base) if "mask" in data else None
     distribution = _distribution(data["distribution"], base) if "distribution" in data else None
     for k, c in enumerate(conditions):
-        if c.initial == "distribution" and distribution is None:
-            raise fail(f"conditions[{k}].initial", "\"distribution\" needs a [distribution] "
+        if c.initial in ("distribution", "surrogate") and distribution is None:
+            raise fail(f"conditions[{k}].initial", f"\"{c.initial}\" needs a [distribution] "
                        "table naming the sweep group it is trained from (store, group)")
     options = (locations.storage_options(head["storage_options"], "study.storage_options", store)
                if "storage_options" in head else None)

@@ -127,6 +127,8 @@ def test_discrepancy_and_distribution_keys_parse():
      "discrepancy = 0\n", "optimizers.least-squares.discrepancy"),
     ('[[conditions]]\nname = "d"\ninitial = "distribution"\n',
      r"conditions\[0\].initial: .*\[distribution\] table"),
+    ('[[conditions]]\nname = "d"\ninitial = "surrogate"\n',
+     r"conditions\[0\].initial: \"surrogate\" needs a \[distribution\] table"),
     ('[distribution]\nstore = "s.zarr"\n', "distribution.group"),
     ('[distribution]\nstore = "s.zarr"\ngroup = "g"\ndegree = 9\n', "distribution.degree"),
     ('[distribution]\nstore = "s.zarr"\ngroup = "g"\nmodes = 2\n', "distribution.modes"),
