@@ -123,6 +123,16 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
+    # one cluster for every sweep (a study's sweep would start and stop one each time)
+    from distributed import LocalCluster
+
+    with LocalCluster(n_workers=args.workers, threads_per_worker=1, processes=True,
+                      dashboard_address=None) as cluster:
+        run(args, cluster.scheduler_address)
+
+
+def run(args, scheduler: str) -> None:
+    """Sweep every design on the cluster at ``scheduler``, then score and print."""
     out = Path(args.out)
     base = load_study(args.study)
     sizes = [args.start + k * args.batch for k in range(args.rounds + 1)]
@@ -131,13 +141,13 @@ def main() -> None:
     solver = solver_version(None, embedded=True)
     start = time.perf_counter()
     for s in (test, *lhs.values(), sobol):
-        report = run_sweep(s, workers=args.workers)
+        report = run_sweep(s, scheduler=scheduler)
         print(f"{s.name}: {report.summary()}", flush=True)
     adaptive = replace(base, name="adaptive", store=str(out / "adaptive.zarr"),
                        sampling=replace(base.sampling, method="lhs", n=args.start,
                                         seed=args.seed, points=()),
                        adaptive=AdaptiveSpec(args.rounds, args.batch, 512, args.seed))
-    report = run_adaptive(adaptive, SurrogateChooser(), workers=args.workers)
+    report = run_adaptive(adaptive, SurrogateChooser(), scheduler=scheduler)
     print(f"adaptive: {report.sweeps[-1].summary()}; {time.perf_counter() - start:.0f} s "
           "for every design", flush=True)
     held_out = load(test, solver)

@@ -259,3 +259,29 @@ def test_a_killed_adaptive_client_resumes_at_its_round(tmp_path, counting_ccx):
     # each experiment solved once: what the killed client finished is not solved again
     assert ccx_runs(counting_ccx) - runs == 8 - done
     assert storage.status_counts(study.store, study.group_name)["done"] == 8
+
+
+@pytest.mark.ccx
+@pytest.mark.e2e  # end to end: run by .ci/run through `scripts/test.sh --e2e`
+def test_the_comparison_benchmark_prints_error_against_runs_for_every_design(tmp_path):
+    """benchmarks/bench_adaptive.py on a tiny vertical study (one sampled deflection,
+    frictionless reduced model): the curve of each design, side by side."""
+    import subprocess
+    import sys
+
+    path = tmp_path / "study.toml"
+    loads = '[loads.sample]\nmethod = "lhs"\nn = 3\ndeflection_mm = [10, 30]\n'
+    path.write_text(_text(tmp_path, loads=loads))
+    root = Path(__file__).resolve().parents[2]
+    out = subprocess.run([sys.executable, str(root / "benchmarks/bench_adaptive.py"), str(path),
+                          "--out", str(tmp_path / "bench"), "--start", "3", "--batch", "1",
+                          "--rounds", "2", "--test", "4"], capture_output=True, text=True,
+                         timeout=600, cwd=root)
+    assert out.returncode == 0, out.stderr[-3000:]
+    lines = out.stdout.splitlines()
+    head = next(k for k, line in enumerate(lines) if line.startswith("held-out RMSE"))
+    rows = [line.split() for line in lines[head + 2:head + 5]]
+    assert [r[0] for r in rows] == ["3", "4", "5"]
+    assert all(r[1].count("/") == 2 for r in rows)  # adaptive / LHS / Sobol'
+    assert all(x != "-" for r in rows for x in r[1].split("/"))  # 3 sizes: LHS at each
+    assert any(line.startswith("displacement: LHS at 5 runs") for line in lines)
