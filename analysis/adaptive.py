@@ -58,6 +58,8 @@ class SurrogateChooser:
     restarts : int, default=2
         Restarts of each kernel optimiser (:class:`FieldSurrogate`).
     seed : int, default=0
+    criterion : {"variance", "integrated"}, default="variance"
+        The batch's acquisition (:meth:`FieldSurrogate.next_batch`).
 
     Attributes
     ----------
@@ -65,8 +67,8 @@ class SurrogateChooser:
         The last surrogate fitted (a round's choice can be inspected afterwards).
     """
 
-    def __init__(self, restarts: int = 2, seed: int = 0) -> None:
-        self.restarts, self.seed = restarts, seed
+    def __init__(self, restarts: int = 2, seed: int = 0, criterion: str = "variance") -> None:
+        self.restarts, self.seed, self.criterion = restarts, seed, criterion
 
     def __call__(self, store: Any, group: str, names: tuple[str, ...], field: str,
                  candidates: np.ndarray, size: int) -> Choice:
@@ -90,5 +92,6 @@ class SurrogateChooser:
                   for name, (_, pct) in rmse_pct(Y, self.model_.loo_predict(), F.shape[1],
                                                  field).items()}
         picks = (tuple(int(k) for k in self.model_.next_batch(
-            candidates, size, avoid=failed_points(store, group, names))) if size else ())
+            candidates, size, avoid=failed_points(store, group, names),
+            criterion=self.criterion)) if size else ())
         return Choice(picks, n, errors)

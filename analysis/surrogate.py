@@ -38,6 +38,9 @@ from sklearn.utils.validation import check_is_fitted
 
 from analysis.errors import ParameterError
 
+#: Acquisition criteria of :meth:`FieldSurrogate.next_batch`.
+CRITERIA = ("variance", "integrated")
+
 
 class FieldSurrogate(MultiOutputMixin, RegressorMixin, BaseEstimator):
     """Gaussian processes from load parameters to a field's PCA scores and to scalars.
@@ -164,15 +167,22 @@ class FieldSurrogate(MultiOutputMixin, RegressorMixin, BaseEstimator):
         check_is_fitted(self)
         return self._targets(self._p(P))[1] ** 2 @ self.weight_
 
-    def next_batch(self, candidates, size, avoid=None):
+    def next_batch(self, candidates, size, avoid=None, criterion="variance"):
         """Indices of ``size`` rows of ``candidates`` (K, n_parameters) to run next.
 
-        Greedy: the row of largest :meth:`uncertainty`, then the same with that row added
-        to the training set (at any value: a GP's variance does not depend on it) and the
-        kernels kept, and so on. ``avoid`` (J, n_parameters): points to count as observed
-        although they are not in the training set - an adaptive study's failed
-        experiments, so that a batch does not return to where ccx just failed (their
-        neighbourhood is the most uncertain, having no data).
+        Greedy: the row of largest score, then the same with that row added to the
+        training set (at any value: a GP's variance does not depend on it) and the
+        kernels kept, and so on. ``criterion`` "variance": the score is
+        :meth:`uncertainty` (where the surrogate is least sure; MacKay's ALM), which
+        favours the corners of the load space; "integrated": the reduction of the total
+        predictive variance over all candidates that running the row would bring (Cohn,
+        1996, ALC), the candidates standing for the load space (Sobol' points), which
+        targets the average held-out error instead.
+
+        ``avoid`` (J, n_parameters): points to count as observed although they are not
+        in the training set - an adaptive study's failed experiments, so that a batch
+        does not return to where ccx just failed (their neighbourhood is the most
+        uncertain, having no data).
         """
         check_is_fitted(self)
         C = self._p(candidates)
@@ -185,14 +195,21 @@ class FieldSurrogate(MultiOutputMixin, RegressorMixin, BaseEstimator):
         believers = [GaussianProcessRegressor(gp.kernel_, optimizer=None) for gp in self.gps_]
         weights = (self.t_scale_ * self.std_scale_) ** 2 * self.weight_
         chosen: list[int] = []
+        if criterion not in CRITERIA:
+            raise ParameterError(f"criterion must be one of {', '.join(CRITERIA)}, got "
+                                 f"{criterion!r}")
         for _ in range(size):
             Xb = np.vstack([X, C[chosen]]) if chosen else X
-            var = np.zeros(len(C))
+            score = np.zeros(len(C))
             for believer, w in zip(believers, weights, strict=True):
                 believer.fit(Xb, np.zeros(len(Xb)))
-                var += w * believer.predict(C, return_std=True)[1] ** 2
-            var[chosen] = -np.inf
-            chosen.append(int(np.argmax(var)))
+                if criterion == "variance":
+                    score += w * believer.predict(C, return_std=True)[1] ** 2
+                else:  # sum over x of cov(x, c)^2 / var(c): the variance running c removes
+                    S = believer.predict(C, return_cov=True)[1]
+                    score += w * (S**2).sum(axis=0) / np.maximum(np.diag(S), 1e-300)
+            score[chosen] = -np.inf
+            chosen.append(int(np.argmax(score)))
         return np.asarray(chosen)
 
 

@@ -122,6 +122,11 @@ def main() -> None:
     parser.add_argument("--test", type=int, default=24)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--criterion", default="variance", choices=("variance", "integrated"),
+                        help="the adaptive batch's acquisition")
+    parser.add_argument("--adaptive-store", default="adaptive.zarr",
+                        help="the adaptive study's store in --out (another name reruns it alone: "
+                        "the other designs' experiments are in the store already)")
     args = parser.parse_args()
     # one cluster for every sweep (a study's sweep would start and stop one each time)
     from distributed import LocalCluster
@@ -143,11 +148,12 @@ def run(args, scheduler: str) -> None:
     for s in (test, *lhs.values(), sobol):
         report = run_sweep(s, scheduler=scheduler)
         print(f"{s.name}: {report.summary()}", flush=True)
-    adaptive = replace(base, name="adaptive", store=str(out / "adaptive.zarr"),
+    adaptive = replace(base, name="adaptive", store=str(out / args.adaptive_store),
                        sampling=replace(base.sampling, method="lhs", n=args.start,
                                         seed=args.seed, points=()),
                        adaptive=AdaptiveSpec(args.rounds, args.batch, 512, args.seed))
-    report = run_adaptive(adaptive, SurrogateChooser(), scheduler=scheduler)
+    report = run_adaptive(adaptive, SurrogateChooser(criterion=args.criterion),
+                          scheduler=scheduler)
     print(f"adaptive: {report.sweeps[-1].summary()}; {time.perf_counter() - start:.0f} s "
           "for every design", flush=True)
     held_out = load(test, solver)

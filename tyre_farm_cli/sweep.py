@@ -212,7 +212,8 @@ def _run_adaptive(study, cluster, retry_failed, as_json: bool) -> None:
     from tyre_farm_cli.adaptive import RoundLines, rounds_table
 
     lines = RoundLines(study)
-    report = run_adaptive(study, SurrogateChooser(seed=study.adaptive.seed), cluster=cluster,
+    chooser = SurrogateChooser(seed=study.adaptive.seed, criterion=study.adaptive.acquisition)
+    report = run_adaptive(study, chooser, cluster=cluster,
                           retry_failed=retry_failed, progress=sweep_progress(study.name),
                           on_round=lines.fitted)
     last = report.sweeps[-1]

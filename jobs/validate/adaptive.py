@@ -10,6 +10,7 @@
                             #   (leave-one-out, % of its range) is at most this
     field = "displacement"  # the inner-surface field the surrogate maps ("strain")
     outputs = ["field", "Fx", "Fy", "Fz", "Mz"]   # what target_pct judges
+    acquisition = "variance"  # or "integrated": the variance a pick removes over all candidates
 
 The initial design is the study's ``[loads.sample]`` (its ``n`` points); every load that
 varies must be sampled there, since the rounds choose points of those ranges. A listed
@@ -24,7 +25,12 @@ from typing import Any
 from jobs.validate import limits, scalars
 from jobs.validate.messages import fail
 
-KEYS = {"rounds", "batch", "candidates", "seed", "target_pct", "field", "outputs"}
+KEYS = {"rounds", "batch", "candidates", "seed", "target_pct", "field", "outputs",
+        "acquisition"}
+#: How a round chooses among its candidates (analysis.surrogate.FieldSurrogate.next_batch):
+#: where the surrogate is least sure, or where running would remove the most predictive
+#: variance over the whole load space.
+ACQUISITIONS = ("variance", "integrated")
 FIELDS = ("displacement", "strain")
 #: What the surrogate predicts and a target may judge: the field, then the six totals
 #: (analysis.studies.combined.TOTALS).
@@ -44,6 +50,7 @@ class AdaptiveSpec:
     target_pct: float | None = None
     field: str = "displacement"
     outputs: tuple[str, ...] = DEFAULT_OUTPUTS
+    acquisition: str = "variance"
 
     def budget(self, initial: int) -> int:
         """Experiments of the study at most: the initial design and every round."""
@@ -69,7 +76,9 @@ def parse_adaptive(data: Any, where: str = "study.adaptive") -> AdaptiveSpec:
     field = scalars.choice(t.get("field", "displacement"), f"{where}.field", FIELDS)
     outputs = (scalars.choices(t["outputs"], f"{where}.outputs", OUTPUTS)
                if "outputs" in t else DEFAULT_OUTPUTS)
-    return AdaptiveSpec(rounds, batch, candidates, seed, target, field, outputs)
+    acquisition = scalars.choice(t.get("acquisition", "variance"), f"{where}.acquisition",
+                                 ACQUISITIONS)
+    return AdaptiveSpec(rounds, batch, candidates, seed, target, field, outputs, acquisition)
 
 
 def check_loads(spec: AdaptiveSpec, sampled: tuple[str, ...], listed: dict[str, tuple],

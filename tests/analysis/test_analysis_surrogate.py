@@ -155,3 +155,28 @@ def test_a_batch_avoids_points_counted_as_observed(fitted):
     again = model.next_batch(C, 1, avoid=C[[first]])[0]
     assert again != first
     assert np.linalg.norm(C[again] - C[first]) > 0.2  # not its neighbour either
+
+
+def test_the_integrated_criterion_spreads_a_batch_inside_the_space(fitted):
+    """ALC picks lower the average variance over the candidates more than ALM picks; ALM
+    goes to the edge of the candidates (its largest variance), ALC need not."""
+    model, _ = fitted
+    C = _lhs(150, seed=11, low=(-0.2, -0.2), high=(1.2, 1.2))
+
+    def mean_variance_after(picks):
+        from sklearn.gaussian_process import GaussianProcessRegressor
+
+        Ps = model._p(C[picks])
+        total = 0.0
+        for gp, w in zip(model.gps_, (model.t_scale_ * model.std_scale_) ** 2 * model.weight_,
+                         strict=True):
+            X = np.vstack([gp.X_train_, Ps])
+            b = GaussianProcessRegressor(gp.kernel_, optimizer=None).fit(X, np.zeros(len(X)))
+            total += w * np.mean(b.predict(model._p(C), return_std=True)[1] ** 2)
+        return total
+
+    alm, alc = model.next_batch(C, 4), model.next_batch(C, 4, criterion="integrated")
+    assert len(set(alc)) == 4
+    assert mean_variance_after(alc) < mean_variance_after(alm)
+    with pytest.raises(ParameterError, match="criterion must be one of variance, integrated"):
+        model.next_batch(C, 1, criterion="bogus")

@@ -45,6 +45,7 @@ def test_an_adaptive_table_is_read_with_its_defaults(tmp_path):
     assert (spec.rounds, spec.batch, spec.candidates, spec.seed) == (2, 2, 64, 0)
     assert spec.target_pct is None and spec.field == "displacement"
     assert spec.outputs == ("field", "Fx", "Fy", "Fz", "Mz") and spec.budget(4) == 8
+    assert spec.acquisition == "variance"
     assert parse_study(_text(tmp_path, adaptive="")).adaptive is None
 
 
@@ -56,6 +57,7 @@ def test_an_adaptive_table_is_read_with_its_defaults(tmp_path):
     (ADAPTIVE + "outputs = ['Fz', 'Fq']\n", SAMPLE, r"outputs: must list field, Fx"),
     (ADAPTIVE + "field = 'stress'\n", SAMPLE, r"field: must be one of displacement, strain"),
     (ADAPTIVE + "round = 3\n", SAMPLE, r"study\.adaptive.*round"),
+    (ADAPTIVE + "acquisition = 'ei'\n", SAMPLE, r"acquisition: must be one of variance, integ"),
     (ADAPTIVE, "deflection_mm = [10, 20]\n", r"\[loads\.sample\]"),
     (ADAPTIVE, SAMPLE + "[loads.extra]\n", r"loads"),
 ])
