@@ -46,6 +46,10 @@ class SurrogateGuess:
     ----------
     names_ : list of str
         The load parameters that vary in the training set (the inputs).
+    loads_ : ndarray of shape (K, n_parameters)
+        The training experiments' load parameters.
+    fields_ : ndarray of shape (K, N * 3)
+        Their displacement fields (the search starts from the nearest one).
     bounds_ : ndarray of shape (n_parameters, 2)
         Their training ranges: the search stays inside.
     inner_nodes_, tread_nodes_ : ndarray of int, shapes (N,), (M,)
@@ -70,21 +74,22 @@ class SurrogateGuess:
         self.bounds_ = np.column_stack([P.min(axis=0), P.max(axis=0)])
         self.inner_nodes_ = np.asarray(inner_nodes)
         self.tread_nodes_ = np.asarray(tread_nodes)
-        self._U = U.reshape(len(U), -1)
-        self._P = P
+        self.fields_ = U.reshape(len(U), -1)
+        self.loads_ = P
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", ConvergenceWarning)
-            self.field_ = FieldSurrogate(restarts=self.restarts, seed=self.seed).fit(P, self._U)
+            self.field_ = FieldSurrogate(restarts=self.restarts, seed=self.seed).fit(
+                P, self.fields_)
             self.forces_ = FieldSurrogate(restarts=self.restarts, seed=self.seed).fit(P, F)
         return self
 
     def parameters(self, measured) -> np.ndarray:
         """The load parameters whose predicted field is nearest ``measured`` (N, 3)."""
         u = np.asarray(measured, dtype=float).ravel()
-        if u.size != self._U.shape[1]:
+        if u.size != self.fields_.shape[1]:
             raise ParameterError(f"the measured field has {u.size // 3} nodes; the surrogate "
-                                 f"was trained on {self._U.shape[1] // 3}: same mesh needed")
-        start = self._P[np.argmin(((self._U - u) ** 2).sum(axis=1))]  # nearest experiment
+                                 f"was trained on {self.fields_.shape[1] // 3}: same mesh needed")
+        start = self.loads_[np.argmin(((self.fields_ - u) ** 2).sum(axis=1))]  # nearest experiment
 
         def misfit(p):
             return float(((self.field_.predict(p[None, :])[0] - u) ** 2).sum())

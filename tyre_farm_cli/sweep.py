@@ -195,7 +195,8 @@ def _run(study_file: Path, cluster, retry_failed, as_json: bool) -> None:
 
     study = load_study(study_file)  # everything is validated before anything starts
     if study.adaptive is not None:
-        _run_adaptive(study, cluster, retry_failed, as_json)
+        _run_adaptive(study, cluster, retry_failed, as_json)  # exits with the sweep's code
+        return
     report = run_sweep(study, cluster=cluster, retry_failed=retry_failed,
                        progress=sweep_progress(study.name))
     if as_json:

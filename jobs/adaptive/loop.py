@@ -73,10 +73,6 @@ class AdaptiveReport:
     def experiments(self) -> int:
         return self.sweeps[-1].total if self.sweeps else 0
 
-    @property
-    def failed(self) -> dict[str, str]:
-        return self.sweeps[-1].failed if self.sweeps else {}
-
 
 def candidates(study: Study, index: int) -> np.ndarray:
     """The Sobol' points round ``index`` chooses among (K, D), in the store's units."""

@@ -31,7 +31,7 @@ from typing import Protocol
 import numpy as np
 
 from farm.solve.forces import offset_outer_uz
-from jobs.errors import JobError
+from jobs.errors import JobError, StudyError
 from jobs.guard import Failed
 from jobs.inverse.distribution import TyreDistribution, guess_from
 from jobs.inverse.objective import Objective
@@ -46,9 +46,26 @@ class GuessError(JobError, RuntimeError):
 
 class FieldGuess(Protocol):
     """Vertical force guesses (n,) on the unknown tread ``nodes`` from a measured inner
-    displacement field (N, 3) (:class:`analysis.surrogate_guess.SurrogateGuess`)."""
+    displacement field (N, 3) (:class:`analysis.surrogate_guess.SurrogateGuess`); the
+    node ids of the field's rows and of the force map it was trained on."""
+
+    inner_nodes_: np.ndarray
+    tread_nodes_: np.ndarray
 
     def __call__(self, measured: np.ndarray, nodes: np.ndarray) -> np.ndarray: ...
+
+
+def check_guess_mesh(guess: FieldGuess, inner_nodes: np.ndarray,
+                     tread_nodes: np.ndarray) -> None:
+    """The surrogate guess must be trained on the study's mesh: its field rows are read
+    as the study's inner nodes, in order (one StudyError, before anything runs)."""
+    same = all(np.array_equal(np.asarray(a), np.asarray(b))
+               for a, b in ((guess.inner_nodes_, inner_nodes), (guess.tread_nodes_, tread_nodes)))
+    if not same:
+        raise StudyError(f"distribution.group: the surrogate guess was trained on another mesh "
+                         f"({np.size(guess.inner_nodes_)} inner and {np.size(guess.tread_nodes_)} "
+                         f"tread nodes vs {np.size(inner_nodes)} and {np.size(tread_nodes)}); "
+                         "train on a sweep of the same [model.mesh]")
 
 
 def guess_stream(seed: Sequence[int]) -> list[int]:

@@ -26,7 +26,7 @@ from jobs.inverse.distribution import (
     fit_distribution,
     training_set,
 )
-from jobs.inverse.guesses import FieldGuess
+from jobs.inverse.guesses import FieldGuess, check_guess_mesh
 from jobs.inverse.loop import LoopResult, LoopState, expand_loops, run_loop
 from jobs.inverse.mask import masks_for
 from jobs.inverse.problem import Problem, build_problem
@@ -76,6 +76,8 @@ class Inverse(LoopThreads[InverseReport]):
                              "from_group(store, group))")
         self.specs = expand_loops(study)
         mesh = mesh_for(study.model)
+        if surrogate is not None:
+            check_guess_mesh(surrogate, mesh.inner_nodes, mesh.tread_nodes)
         self.masks = masks_for(study.mask, mesh.inner_nodes,
                                {m for c in study.conditions for m in c.methods})  # bad input: now
         self.distribution = train_distribution(study, mesh)  # likewise: before anything runs

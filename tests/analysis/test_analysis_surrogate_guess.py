@@ -32,7 +32,7 @@ def test_a_held_out_load_and_its_force_map_are_recovered_from_the_field(sweep):
     k = int(order[4])  # a middle experiment, left out of the training as the reference
     u, f, d = _experiment(ds, k)
     guess = from_group(path, group, exclude={"deflection": d}, within=0.1, restarts=1)
-    assert guess.names_ == ["deflection"] and len(guess._P) == 8
+    assert guess.names_ == ["deflection"] and len(guess.loads_) == 8
     nodes = np.asarray(ds["tread_node"].values)[f > 0]
     x = guess(u, nodes)
     assert guess.p_[0] == pytest.approx(d, rel=0.02)

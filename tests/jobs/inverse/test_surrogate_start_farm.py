@@ -65,10 +65,22 @@ def test_without_its_surrogate_the_study_is_refused_before_anything_runs(study):
         Inverse(study)
 
 
+def test_a_surrogate_of_another_mesh_is_refused_before_anything_runs(study):
+    class OtherMesh:
+        inner_nodes_ = np.arange(10)
+        tread_nodes_ = np.arange(4)
+
+        def __call__(self, measured, nodes):
+            raise AssertionError("never called")
+
+    with pytest.raises(StudyError, match=r"trained on another mesh \(10 inner and 4 tread"):
+        Inverse(study, surrogate=OtherMesh())
+
+
 def test_the_surrogate_start_is_near_the_truth_and_saves_solver_runs(study):
     guess = from_group(study.distribution.store, study.distribution.group,
                        exclude={"deflection": study.deflection}, within=0.5, restarts=1)
-    assert 30.0 not in guess._P[:, 0]  # the reference load is not looked up
+    assert 30.0 not in guess.loads_[:, 0]  # the reference load is not looked up
     report = run_inverse(study, workers=2, surrogate=guess)
     by = {r.spec.condition.name: r for r in report.results}
     truth = report.problem.x_true
