@@ -258,6 +258,9 @@ class ContactLaw:
 
     ``clearance`` is CalculiX's c0, the distance from the road at which the contact
     pressure has dropped to 1 % of ``pressure`` (p0, MPa, the pressure at zero distance).
+    ``stick_slope`` (N/mm^3) is the tangential penalty of frictional paths for this tyre;
+    None derives it from the normal law (:func:`farm.ccx.deck.stick_slope`). A load's
+    ``motion.stick_slope`` overrides either. Absent from ids while None.
     """
 
     # Measured on the full model at 200 kPa, 30 mm: c0 = 0.2/0.5/1.0 mm gave Fz within
@@ -266,10 +269,20 @@ class ContactLaw:
     _prefix: ClassVar[str] = "contact"
     clearance: float = 0.5
     pressure: float = 0.5
+    stick_slope: float | None = None
 
     def __post_init__(self) -> None:
         _within("contact.clearance", self.clearance, CLEARANCE_MM, "mm")
         _within("contact.pressure", self.pressure, CONTACT_PRESSURE_MPA, "MPa")
+        if self.stick_slope is not None:
+            _within("contact.stick_slope", self.stick_slope, STICK_SLOPE, "N/mm^3")
+
+    def canonical(self) -> dict[str, float]:
+        """The law as hashed in ids: ``stick_slope`` only when set (ids predate it)."""
+        data = dataclasses.asdict(self)
+        if self.stick_slope is None:
+            del data["stick_slope"]
+        return data
 
 
 @dataclass(frozen=True)
@@ -350,6 +363,7 @@ class ModelSpec:
         else:  # so do the issue-24 belt options at their defaults
             data["reinforcement"] = self.reinforcement.canonical()
         data["mesh"] = self.mesh.canonical()
+        data["contact"] = self.contact.canonical()
         return data
 
     def editable_dict(self) -> dict[str, Any]:
@@ -357,7 +371,8 @@ class ModelSpec:
         those ids omit at their default (``mesh.through = 1``): the table that
         ``--set`` overrides and study designs merge into and look swept paths up in
         (``farm.overrides``, ``jobs.design``)."""
-        data = {**self.to_dict(), "mesh": dataclasses.asdict(self.mesh)}
+        data = {**self.to_dict(), "mesh": dataclasses.asdict(self.mesh),
+                "contact": dataclasses.asdict(self.contact)}
         if self.reinforcement is not None:
             data["reinforcement"] = dataclasses.asdict(self.reinforcement)
         return data

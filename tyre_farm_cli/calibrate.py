@@ -15,6 +15,7 @@ from tyre_farm_cli.errors import usage
 from tyre_farm_cli.frames import print_frame
 from tyre_farm_cli.jsondoc import JSON, dump, records
 from tyre_farm_cli.options import SCHEDULER, WORKERS, with_cluster
+from tyre_farm_cli.params import MESH_HELP
 from tyre_farm_cli.progress import LogLines, interactive
 from tyre_farm_cli.progress import console as stderr_console
 
@@ -68,7 +69,12 @@ def calibrate(
         "200kPa", "--reading", help="Which pressure the thesis' 4475.5 N point at 30 mm is "
         "read at: 200kPa (chapter 5, Table 5.1) or 80kPa (§3.3.2, Fig. 3.2); the full "
         "model's default points only. `farm compare` shows a model under both."),
+    ratio: bool = typer.Option(
+        False, "--ratio", help="Also fit the measured 200/80 kPa stiffness ratio (1.636, "
+        "§3.4): adds the reading's 30 mm point at the other pressure, scaled by it (full "
+        "model, the thesis' points)."),
     materials: str = typer.Option("table-3.1", "--materials", help="Start material preset."),
+    mesh: str = typer.Option("thesis", "--mesh", help=MESH_HELP),
     overrides: list[str] = typer.Option(
         [], "--set", help="Override a model setting, e.g. --set mesh.circumferential=8."),
     max_evaluations: int = typer.Option(60, "--max-evaluations", help="Evaluation budget "
@@ -95,7 +101,7 @@ def calibrate(
     from farm.errors import SpecError
     from jobs.calibrate.fit import CalibrationSettings
     from jobs.calibrate.params import Parameters, default_parameters
-    from jobs.calibrate.references import read_points, thesis_points
+    from jobs.calibrate.references import read_points, thesis_points, with_ratio
     from jobs.calibrate.run import run_calibration
     from jobs.validate import limits, messages, scalars
     from tyre_farm_cli.checks import output_folder
@@ -105,18 +111,24 @@ def calibrate(
         if model not in ("reduced", "full"):
             raise SpecError(f"unknown model {messages.shown(model)}: choose 'reduced' or "
                             "'full'")
-        base = build_model(model, materials, None, overrides)
+        base = build_model(model, materials, None, overrides, mesh)
         names = (tuple(s.strip() for s in parameters.split(",") if s.strip()) if parameters
                  else default_parameters(model, thickness))
         params = Parameters(names, base)
     # the references file's content is data, not usage (exit 1, see tyre_farm_cli's docstring)
     with usage():
         default_points = thesis_points(model, reading)
+        if ratio and (model != "full" or references):
+            raise SpecError("--ratio derives a point from the thesis' full-model points: "
+                            "use it with --model full and without --references")
+        if ratio:
+            default_points = with_ratio(default_points)
     points = read_points(references, base) if references else default_points
     if model == "full" and not references:
         LogLines().log(f"calibrate: the thesis' points under the {reading} reading of its "
                        "4475.5 N point (the other: --reading "
-                       f"{'80kPa' if reading == '200kPa' else '200kPa'})")
+                       f"{'80kPa' if reading == '200kPa' else '200kPa'})"
+                       + (", with the measured stiffness ratio's derived point" if ratio else ""))
     with usage():
         scalars.integer(max_evaluations, "--max-evaluations", low=2,
                         high=limits.MAX_EVALUATIONS)
@@ -193,8 +205,11 @@ def _write(report, params, points, out: Path) -> dict:
               for region, m in spec.materials.by_region().items()}
     geometry = {n: getattr(spec.geometry, n) for n in
                 ("tread_thickness", "sidewall_thickness", "bead_thickness")}
+    cords = (None if spec.reinforcement is None else
+             {layer: getattr(spec.reinforcement, layer).modulus for layer in ("carcass", "belt")})
     (out / "fitted.json").write_text(json.dumps(
         {"model": spec.kind, "materials": preset, "geometry": geometry,
+         "cord_modulus_gpa": cords,
          "residuals_pct": list(100 * result.residuals), "status": result.status},
         indent=2))
     return frames

@@ -64,7 +64,7 @@ def _literal(text: str) -> Any:
 
 
 MATERIALS_HELP = ("Material preset: table-3.1 (the thesis' Table 3.1), thesis-calibrated, "
-                  "cord-reinforced.")
+                  "cord-reinforced, reinforced-calibrated (full model, docs/reinforcement.md).")
 MESH_HELP = ("Mesh preset: thesis (Table 3.1's element counts) or patch (full model only: "
              "refined over +-32 degrees about the road, docs/mesh-convergence.md).")
 

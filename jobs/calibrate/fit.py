@@ -128,6 +128,14 @@ class _Forces:
         return out
 
 
+def start_inside(low: np.ndarray, high: np.ndarray, step: float) -> np.ndarray:
+    """The start theta = 0, moved one finite-difference ``step`` inside where it lies on
+    a bound (a preset fitted against one, e.g. reinforced-calibrated's bead at 20 MPa):
+    TRF scales each step by the distance to the bound, so a start on it never moves
+    (measured: 13 evaluations of the same point)."""
+    return np.clip(np.zeros(np.shape(low)), low + step, high - step)
+
+
 def calibrate(params: Parameters, points: Sequence[ReferencePoint], evaluator: Evaluator,
               solver: str, settings: SolverSettings,
               cal: CalibrationSettings | None = None,
@@ -163,9 +171,11 @@ def calibrate(params: Parameters, points: Sequence[ReferencePoint], evaluator: E
             state.worst_point = float(np.max(np.abs(rel)))
         return rel is not None and bool(np.all(np.abs(rel) <= cal.target))
 
+    low, high = params.bounds()
+    x0 = start_inside(low, high, cal.fd_step)
     outcome = optimizers.least_squares(
-        residuals, np.zeros(n), max_evaluations=cal.max_evaluations, fd_step=cal.fd_step,
-        ftol=cal.tolerance, xtol=cal.tolerance, gtol=cal.tolerance, bounds=params.bounds(),
+        residuals, x0, max_evaluations=cal.max_evaluations, fd_step=cal.fd_step,
+        ftol=cal.tolerance, xtol=cal.tolerance, gtol=cal.tolerance, bounds=(low, high),
         stop=good_enough)
     fitted, begin = forces_of([outcome.x, np.zeros(n)])
     status = "target_reached" if outcome.status == "stopped" else outcome.status

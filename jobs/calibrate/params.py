@@ -4,8 +4,16 @@ Each parameter is fitted as theta = ln(value / start value), so that one finite-
 difference step is the same relative change for every parameter and the values stay
 positive. ``modulus`` scales all three regions' Young's moduli together (the reduced
 model's single rubber, Table 3.1); ``tread``, ``sidewall``, ``bead`` each scale one
-region's; ``*_thickness`` change a wall thickness of the geometry (a new mesh).
+region's; ``*_thickness`` change a wall thickness of the geometry (a new mesh);
+``carcass_modulus`` and ``belt_modulus`` scale a cord layer's modulus (reinforced models).
 Poisson's ratios stay at their start values.
+
+Bounds (issue 24): a cordless model's moduli are effective moduli of rubber and cords
+together (thesis §3.2 varies them "to recreate the macroscopic behaviour"), so they may
+move by :data:`MODULUS_RANGE` either way. A reinforced model's cords carry the structure
+and its rubber must stay rubber: :data:`RUBBER_MPA` bounds each region, and a cord
+layer stays within its material's range (:data:`CORD_GPA`, textile or steel by its
+start value).
 """
 
 from __future__ import annotations
@@ -21,8 +29,12 @@ from jobs.errors import StudyError
 
 MODULI = ("tread", "sidewall", "bead")
 THICKNESSES = ("tread_thickness", "sidewall_thickness", "bead_thickness")
-PARAMETERS = ("modulus", *MODULI, *THICKNESSES)
-MODULUS_RANGE = 20.0  # a modulus may move by this factor either way
+CORDS = ("carcass_modulus", "belt_modulus")
+PARAMETERS = ("modulus", *MODULI, *THICKNESSES, *CORDS)
+MODULUS_RANGE = 20.0  # a cordless model's modulus may move by this factor either way
+RUBBER_MPA = (1.0, 20.0)  # tyre rubber compounds (issue 24's bound)
+CORD_GPA = {"textile": (1.0, 10.0), "steel": (150.0, 210.0)}  # issue 24's cord ranges
+STEEL_FROM_GPA = 100.0  # a cord layer starting at or above this is steel
 THICKNESS_MM = (4.0, 38.0)  # below the geometry's limits (a quarter of the section height,
 # and room for the shoulders: tread_width < section_width - 2 x sidewall_thickness)
 
@@ -50,16 +62,37 @@ class Parameters:
         if "modulus" in self.names and set(MODULI) & set(self.names):
             raise StudyError("'modulus' scales every region: do not combine it with "
                              "tread/sidewall/bead")
+        if set(CORDS) & set(self.names) and self.base.reinforcement is None:
+            raise StudyError("carcass_modulus/belt_modulus need a reinforced model: start "
+                             "from --materials cord-reinforced or reinforced-calibrated")
+
+        for name, value in self.start().items():
+            lo, hi = self.range(name)
+            if not lo <= value <= hi:
+                raise StudyError(f"{name} starts at {value:g} {self.units()[name]}, outside "
+                                 f"its range [{lo:g}, {hi:g}]: start from a preset (or --set) "
+                                 "inside it")
+
+    @property
+    def reinforced(self) -> bool:
+        return self.base.reinforcement is not None
 
     def start(self) -> dict[str, float]:
-        """Start values: MPa for moduli (the tread's for 'modulus'), mm for thicknesses."""
+        """Start values: MPa for moduli (the tread's for 'modulus'), mm for thicknesses,
+        GPa for cords."""
         mats, geo = self.base.materials.by_region(), self.base.geometry
         return {n: (mats["tread"].youngs_modulus if n == "modulus" else
-                    mats[n].youngs_modulus if n in MODULI else getattr(geo, n))
+                    mats[n].youngs_modulus if n in MODULI else
+                    self._layer(n).modulus if n in CORDS else getattr(geo, n))
                 for n in self.names}
 
     def units(self) -> dict[str, str]:
-        return {n: "mm" if n in THICKNESSES else "MPa" for n in self.names}
+        return {n: "mm" if n in THICKNESSES else "GPa" if n in CORDS else "MPa"
+                for n in self.names}
+
+    def _layer(self, name: str):
+        assert self.base.reinforcement is not None  # checked in __post_init__
+        return getattr(self.base.reinforcement, name.removesuffix("_modulus"))
 
     def values(self, theta: np.ndarray) -> dict[str, float]:
         return {n: v * math.exp(float(t)) for (n, v), t in
@@ -75,17 +108,33 @@ class Parameters:
         geometry = dataclasses.replace(self.base.geometry, **{
             n: getattr(self.base.geometry, n) * float(factors[n])
             for n in THICKNESSES if n in factors})
-        return dataclasses.replace(self.base, materials=Materials(**regions), geometry=geometry)
+        spec = dataclasses.replace(self.base, materials=Materials(**regions), geometry=geometry)
+        cords = {n.removesuffix("_modulus"): dataclasses.replace(
+            self._layer(n), modulus=self._layer(n).modulus * float(factors[n]))
+            for n in CORDS if n in factors}
+        if cords:
+            assert spec.reinforcement is not None
+            spec = dataclasses.replace(
+                spec, reinforcement=dataclasses.replace(spec.reinforcement, **cords))
+        return spec
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Bounds on theta."""
         start = self.start()
         low, high = [], []
         for n in self.names:
-            if n in THICKNESSES:
-                low.append(math.log(THICKNESS_MM[0] / start[n]))
-                high.append(math.log(THICKNESS_MM[1] / start[n]))
-            else:
-                low.append(-math.log(MODULUS_RANGE))
-                high.append(math.log(MODULUS_RANGE))
+            lo, hi = self.range(n)
+            low.append(math.log(lo / start[n]))
+            high.append(math.log(hi / start[n]))
         return np.array(low), np.array(high)
+
+    def range(self, name: str) -> tuple[float, float]:
+        """The values ``name`` may take, in its unit (see the module's docstring)."""
+        start = self.start()[name]
+        if name in THICKNESSES:
+            return THICKNESS_MM
+        if name in CORDS:
+            return CORD_GPA["steel" if start >= STEEL_FROM_GPA else "textile"]
+        if self.reinforced:
+            return RUBBER_MPA
+        return start / MODULUS_RANGE, start * MODULUS_RANGE

@@ -185,6 +185,21 @@ def test_cord_preset_is_physically_plausible():
     assert default_model("full").reinforcement is None  # the other presets stay cordless
 
 
+def test_the_calibrated_reinforced_preset_is_made_of_plausible_materials():
+    """Issue 24: rubber of 1-20 MPa with nu >= 0.49, textile cords of 1-10 GPa (the
+    thesis' TM700 has no steel carcass and "minimal steel reinforcements"), belts along
+    their cords, tension-only; the full model only."""
+    spec = default_model("full", materials="reinforced-calibrated")
+    r = spec.reinforcement
+    assert r is not None and r.belt_layout == "cords" and r.tension_only
+    for m in spec.materials.by_region().values():
+        assert 1.0 <= m.youngs_modulus <= 20.0 and m.poisson_ratio >= 0.49
+    assert all(1.0 <= c.modulus <= 10.0 for c in (r.carcass, r.belt))
+    assert spec.contact.stick_slope is not None
+    with pytest.raises(SpecError, match="for the full model only"):
+        default_model("reduced", materials="reinforced-calibrated")
+
+
 @pytest.mark.ccx
 def test_cord_preset_grows_like_a_real_tyre():
     """Default full mesh, 200 kPa: the real tyre grows at most 4 mm (thesis §3.4)."""

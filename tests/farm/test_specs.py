@@ -48,6 +48,7 @@ def test_neo_hooke_constants_follow_from_small_strain_moduli():
         (lambda: MeshDensity(circumferential=0), "mesh.circumferential"),
         (lambda: Material(10, 0.5), "poisson_ratio"),
         (lambda: ContactLaw(clearance=0), "contact.clearance"),
+        (lambda: ContactLaw(stick_slope=0.0), "contact.stick_slope"),
         (lambda: ModelSpec(kind="half"), "kind"),
         (lambda: dataclasses.replace(default_model("full"), road="iterative"), "road"),
         (lambda: dataclasses.replace(default_model("full"), mesh=MeshDensity(circumferential=22)),
@@ -105,3 +106,18 @@ def test_mesh_key_ignores_materials():
     assert a.mesh_key() == b.mesh_key()
     c = dataclasses.replace(a, mesh=MeshDensity(circumferential=80))
     assert a.mesh_key() != c.mesh_key()
+
+
+def test_a_contact_laws_own_stick_slope_is_in_its_id_only_when_set():
+    """Issue 24: a preset's stick slope; every id from before it stays."""
+    from farm.ccx.deck import stick_slope
+
+    plain = default_model("full")
+    assert "stick_slope" not in plain.to_dict()["contact"]
+    assert plain.editable_dict()["contact"]["stick_slope"] is None
+    own = dataclasses.replace(plain, contact=ContactLaw(stick_slope=1.0))
+    assert own.to_dict()["contact"]["stick_slope"] == 1.0
+    assert ModelSpec.from_dict(own.to_dict()) == own
+    assert ModelSpec.from_dict(plain.to_dict()) == plain
+    assert stick_slope(own.contact) == 1.0
+    assert stick_slope(plain.contact) == pytest.approx(4.605, abs=1e-3)  # ln(100) p0 / c0

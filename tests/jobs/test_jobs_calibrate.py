@@ -12,7 +12,7 @@ from farm.presets import default_model
 from farm.specs import LoadPath, Material, Materials, MeshDensity
 from jobs.calibrate.fit import CalibrationSettings
 from jobs.calibrate.params import Parameters, default_parameters
-from jobs.calibrate.references import ReferencePoint, read_points, thesis_points
+from jobs.calibrate.references import ReferencePoint, read_points, thesis_points, with_ratio
 from jobs.calibrate.run import run_calibration
 from jobs.errors import StudyError
 from tyre_farm_cli import main
@@ -142,6 +142,9 @@ def test_cli_fits_a_modulus_to_a_csv_and_writes_the_report(tmp_path, capsys):
     (["--parameters", "tread,modulus"], "do not combine"),
     (["--references", "missing.csv"], "cannot read references"),
     (["--set", "mesh.tread=3"], "mesh.tread must be even"),
+    (["--ratio"], "use it with --model full"),
+    (["--model", "full", "--materials", "table-3.1", "--parameters", "belt_modulus"],
+     "need a reinforced model"),
 ])
 def test_cli_refuses_bad_input_in_one_line(tmp_path, capsys, args, match):
     with pytest.raises(SystemExit) as info:
@@ -177,3 +180,60 @@ def test_both_readings_of_the_thesis_4475_point_and_a_bad_one():
     assert thesis_points("reduced", "80kPa") == thesis_points("reduced")
     with pytest.raises(SpecError, match="unknown reading '50kPa'"):
         thesis_points("full", "50kPa")
+
+
+@pytest.mark.parametrize(("names", "ranges"), [
+    (("tread", "sidewall", "bead"), [(1.0, 20.0)] * 3),
+    (("carcass_modulus", "belt_modulus"), [(1.0, 10.0), (1.0, 10.0)]),
+])
+def test_a_reinforced_models_rubber_stays_rubber_and_its_cords_their_material(names, ranges):
+    """Issue 24: rubber 1-20 MPa, textile cords 1-10 GPa on a reinforced model; the
+    cordless model's effective moduli keep their factor of 20 either way."""
+    params = Parameters(names, default_model("full", "reinforced-calibrated"))
+    start = params.start()
+    low, high = params.bounds()
+    for n, lo, hi, (want_lo, want_hi) in zip(names, low, high, ranges, strict=True):
+        assert start[n] * np.exp(lo) == pytest.approx(want_lo)
+        assert start[n] * np.exp(hi) == pytest.approx(want_hi)
+    cordless = Parameters(("tread",), default_model("full"))
+    assert cordless.range("tread") == pytest.approx((60.0 / 20, 60.0 * 20))
+
+
+def test_cord_parameters_scale_their_layer_and_steel_stays_steel():
+    base = default_model("full", "cord-reinforced")
+    params = Parameters(("belt_modulus", "carcass_modulus"), base)
+    assert params.range("belt_modulus") == (150.0, 210.0)  # steel belts
+    assert params.range("carcass_modulus") == (1.0, 10.0)  # polyester carcass
+    assert params.units() == {"belt_modulus": "GPa", "carcass_modulus": "GPa"}
+    spec = params.spec(np.log([1.2, 0.5]))
+    assert spec.reinforcement.belt.modulus == pytest.approx(180.0)
+    assert spec.reinforcement.carcass.modulus == pytest.approx(2.0)
+    assert spec.materials == base.materials
+
+
+def test_a_start_outside_the_range_is_refused():
+    soft = dataclasses.replace(default_model("full", "reinforced-calibrated"), materials=Materials(
+        tread=Material(0.5, 0.49), sidewall=Material(5.0, 0.49), bead=Material(5.0, 0.49)))
+    with pytest.raises(StudyError, match=r"tread starts at 0.5 MPa, outside its range \[1, 20\]"):
+        Parameters(("tread",), soft)
+
+
+@pytest.mark.parametrize(("reading", "derived"), [
+    ("80kPa", (30.0, 200, 4475.5 * 1.62 / 0.99)),
+    ("200kPa", (30.0, 80, 4476.0 * 0.99 / 1.62)),
+])
+def test_the_measured_stiffness_ratio_derives_a_point_at_the_other_pressure(reading, derived):
+    points = with_ratio(thesis_points("full", reading))
+    assert points[:-1] == thesis_points("full", reading)
+    new = points[-1]
+    assert (new.deflection, round(1000 * new.pressure)) == derived[:2]
+    assert new.force == pytest.approx(derived[2], abs=0.1)
+    assert "derived" in new.source and "1.62/0.99" in new.source
+
+
+def test_a_start_on_a_bound_begins_one_step_inside():
+    from jobs.calibrate.fit import start_inside
+
+    low, high = np.array([-3.0, -1.0, -2.0]), np.array([0.0, 1.0, 2.0])
+    np.testing.assert_allclose(start_inside(low, high, 0.02), [-0.02, 0.0, 0.0])
+    np.testing.assert_allclose(start_inside(np.array([0.0]), np.array([3.0]), 0.02), [0.02])
