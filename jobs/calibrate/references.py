@@ -76,6 +76,14 @@ def thesis_points(model: str, reading: str = DEFAULT_READING) -> tuple[Reference
     return tuple(p for p in THESIS_POINTS if p.model == model)
 
 
+MEASURED_POINTS = (ReferencePoint(
+    "full", 25.0, 0.08, 4195.0,
+    "derived: the measured tyre at 25 mm / 80 kPa, 3933 N + 262 N (§3.4: the model's "
+    "largest error, where it is the softer; jobs/calibrate/statements.py)"),)
+"""The measured tyre's points the thesis lets one derive (its Fz statements that
+describe the measured tyre); ``farm calibrate --measured`` adds them."""
+
+
 def with_ratio(points: tuple[ReferencePoint, ...], ratio: float = MEASURED_RATIO
                ) -> tuple[ReferencePoint, ...]:
     """``points`` and, for the 30 mm point of the reading, a derived partner at the other

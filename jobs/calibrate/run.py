@@ -69,7 +69,8 @@ class Calibration(LoopThreads[CalibrationReport]):
             raise self.error
         # poll() ended once the one loop was collected: with a result, or with an error
         assert self.result is not None
-        table = (_curves(self.params, self.result, self.points, self.started_evaluator,
+        # the result's parameters: the fit may rebase a start on a bound (fit.start_inside)
+        table = (_curves(self.result.parameters, self.result, self.points, self.started_evaluator,
                          session.solver, self.settings) if self.curves else pd.DataFrame())
         return CalibrationReport(self.result, table)
 
