@@ -5,7 +5,9 @@ uniform rubber (E = 10 MPa, nu = 0.499), the full model has a stiffer tread (60 
 sidewall and bead (20 MPa) with nu = 0.4. Mesh densities reproduce the thesis' element
 counts: 22 x 20 = 440 elements for the reduced 90-degree sector, 22 x 40 = 880 for the
 full tyre (§3.2). ``cord-reinforced`` adds carcass and belt cords
-(:mod:`farm.reinforcement`) under rubber of a few MPa; the other presets are cordless.
+(:mod:`farm.reinforcement`) under rubber of a few MPa; ``reinforced-calibrated`` (full
+model only) is issue 24's calibrated cord layout with its own friction stick slope; the
+other presets are cordless.
 """
 
 from __future__ import annotations

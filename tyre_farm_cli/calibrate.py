@@ -150,7 +150,7 @@ def calibrate(
         params, points, str(cache or out / "evaluations"), cluster=cluster,
         progress=CalibrationLines(),
         cal=CalibrationSettings(max_evaluations=max_evaluations, prior_weight=prior_weight))
-    frames = _write(report, params, points, out)
+    frames = _write(report, points, out)
     if as_json:
         dump(_document(report, frames, out))
     else:
@@ -180,7 +180,7 @@ def _document(report, frames: dict, out: Path) -> dict:
             "cached": s.cached, "wall_seconds": round(report.wall_seconds, 3), "out": out}
 
 
-def _write(report, params, points, out: Path) -> dict:
+def _write(report, points, out: Path) -> dict:
     """Write the tables, history, curves, figure and fitted.json into ``out``; return
     the parameter and point tables."""
     import numpy as np

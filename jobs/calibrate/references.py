@@ -27,6 +27,7 @@ from pathlib import Path
 
 from farm.errors import SpecError
 from farm.specs import MAX_PRESSURE_MPA, LoadPath, ModelSpec
+from jobs.calibrate.statements import STATEMENTS
 from jobs.errors import StudyError
 from jobs.validate import reading
 from jobs.validate.messages import shown
@@ -59,9 +60,9 @@ READING_POINTS = {
         "full", 30.0, 0.08, 4475.5, "thesis §3.3.2, Fig. 3.2: full model, 30 mm, 80 kPa")),
 }
 DEFAULT_READING = "200kPa"
-MEASURED_RATIO = 1.62 / 0.99
-"""The measured tyre's mean stiffness at 200 kPa over 80 kPa (§3.4; the statement
-``stiffness-ratio`` of :mod:`jobs.calibrate.statements`)."""
+MEASURED_RATIO = next(s.value for s in STATEMENTS if s.key == "stiffness-ratio")
+"""The measured tyre's mean stiffness at 200 kPa over 80 kPa, 1.62 / 0.99 (§3.4; the
+statement ``stiffness-ratio`` of :mod:`jobs.calibrate.statements`)."""
 PRESSURE_PAIR = (0.08, 0.2)
 
 
@@ -76,12 +77,15 @@ def thesis_points(model: str, reading: str = DEFAULT_READING) -> tuple[Reference
     return tuple(p for p in THESIS_POINTS if p.model == model)
 
 
-MEASURED_POINTS = (ReferencePoint(
-    "full", 25.0, 0.08, 4195.0,
-    "derived: the measured tyre at 25 mm / 80 kPa, 3933 N + 262 N (§3.4: the model's "
-    "largest error, where it is the softer; jobs/calibrate/statements.py)"),)
-"""The measured tyre's points the thesis lets one derive (its Fz statements that
-describe the measured tyre); ``farm calibrate --measured`` adds them."""
+MEASURED_POINTS = tuple(
+    ReferencePoint("full", s.deflection, s.pressure, s.value,
+                   f"{s.key}, derived: {s.derivation}; {s.source}")
+    for s in STATEMENTS
+    if s.describes == "measured tyre" and s.quantity == "Fz"
+    and s.deflection is not None and s.pressure is not None)
+"""The measured tyre's points the thesis lets one derive: its Fz statements that
+describe the measured tyre (today 4195 N at 25 mm / 80 kPa); ``farm calibrate
+--measured`` adds them."""
 
 
 def with_ratio(points: tuple[ReferencePoint, ...], ratio: float = MEASURED_RATIO

@@ -249,7 +249,6 @@ def test_a_start_on_a_bound_begins_one_step_inside():
     assert start_inside(inside, 0.02) is inside
 
 
-
 def test_the_measured_tyres_derived_point_is_the_models_plus_its_largest_error():
     """§3.4: largest error 262 N at 25 mm / 80 kPa where the model gave 3933 N and is
     the softer of the two (issue 24: calibrate to the measured tyre where one can)."""
