@@ -51,6 +51,19 @@ EMBEDDED_CONFIG = {
     # tests/jobs/test_jobs_worker_loss.py). Our nannies restart their workers: keep them.
     "distributed.deploy.lost-worker-timeout": "1 day",
 }
+#: Expected durations of the farm's long tasks by key prefix (jobs.expand's keys). Dask
+#: runs a task where its inputs are and moves it only by work stealing, which weighs the
+#: transfer of the inputs against the task's expected time, 0.5 s while unknown: the
+#: slides of a load-path tree (their trunk's saved states as input, megabytes) then
+#: queued on the trunk's worker one after another while the other worker idled
+#: (benchmarks/bench_throughput.py). Measured on the patch mesh: trunk 2 min, slide 1 min.
+TASK_DURATIONS = {"trunk": "2m", "slide": "1m", "path": "1m"}
+SCHEDULER_CONFIG = {
+    "distributed.scheduler.allowed-failures": ALLOWED_FAILURES,
+    **{f"distributed.scheduler.default-task-durations.{k}": v
+       for k, v in TASK_DURATIONS.items()},
+}
+EMBEDDED_CONFIG.update(SCHEDULER_CONFIG)
 LOST_WORKER_RESUBMITS = 10  # resubmissions of a task whose workers kept dying
 SCHEDULER_VARIABLES = ("FARM_SCHEDULER", "DASK_SCHEDULER_ADDRESS")  # in this order
 CONNECT_TIMEOUT = "20s"  # to reach a running scheduler (and finish a TLS handshake)

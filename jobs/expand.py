@@ -20,6 +20,7 @@ import numpy as np
 from scipy.stats import qmc
 
 from farm.specs import RoadMotion
+from jobs import nested
 from jobs.identity import experiment_id, legacy_experiment_id, path_key, resolve_ids
 from jobs.study import MOTION_PARAMETERS, Study
 
@@ -52,7 +53,10 @@ class PathPlan:
 def cases(study: Study) -> list[tuple[float, float, RoadMotion | None]]:
     """(deflection mm, pressure MPa, road motion or None) of every case: the grid, or
     the sampled design, each design point with every listed value of what it does not
-    sample. Without combined-load keys: exactly the vertical cases of before, in order."""
+    sample. Without combined-load keys: exactly the vertical cases of before, in order.
+    A ``[loads.tree]`` study: its nested design's cases (:func:`jobs.nested.cases`)."""
+    if study.tree is not None:
+        return nested.cases(study.tree)
     listed = {"deflection": study.deflections or (None,),
               "pressure": study.pressures or (None,),
               **dict(study.motions)}
@@ -141,7 +145,61 @@ def plan(study: Study, solver: str, held: frozenset[str] = frozenset()) -> list[
     return paths
 
 
-def experiments(paths: list[PathPlan]) -> list[Experiment]:
+@dataclass(frozen=True)
+class BranchPlan:
+    """One slide of a tree (:mod:`farm.solve.tree`): from the trunk's state at
+    ``level``, the road slid to ``shift`` (mm); one experiment per slide fraction."""
+
+    key: str
+    level: int
+    shift: tuple[float, float]
+    experiments: tuple[Experiment, ...]
+
+
+@dataclass(frozen=True)
+class TreePlan:
+    """A load-path tree of a ``[loads.tree]`` study: the trunk (one pressure, friction
+    and tilt, rising through ``deflections``; one experiment per level) and its slides."""
+
+    key: str
+    pressure: float
+    motion: RoadMotion | None  # friction and tilt of the trunk; None: vertical
+    deflections: tuple[float, ...]
+    trunk: tuple[Experiment, ...]
+    branches: tuple[BranchPlan, ...]
+    fractions: tuple[float, ...]
+
+    @property
+    def experiments(self) -> tuple[Experiment, ...]:
+        return (*self.trunk, *(e for b in self.branches for e in b.experiments))
+
+
+def tree_plan(study: Study, solver: str) -> list[TreePlan]:
+    """The trees of a ``[loads.tree]`` study (:func:`jobs.nested.trunk_points`), with the
+    ids their load cases have from rest (:func:`jobs.identity.experiment_id`)."""
+    design = study.tree
+    if design is None:
+        raise ValueError("tree_plan needs a study with [loads.tree]")
+
+    def exp(d: float, p: float, m: RoadMotion | None) -> Experiment:
+        return Experiment(experiment_id(study.model, d, p, solver, m), d, p, m)
+
+    out = []
+    for t in nested.trunk_points(design):
+        trunk = tuple(exp(d, t.pressure, t.motion()) for d in t.deflections)
+        branches = []
+        for level, (d, slides) in enumerate(zip(t.deflections, t.slides, strict=True)):
+            for s in slides:
+                shift = (s.shift_x, s.shift_y)
+                exps = tuple(exp(d, t.pressure, t.motion(shift, f)) for f in design.fractions)
+                branches.append(BranchPlan("slide-" + path_key(e.id for e in exps)[5:], level,
+                                           shift, exps))
+        out.append(TreePlan("trunk-" + path_key(e.id for e in trunk)[5:], t.pressure, t.motion(),
+                            t.deflections, trunk, tuple(branches), design.fractions))
+    return out
+
+
+def experiments(paths: Sequence[PathPlan | TreePlan]) -> list[Experiment]:
     """All experiments of a plan, in path order."""
     return [e for path in paths for e in path.experiments]
 

@@ -30,7 +30,7 @@ from typing import Any
 import dask
 from dask.utils import parse_bytes
 
-from jobs.cluster import ALLOWED_FAILURES
+from jobs.cluster import SCHEDULER_CONFIG
 from jobs.errors import ClusterError
 
 INSTALL_HINT = "pip install 'tyre-farm[slurm]'"
@@ -177,7 +177,7 @@ def slurm_client(options: SlurmOptions) -> Iterator[Any]:
 
     cls = _slurm_cluster_class()
     # the scheduler runs here: these settings apply to it as to the embedded cluster's
-    with dask.config.set({"distributed.scheduler.allowed-failures": ALLOWED_FAILURES}), \
+    with dask.config.set(SCHEDULER_CONFIG), \
             warnings.catch_warnings():
         warnings.filterwarnings("ignore", message=r"Port \d+ is already in use",
                                 category=UserWarning)

@@ -36,6 +36,12 @@ A study names a store, a model and its load cases::
     # shift_y_mm = [-5, 5]            #   x and y after the deflection (mm), its tilt
     # tilt_deg = [-4, 4]              #   about x (degrees): docs/combined-loads.md
 
+    # or a nested design solved as load-path trees (jobs/nested.py, issue 29)
+    # [loads.tree]
+    # trunks = 8                      # pressure, friction, tilt: once per trunk
+    # levels = 4                      # deflections each trunk rises through
+    # slides = 4                      # slides from each level's saved state
+
     [solver]                          # optional, as farm.specs.SolverSettings
     timeout_s = 1800
     max_path_length = 0               # split load paths longer than this (0: never)
@@ -80,6 +86,7 @@ from farm.specs import (
 from jobs.design import ModelsSpec, design, parse_models
 from jobs.errors import StudyError
 from jobs.identity import model_hash
+from jobs.nested import TreeDesign, parse_tree
 from jobs.validate import limits, lists, locations, reading, scalars, spec_tables
 from jobs.validate.adaptive import AdaptiveSpec, check_loads, parse_adaptive
 from jobs.validate.messages import fail, located, shown
@@ -97,7 +104,7 @@ MOTION_KEYS = {
 }
 #: The store's names of the combined-load parameters (RoadMotion's fields), in order.
 MOTION_PARAMETERS = tuple(name for name, _ in MOTION_KEYS.values())
-LOAD_KEYS = {"pressure_kpa", "deflection_mm", "sample", *MOTION_KEYS}
+LOAD_KEYS = {"pressure_kpa", "deflection_mm", "sample", "tree", *MOTION_KEYS}
 MAX_KPA = 1000 * MAX_PRESSURE_MPA
 
 
@@ -140,13 +147,15 @@ class Study:
     # combined loads: (parameter, listed values) of the motion keys listed in [loads]
     motions: tuple[tuple[str, tuple[float, ...]], ...] = ()
     adaptive: AdaptiveSpec | None = None  # [study.adaptive]: rounds chosen by a surrogate
+    tree: TreeDesign | None = None  # [loads.tree]: a nested design solved as trees
 
     @property
     def combined(self) -> bool:
         """Whether the study gives combined-load keys (listed or sampled): its group then
         holds the parameters friction, shift_x, shift_y, tilt and the combined variables."""
         sampled = {name for name, _, _ in self.sampling.ranges} if self.sampling else set()
-        return bool(self.motions) or bool(sampled & set(MOTION_PARAMETERS))
+        return (bool(self.motions) or bool(sampled & set(MOTION_PARAMETERS))
+                or self.tree is not None)
 
     @property
     def location(self) -> str:
@@ -193,6 +202,20 @@ def _sampling(data: Any, where: str) -> Sampling:
         raise fail(where, "give a range for deflection_mm, pressure_kpa or a combined-load "
                    f"key ({', '.join(MOTION_KEYS)})")
     return Sampling(method, n, seed, tuple(ranges))
+
+
+def _tree(data: Any, model: ModelSpec) -> TreeDesign:
+    """``[loads.tree]``, alone in ``[loads]`` (jobs/nested.py)."""
+    t = scalars.table(data, "loads", LOAD_KEYS)
+    other = sorted(k for k in t if k != "tree")
+    if other:
+        raise fail(f"loads.{other[0]}", "a study with [loads.tree] gives every load there "
+                   "(its ranges); drop this key or the tree")
+    if model.road != "contact" or not model.inflated:
+        raise fail("loads.tree", "load-path trees need the inflated full model with the "
+                   f"contact road, the model is {shown(model.kind)} with road = "
+                   f"{shown(model.road)}")
+    return parse_tree(t["tree"])
 
 
 def _loads(data: Any, model: ModelSpec):
@@ -269,7 +292,10 @@ def parse_study(text: str, source: str = "<study>") -> Study:
             scalars.identifier(group, "study.group")
         name = scalars.string(head.get("name", Path(source).stem), "study.name")
         model = spec_tables.model(data["model"])
-        pressures, deflections, sampling, motions = _loads(data["loads"], model)
+        tree = (_tree(data["loads"], model)
+                if isinstance(data["loads"], dict) and "tree" in data["loads"] else None)
+        pressures, deflections, sampling, motions = ((), (), None, ()) if tree else _loads(
+            data["loads"], model)
         solver = spec_tables.solver(data.get("solver", {}))
         models = None
         if "models" in data:
@@ -277,12 +303,20 @@ def parse_study(text: str, source: str = "<study>") -> Study:
                 raise fail("study.group", "a study with [models] writes one group per model "
                            "(<kind>-<model hash>): drop study.group")
             models = parse_models(data["models"], model)
-            _check_count(pressures, deflections, sampling, models, motions)
+            if tree is not None:
+                limits.EXPERIMENTS.check(models.rows * tree.count, "models",
+                                         f"{models.rows} models x {tree.count} tree "
+                                         "experiments")
+            else:
+                _check_count(pressures, deflections, sampling, models, motions)
+        if tree is not None and "adaptive" in head:
+            raise fail("study.adaptive", "an adaptive study adds points to [loads.sample]; "
+                       "a [loads.tree] design has none: drop one of them")
         adaptive = (_adaptive(head["adaptive"], pressures, deflections, sampling, motions,
                               models is not None) if "adaptive" in head else None)
         study = Study(name, store, group, model, pressures, deflections, sampling,
                       solver.settings, solver.max_path_length, solver.retry_smaller_increments,
-                      source, options, models, motions, adaptive)
+                      source, options, models, motions, adaptive, tree)
         _check_loads(study)
         if models is not None:
             _check_models(study)
@@ -312,6 +346,8 @@ def _check_loads(study: Study) -> None:
     """Load cases the model cannot take are rejected before anything runs."""
     ranges = {name: (low, high) for name, low, high in (study.sampling.ranges
                                                           if study.sampling else ())}
+    if study.tree is not None:
+        ranges = {name: (low, high) for name, low, high in study.tree.ranges}
     sampled = ranges.get("deflection")
     top = max([*study.deflections, sampled[1] if sampled else 0])
     lows = [*study.deflections, *([sampled[0]] if sampled and sampled[0] > 0 else [])]

@@ -29,11 +29,12 @@ import storage
 from jobs.cluster import Attempts, ClusterSpec
 from jobs.design import model_design
 from jobs.driver import Strategy, cluster_spec, drive, solver_version
-from jobs.expand import Experiment, PathPlan, experiments, parameters, plan
+from jobs.expand import Experiment, PathPlan, TreePlan, experiments, parameters, plan, tree_plan
 from jobs.progress import Progress, RunReport, Session
 from jobs.storeio import ensure_group
 from jobs.study import Study
 from jobs.tasks import PathOutcome, PathTask, run_path
+from jobs.trees import TreeTask, run_branch, run_trunk, trunk_outcome
 from jobs.wording import plural
 
 TASK_RETRIES = 2  # for exceptions raised by a task; lost workers: jobs.cluster.Attempts
@@ -79,7 +80,35 @@ class SweepState:
     running: int
 
 
-def _todo(paths: list[PathPlan], status: dict[str, int], retry_failed: bool) -> list[PathPlan]:
+class _Plain:
+    """A plain future with the face of :class:`jobs.cluster.Attempts` (no resubmission):
+    a tree's tasks depend on each other's futures, and Dask itself recomputes a lost
+    trunk for the slides that still need it."""
+
+    def __init__(self, future) -> None:
+        self.future = future
+
+    @property
+    def status(self) -> str:
+        return self.future.status
+
+    def result(self):
+        return self.future.result()
+
+    def exception(self):
+        return self.future.exception()
+
+    def resubmit(self) -> bool:
+        return False
+
+    def stop(self):
+        return self.future
+
+    def release(self) -> None:
+        self.future.release()
+
+
+def _todo(paths: list, status: dict[str, int], retry_failed: bool) -> list:
     wanted = {storage.PENDING} | ({storage.FAILED} if retry_failed else set())
     return [p for p in paths if any(status.get(e.id, storage.PENDING) in wanted
                                     for e in p.experiments)]
@@ -126,7 +155,10 @@ class Sweep(Strategy[SweepReport]):
         self.study, self.retry_failed = study, retry_failed
         self.parts = parts(study)
         self.report = SweepReport(study, 0)
-        self._pending: dict[Attempts, tuple[Study, PathPlan]] = {}
+        # a tree's tasks are entered under the PathPlan of their experiments
+        self._pending: dict[Attempts | _Plain, tuple[Study, PathPlan]] = {}
+        self._trunks: dict[str, list] = {}  # tree key -> [trunk future, slides running]
+        self._tree_of: dict[str, str] = {}  # slide key -> its tree's key
         self._before: set[str] = set()
         self._client: Any = None  # the session's dask client, from start()
         self._running, self._last = 0, 0.0
@@ -152,18 +184,19 @@ class Sweep(Strategy[SweepReport]):
         self._client = session.client
         if self._prepared is not None and self._prepared[0] == session.solver:
             for part, p in self._prepared[1]:
-                self._pending[self._submit(part, p)] = (part, p)
+                self._add(part, p)
             return
         self.report, self._before = SweepReport(self.study, 0), set()  # prepared in vain
         for part in self.parts:  # a group's paths run while the next group is made
             for p in self._start_part(part, session.solver):
-                self._pending[self._submit(part, p)] = (part, p)
+                self._add(part, p)
         self.report.skipped = len(self._before)
 
-    def _start_part(self, study: Study, solver: str) -> list[PathPlan]:
-        """Create and reserve one group; its paths still to do."""
+    def _start_part(self, study: Study, solver: str) -> list:
+        """Create and reserve one group; its paths (or trees) still to do."""
         ensure_group(study, solver)
-        paths = plan(study, solver, _held(study))
+        trees = study.tree is not None and study.tree.solve == "tree"
+        paths: list = tree_plan(study, solver) if trees else plan(study, solver, _held(study))
         exps = experiments(paths)
         ids = [e.id for e in exps]
         storage.reserve(study.store, study.group_name, ids, parameters(exps, study.combined))
@@ -171,6 +204,48 @@ class Sweep(Strategy[SweepReport]):
         todo = _todo(paths, status, self.retry_failed)
         self._before |= _account(self.report, study, paths, status, todo)
         return todo
+
+    def _add(self, s: Study, p: PathPlan | TreePlan) -> None:
+        if isinstance(p, TreePlan):
+            self._submit_tree(s, p)
+        else:
+            self._pending[self._submit(s, p)] = (s, p)
+
+    def _submit_tree(self, s: Study, tree: TreePlan) -> None:
+        """A trunk task, the small task that hands its outcome to the client, and a task
+        per slide with experiments still to do, each taking the trunk's result."""
+        client = self._client
+        wanted = {storage.PENDING} | ({storage.FAILED} if self.retry_failed else set())
+        status = storage.statuses(s.store, s.group_name, [e.id for e in tree.experiments])
+        base = TreeTask(tree, s.model, s.settings, s.store, s.group_name,
+                        s.retry_smaller_increments)
+        trunk = client.submit(run_trunk, base, key=tree.key, pure=False, retries=TASK_RETRIES)
+        done = client.submit(trunk_outcome, trunk, key=f"{tree.key}-outcome", pure=False)
+        self._pending[_Plain(done)] = (s, PathPlan(tree.key, tree.pressure, tree.trunk,
+                                                   tree.motion))
+        slides = [b for b in tree.branches
+                  if any(status.get(e.id, storage.PENDING) in wanted for e in b.experiments)]
+        self._trunks[tree.key] = [trunk, len(slides)]
+        for b in slides:
+            self._tree_of[b.key] = tree.key
+            task = replace(base, branch=b)
+            fut = client.submit(run_branch, task, trunk, key=b.key, pure=False,
+                                retries=TASK_RETRIES)
+            self._pending[_Plain(fut)] = (s, PathPlan(b.key, tree.pressure, b.experiments,
+                                                      b.experiments[-1].motion))
+        if not slides:
+            self._trunks.pop(tree.key)[0].release()  # only the outcome task holds it now
+
+    def _slide_done(self, key: str) -> None:
+        """Release a trunk's states once its last slide is done (until then they stay
+        on the workers; the client never fetches them)."""
+        tree = self._tree_of.pop(key, None)
+        if tree is None:
+            return
+        held = self._trunks[tree]
+        held[1] -= 1
+        if held[1] <= 0:
+            self._trunks.pop(tree)[0].release()
 
     def _submit(self, s: Study, path: PathPlan) -> Attempts:
         task = PathTask(path, s.model, s.settings, s.store, s.group_name,
@@ -183,6 +258,7 @@ class Sweep(Strategy[SweepReport]):
                 self.report.resubmitted += 1
                 continue
             part, path = self._pending.pop(fut)
+            self._slide_done(path.key)
             if fut.status == "finished":
                 self._record(fut.result())
             else:
@@ -202,7 +278,8 @@ class Sweep(Strategy[SweepReport]):
 
     def cancel(self) -> None:
         if self._pending:  # no further attempts; the workers' checks kill their ccx
-            self._client.cancel([f.stop() for f in self._pending])
+            self._client.cancel([f.stop() for f in self._pending]
+                                + [held[0] for held in self._trunks.values()])
 
     def finish(self, session: Session) -> SweepReport:
         return self.report

@@ -191,13 +191,9 @@ def road_motion_lines(road: Road, travel: float, shift: tuple[float, float], til
 
     Returns the amplitude lines (model definition) and the boundary lines (the step).
     """
-    xyz = road.xyz
-    ids = np.arange(road.first_node, road.first_node + len(xyz))
+    ids = np.arange(road.first_node, road.first_node + len(road.xyz))
     angle = math.radians(tilt)
-    y, z = xyz[:, 1], xyz[:, 2] - road.z_top
-    rot = np.stack([y * (math.cos(angle) - 1.0) - z * math.sin(angle),
-                    y * math.sin(angle) + z * (math.cos(angle) - 1.0)], axis=1)
-    rot = np.round(rot, 9) + 0.0  # deck-stable values, one amplitude pair per row
+    rot = _tilt_displacement(road, tilt)
     groups, index = np.unique(rot, axis=0, return_inverse=True)
     index = np.ravel(index)
     lines = ["*AMPLITUDE, NAME=ROAD_MOVE", f"0, 0, {_num(t0 + 1)}, 0, {_num(t0 + 2)}, 1"]
@@ -212,6 +208,38 @@ def road_motion_lines(road: Road, travel: float, shift: tuple[float, float], til
             bcs.append(f"*BOUNDARY, AMPLITUDE={name}")
             bcs += [f"{i}, {dof}, {dof}, 1" for i in ids[index == k]]
     return lines, bcs
+
+
+def _tilt_displacement(road: Road, tilt: float) -> np.ndarray:
+    """(uy, uz) of each road node when the road has turned by ``tilt`` degrees about
+    the x axis through (0, 0, ``road.z_top``), (n_road, 2); rounded to deck-stable
+    values (one amplitude pair per row of the slab)."""
+    angle = math.radians(tilt)
+    y, z = road.xyz[:, 1], road.xyz[:, 2] - road.z_top
+    rot = np.stack([y * (math.cos(angle) - 1.0) - z * math.sin(angle),
+                    y * math.sin(angle) + z * (math.cos(angle) - 1.0)], axis=1)
+    return np.round(rot, 9) + 0.0
+
+
+def road_position_lines(road: Road, travel: float, shift: tuple[float, float],
+                        tilt: float) -> list[str]:
+    """``*BOUNDARY`` (no amplitude) placing every road node where
+    :func:`road_motion_lines` takes it: turned by ``tilt``, risen by ``travel`` and slid
+    by ``shift`` in its own plane.
+
+    For the steps that continue a saved state (:mod:`farm.solve.tree`): a new step's
+    step time starts at 0, so the amplitudes of the first step would start the road
+    over; absolute values without an amplitude ramp linearly from where the road is.
+    """
+    ids = np.arange(road.first_node, road.first_node + len(road.xyz))
+    angle = math.radians(tilt)
+    rot = _tilt_displacement(road, tilt)
+    sy, sz = shift[1] * math.cos(angle), shift[1] * math.sin(angle)
+    lines = ["*BOUNDARY"]
+    for i, (uy, uz) in zip(ids, rot, strict=True):
+        lines += [f"{i}, 1, 1, {_num(shift[0])}", f"{i}, 2, 2, {_num(uy + sy)}",
+                  f"{i}, 3, 3, {_num(uz + travel + sz)}"]
+    return lines
 
 
 def _amplitude(points: list[tuple[float, float]]) -> list[str]:
@@ -269,7 +297,9 @@ def tight_controls_lines() -> list[str]:
 def restart_lines(read: bool, write: bool) -> list[str]:
     """``*RESTART``: READ continues from ``<job>.rin`` (the model definition and the
     state at the end of its last step come from it); WRITE leaves the state at the end
-    of every step in ``<job>.rout`` (each step overwrites it)."""
+    of every step in ``<job>.rout``, one self-contained block a step appended to the
+    file (ccx's ``OVERLAY`` would keep the last only; :func:`farm.solve.tree.split_restart`
+    cuts the blocks apart)."""
     return ((["*RESTART, READ"] if read else [])
             + (["*RESTART, WRITE, FREQUENCY=1"] if write else []))
 
@@ -305,14 +335,14 @@ def measured_set_lines(node_sets: Sequence[str]) -> list[str]:
     return ["*NSET, NSET=MEASURED", *(f"{s}," for s in node_sets)]
 
 
-def output_lines(time_points: bool, contact: bool) -> list[str]:
+def output_lines(time_points: bool, contact: bool, points: str = "OUT") -> list[str]:
     """Step output: U and RF of ``MEASURED`` nodes, strain at the cavity, contact.
 
     Output is limited to the nodes the measurements need (the .frd stays small and
     quick to parse); ``*EL FILE`` E gives ccx's integration-point strains extrapolated
-    to and averaged at the nodes (thesis §4.2).
+    to and averaged at the nodes (thesis §4.2). ``points`` names the ``*TIME POINTS``.
     """
-    tp = ", TIME POINTS=OUT" if time_points else ""
+    tp = f", TIME POINTS={points}" if time_points else ""
     lines = [f"*NODE FILE, NSET=MEASURED{tp}", "U, RF", f"*EL FILE, NSET=INNER{tp}", "E"]
     if contact:
         lines += [f"*CONTACT FILE{tp}", "CDIS, CSTR",

@@ -24,7 +24,7 @@ from __future__ import annotations
 import contextlib
 import json
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -102,14 +102,17 @@ def touch_height(spec: ModelSpec, mesh: TyreMesh, pressure: float, settings: Sol
 
 
 def path_deck(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: SolverSettings,
-              touch_z: float) -> tuple[str, list[float], float]:
+              touch_z: float, *, model: Sequence[str] = (),
+              then: Sequence[str] = ()) -> tuple[str, list[float], float]:
     """The one-run deck of a load path; returns (deck, output times, road start z).
 
     The output times are those of the deflections, then (combined loads) those of the
-    motion fractions: ``t0 + 1 + f`` for each f of ``path.motion_fractions``.
+    motion fractions: ``t0 + 1 + f`` for each f of ``path.motion_fractions``. ``model``
+    lines go at the end of the model definition, ``then`` after the step (a trunk's
+    restart output and further steps, :mod:`farm.solve.tree`).
     """
     if path.motion is not None:
-        return _combined_deck(spec, mesh, path, settings, touch_z)
+        return _combined_deck(spec, mesh, path, settings, touch_z, model, then)
     gap = road_gap(spec)
     travel = gap + path.deflections[-1]
     t0 = 1.0 if spec.inflated else 0.0
@@ -125,10 +128,10 @@ def path_deck(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: SolverS
     deck = D.assemble(
         D.mesh_lines(mesh), D.material_lines(spec.materials), D.cord_lines(spec, mesh), road.lines,
         D.contact_lines(mesh, spec.contact), amplitudes, D.time_points_lines(out_times),
-        D.measured_set_lines((*D.written_sets(mesh), "ROAD")),
+        D.measured_set_lines((*D.written_sets(mesh), "ROAD")), model,
         D.static_step_lines(t0 + 1.0, settings), D.support_lines(spec),
         ["*BOUNDARY, AMPLITUDE=ROAD_RAMP", "ROAD, 1, 2, 0", f"ROAD, 3, 3, {travel!r}"],
-        pressure, D.output_lines(time_points=True, contact=True), ["*END STEP"],
+        pressure, D.output_lines(time_points=True, contact=True), ["*END STEP"], then,
     )
     return deck, times, z_road
 
@@ -188,7 +191,8 @@ def _combined_times(spec: ModelSpec, path: LoadPath) -> list[float]:
 
 
 def _combined_deck(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: SolverSettings,
-                   touch_z: float) -> tuple[str, list[float], float]:
+                   touch_z: float, model: Sequence[str] = (),
+                   then: Sequence[str] = ()) -> tuple[str, list[float], float]:
     """Combined loads (issue 13): friction throughout, a tilt before the rise, a shift after.
 
     The shift gets a ramp of its own, one unit of step time after the rise (increments
@@ -218,10 +222,10 @@ def _combined_deck(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: So
         D.mesh_lines(mesh), D.material_lines(spec.materials), D.cord_lines(spec, mesh), road.lines,
         D.contact_lines(mesh, spec.contact, (motion.friction, lam)), amplitudes,
         D.time_points_lines(out_times), D.measured_set_lines((*D.written_sets(mesh), "ROAD")),
-        D.static_step_lines(t0 + (2.0 if motion.moves else 1.0), settings),
+        model, D.static_step_lines(t0 + (2.0 if motion.moves else 1.0), settings),
         D.friction_controls_lines() if motion.friction > 0 else [],
         D.support_lines(spec), boundary, pressure,
-        D.output_lines(time_points=True, contact=True), ["*END STEP"],
+        D.output_lines(time_points=True, contact=True), ["*END STEP"], then,
     )
     return deck, times, z_road
 

@@ -1,0 +1,303 @@
+"""Load-path trees (issue 29): a trunk solved once, branches continued from its states.
+
+Every combined-load experiment of a study used to be a ccx run of its own: inflate, turn
+the road to its tilt, push it up to the deflection with friction on, then slide it. Its
+neighbours in the design repeat the same inflation and nearly the same rise. A tree
+shares them:
+
+- the **trunk** (:func:`solve_trunk`) is one ccx run per model, pressure, friction and
+  tilt: the first step is the one-run path of :mod:`farm.solve.contact` up to the first
+  deflection; each further deflection is a step of its own that raises the road
+  (:func:`farm.ccx.deck.road_position_lines`). ``*RESTART, WRITE`` appends the solver's
+  state at the end of every step to the restart file, so the trunk leaves one state per
+  deflection (:func:`split_restart` cuts them apart). Its states at the deflections are
+  experiments too (friction and tilt, no slide);
+- a **branch** (:func:`solve_branch`) reads one of those states (``*RESTART, READ``) and
+  slides the road in one step, with results at fractions of the slide: every fraction
+  is the experiment of that shift (a monotonic slide passes through the same states as a
+  shorter one along the same line).
+
+A branch's step restates the road's position and the pressure without amplitudes: step
+time starts at 0 in a new step, so the first step's amplitudes would start over.
+
+Measured on the patch mesh with ``reinforced-calibrated`` (200 kPa, mu 0.6, tilt 2
+degrees, slide (3, -4) mm; docs/combined-loads.md, "Load-path trees"): a trunk through
+10, 15 and 20 mm took 127 s, each branch 43-53 s, the same experiment from rest 110-168
+s; Fz agreed within 0.01 %, Fx and Fy within 0.7 %. Friction remembers its path, and a
+new step in ccx starts with an out-of-balance force of a few per cent of the contact
+shear (the first iteration's residual does not depend on the increment): the branch's
+partial-slip forces are therefore as close to the run from rest as two runs from rest
+with different increments are to each other (tests/farm/test_tree.py).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import struct
+import zlib
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from farm.ccx import deck as D
+from farm.ccx.frd import FrdFile, read_frd
+from farm.ccx.runner import CcxRun, run_ccx, scratch_dir
+from farm.errors import ResultsError, SolverError, SpecError
+from farm.mesh.tyremesh import TyreMesh
+from farm.solve.contact import (
+    _combined_state,
+    _road,
+    _state,
+    path_deck,
+    road_gap,
+    slave_faces,
+    stage,
+    touch_height,
+)
+from farm.solve.states import PathSolution, SolvedState
+from farm.specs import LoadPath, ModelSpec, RoadMotion, SolverSettings
+
+_VERSION_RECORD = b"Version"  # the first record of every step's block in a restart file
+
+
+@dataclass(frozen=True, eq=False)
+class Trunk:
+    """A solved trunk: its states and the solver state at each of its deflections.
+
+    ``solution`` holds the inflated reference and one state per deflection of ``path``
+    (friction and tilt, unshifted); ``restarts[k]`` is ccx's restart block at
+    ``path.deflections[k]``, zlib-compressed (:func:`solve_branch` continues from it);
+    ``fractions`` are those of every branch's slide at which results are written (ccx
+    takes ``*TIME POINTS`` only before the first step, so the trunk defines them).
+    """
+
+    path: LoadPath
+    solution: PathSolution
+    restarts: tuple[bytes, ...]
+    touch_z: float
+    fractions: tuple[float, ...] = (1.0,)
+
+    @property
+    def motion(self) -> RoadMotion:
+        """Friction and tilt of the trunk (a zero motion for a vertical trunk)."""
+        return self.path.motion or RoadMotion()
+
+
+def split_restart(data: bytes) -> list[bytes]:
+    """Cut a ccx restart file into its blocks, one per step written.
+
+    The file is Fortran sequential unformatted (each record: its length as a 4-byte
+    integer, the bytes, the length again); ccx's ``restartwrite`` starts every step's
+    block with an 80-character record holding its version. Each block holds the whole
+    model and state, so one block alone is a restart file of that step.
+    """
+    starts, pos = [], 0
+    while pos < len(data):
+        if pos + 4 > len(data):
+            raise ResultsError(f"restart file cut short at byte {pos} of {len(data)}")
+        (n,) = struct.unpack_from("<i", data, pos)
+        end = pos + 8 + n
+        if n < 0 or end > len(data) or data[end - 4:end] != data[pos:pos + 4]:
+            raise ResultsError(f"restart file: record at byte {pos} is not a Fortran record")
+        if data[pos + 4:pos + 4 + len(_VERSION_RECORD)] == _VERSION_RECORD:
+            starts.append(pos)
+        pos = end
+    if not starts or starts[0] != 0:
+        raise ResultsError("restart file does not start with a version record")
+    return [data[a:b] for a, b in zip(starts, [*starts[1:], len(data)], strict=True)]
+
+
+def _gap(spec: ModelSpec, tilt: float) -> float:
+    """Initial clearance of the road (contact._combined_gap for a tilt, road_gap else)."""
+    lift = 0.5 * spec.geometry.section_width * math.sin(math.radians(abs(tilt)))
+    return road_gap(spec) + lift
+
+
+def _pressure_lines(spec: ModelSpec, mesh: TyreMesh, pressure: float) -> list[str]:
+    return D.cavity_pressure_lines(mesh, pressure, None) if spec.inflated else []
+
+
+def _controls(motion: RoadMotion) -> list[str]:
+    return D.friction_controls_lines() if motion.friction > 0 else []
+
+
+def trunk_deck(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: SolverSettings,
+               touch_z: float, fractions: Sequence[float] = (1.0,)) -> tuple[str, float]:
+    """The trunk's deck: the one-run path to the first deflection, then one step per
+    further deflection; restart output at every step's end. Returns (deck, road start z).
+    """
+    if path.motion is not None and path.motion.moves:
+        raise SpecError("a trunk does not slide: give it a motion with friction and tilt "
+                        "only (the slide is a branch's)")
+    motion = path.motion or RoadMotion()
+    first = LoadPath(path.deflections[:1], path.pressure, path.motion)
+    gap = _gap(spec, motion.tilt)
+    z_start = touch_z - gap
+    road = _road(spec, mesh, z_start)
+    steps: list[str] = []
+    for d in path.deflections[1:]:
+        steps += [*D.static_step_lines(1.0, settings), *_controls(motion),
+                  *D.road_position_lines(road, gap + d, (0.0, 0.0), motion.tilt),
+                  *_pressure_lines(spec, mesh, path.pressure),
+                  *D.output_lines(time_points=True, contact=True, points="STEP_END"),
+                  "*END STEP"]
+    model = [*D.restart_lines(read=False, write=True), "*TIME POINTS, NAME=STEP_END", "1",
+             "*TIME POINTS, NAME=SLIDE", *(D._num(f) for f in fractions)]
+    deck, _, z = path_deck(spec, mesh, first, settings, touch_z, model=model, then=steps)
+    assert abs(z - z_start) < 1e-9, "the trunk's road starts where the one-run path's does"
+    return deck, z_start
+
+
+def _run(deck: str, settings: SolverSettings, should_stop, jobname: str,
+         inputs: dict[str, bytes] | None = None,
+         restart: bool = False) -> tuple[CcxRun, FrdFile, bytes | None]:
+    with scratch_dir(keep=settings.keep_scratch, prefix=f"{jobname}-") as workdir:
+        run = run_ccx(deck, workdir, jobname=jobname, threads=settings.threads,
+                      timeout=settings.timeout, should_stop=should_stop, inputs=inputs)
+        state = run.file("rout").read_bytes() if restart else None
+        return run, read_frd(run.file("frd")), state
+
+
+def solve_trunk(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: SolverSettings,
+                should_stop: Callable[[], bool] | None = None,
+                fractions: Sequence[float] = (1.0,)) -> Trunk:
+    """Solve a trunk: inflate (cached), tilt, rise through ``path.deflections`` (one ccx
+    run), keeping the solver's state at each deflection.
+
+    ``path.motion`` may hold friction and tilt (and a stick slope), never a shift;
+    ``fractions`` (strictly increasing in (0, 1]) are where its branches' slides write
+    their results.
+    Raises :class:`~farm.errors.SolverError` (located along the trunk) when ccx fails.
+    """
+    path.check_against(spec)
+    fractions = _fractions(fractions)
+    runs: list[CcxRun] = []
+    touch_z = mesh.bottom_z
+    if spec.inflated:
+        touch_z, inflation = touch_height(spec, mesh, path.pressure, settings, should_stop)
+        runs += [inflation] if inflation is not None else []
+    deck, z_start = trunk_deck(spec, mesh, path, settings, touch_z, fractions)
+    try:
+        run, frd, data = _run(deck, settings, should_stop, "trunk", restart=True)
+    except SolverError as e:
+        raise (e.located(_trunk_stage(spec, path, e.reached)) if e.reached is not None
+               else e) from e
+    assert data is not None
+    blocks = split_restart(data)
+    if len(blocks) != len(path.deflections):
+        raise ResultsError(f"the trunk wrote {len(blocks)} restart blocks for "
+                           f"{len(path.deflections)} deflections")
+    runs.append(run)
+    t0 = 1.0 if spec.inflated else 0.0
+    times = [t0 + 1.0 + k for k in range(len(path.deflections))]
+    before = sum(r.seconds for r in runs[:-1])
+    states = _states(spec, mesh, frd, path, z_start, times,
+                     [(d, RoadMotion(friction=path.motion.friction, tilt=path.motion.tilt,
+                                     stick_slope=path.motion.stick_slope)
+                       if path.motion else None) for d in path.deflections],
+                     lambda t: before + run.seconds_to(t))
+    reference = _reference(spec, mesh, frd, path, z_start)
+    solution = PathSolution(reference, tuple(states), sum(r.seconds for r in runs), len(runs),
+                            sum(r.increments for r in runs))
+    return Trunk(path, solution, tuple(zlib.compress(b, 1) for b in blocks), touch_z,
+                 tuple(fractions))
+
+
+def _fractions(fractions: Sequence[float]) -> list[float]:
+    out = [float(f) for f in fractions]
+    if not out or any(not 0 < f <= 1 for f in out) or any(
+            b <= a for a, b in itertools.pairwise(out)):
+        raise SpecError(f"slide fractions must increase strictly within (0, 1], got {out}")
+    return out
+
+
+def _trunk_stage(spec: ModelSpec, path: LoadPath, time: float) -> str:
+    """Where along the trunk ``time`` (total time) lies."""
+    t0 = 1.0 if spec.inflated else 0.0
+    if time <= t0 + 1.0:
+        return stage(spec, LoadPath(path.deflections[:1], path.pressure, path.motion), time)
+    k = min(int(time - t0 - 1.0), len(path.deflections) - 2)
+    a, b = path.deflections[k], path.deflections[k + 1]
+    return f"in the trunk's rise from {a:g} to {b:g} mm"
+
+
+def _states(spec: ModelSpec, mesh: TyreMesh, frd: FrdFile, path: LoadPath, z_start: float,
+            times: Sequence[float], cases: Sequence[tuple[float, RoadMotion | None]],
+            seconds: Callable[[float], float]) -> list[SolvedState]:
+    """The states at ``times``, one per (deflection, motion) case."""
+    faces = slave_faces(mesh)
+    road = _road(spec, mesh, z_start)
+    tilt = path.motion.tilt if path.motion else 0.0
+    gap = _gap(spec, tilt)
+    out = []
+    for t, (d, m) in zip(times, cases, strict=True):
+        z = z_start + gap + d
+        out.append(_state(frd, mesh, faces, t, d, z, seconds(t)) if m is None else
+                   _combined_state(frd, mesh, faces, road, t, d, z, m, seconds(t)))
+    return out
+
+
+def _reference(spec: ModelSpec, mesh: TyreMesh, frd: FrdFile, path: LoadPath,
+               z_start: float) -> SolvedState:
+    """The inflated tyre, road clear (as the one-run path's reference)."""
+    if not spec.inflated:
+        raise SpecError("a trunk needs the inflated full model (its reference is the "
+                        "inflated tyre)")
+    faces = slave_faces(mesh)
+    if path.motion is None:
+        return _state(frd, mesh, faces, 1.0, 0.0, np.nan)
+    still = RoadMotion(friction=path.motion.friction, stick_slope=path.motion.stick_slope)
+    return _combined_state(frd, mesh, faces, _road(spec, mesh, z_start), 1.0, 0.0, np.nan,
+                           still)
+
+
+def branch_deck(spec: ModelSpec, mesh: TyreMesh, trunk: Trunk, level: int,
+                shift: tuple[float, float], settings: SolverSettings) -> str:
+    """The deck of a branch: read the trunk's state at ``level``, slide the road by
+    ``shift`` (mm along x and the road's lateral axis) in one step, results at the
+    trunk's ``fractions`` of the slide."""
+    motion = trunk.motion
+    gap = _gap(spec, motion.tilt)
+    road = _road(spec, mesh, trunk.touch_z - gap)
+    d = trunk.path.deflections[level]
+    return "\n".join([
+        *D.restart_lines(read=True, write=False),
+        *D.static_step_lines(1.0, settings), *_controls(motion),
+        *D.road_position_lines(road, gap + d, shift, motion.tilt),
+        *_pressure_lines(spec, mesh, trunk.path.pressure),
+        *D.output_lines(time_points=True, contact=True, points="SLIDE"), "*END STEP"]) + "\n"
+
+
+def solve_branch(spec: ModelSpec, mesh: TyreMesh, trunk: Trunk, level: int,
+                 shift: tuple[float, float], settings: SolverSettings,
+                 should_stop: Callable[[], bool] | None = None) -> PathSolution:
+    """Slide the road from the trunk's state at ``trunk.path.deflections[level]``.
+
+    Returns the trunk's reference and one state per fraction f of ``trunk.fractions``:
+    the road slid by f times ``shift``.
+    """
+    fractions = trunk.fractions
+    if not 0 <= level < len(trunk.restarts):
+        raise SpecError(f"the trunk has {len(trunk.restarts)} deflections, no level {level}")
+    motion = trunk.motion
+    full = RoadMotion(friction=motion.friction, tilt=motion.tilt, shift_x=shift[0],
+                      shift_y=shift[1], stick_slope=motion.stick_slope)
+    deck = branch_deck(spec, mesh, trunk, level, shift, settings)
+    d = trunk.path.deflections[level]
+    try:
+        run, frd, _ = _run(deck, settings, should_stop, "branch",
+                           inputs={"rin": zlib.decompress(trunk.restarts[level])})
+    except SolverError as e:
+        where = f"in the slide from the trunk's {d:g} mm state"
+        raise (e.located(where) if e.reached is not None else e) from e
+    times = sorted({b.time for b in frd.results_named("DISP")})
+    if len(times) != len(fractions):
+        raise ResultsError(f"the branch wrote {len(times)} states for {len(fractions)} "
+                           "slide fractions")
+    gap = _gap(spec, motion.tilt)
+    states = _states(spec, mesh, frd, trunk.path, trunk.touch_z - gap, times,
+                     [(d, full.scaled(f)) for f in fractions], run.seconds_to)
+    return PathSolution(trunk.solution.reference, tuple(states), run.seconds, 1,
+                        run.increments)

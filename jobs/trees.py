@@ -1,0 +1,161 @@
+"""What a worker runs for a ``[loads.tree]`` sweep: trunks and the slides that continue them.
+
+A tree (:class:`jobs.expand.TreePlan`, :mod:`farm.solve.tree`) is one trunk task and one
+task per slide; each slide task takes the trunk task's result (its saved solver states)
+as an argument, so Dask runs it after the trunk, wherever the state is, and never a task
+waits on another. Like :mod:`jobs.tasks`, every task skips what the store holds as
+done, writes each experiment into its own slot, and records failures as data.
+
+Fallbacks (the issue's "keep the current retry as the fallback"): a trunk that fails
+even with smaller increments has its own experiments solved as the plain sweep would
+(one path, split deflection by deflection on failure), and its slides run from rest; a
+slide that fails from the trunk's state runs from rest too. A reason is recorded only
+when that fails as well.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import storage
+from farm.measure.measurement import measure
+from farm.mesh import mesh_for
+from farm.solve.tree import Trunk, solve_branch, solve_trunk
+from farm.specs import LoadPath, ModelSpec, RoadMotion, SolverSettings
+from jobs.expand import BranchPlan, Experiment, PathPlan, TreePlan
+from jobs.guard import Failed, Solved, cancellation_check, guarded
+from jobs.tasks import PathOutcome, PathTask, _solve, _write
+
+
+@dataclass(frozen=True)
+class TreeTask:
+    """A tree's trunk, or one of its slides (``branch``), as plain picklable values."""
+
+    tree: TreePlan
+    model: ModelSpec
+    settings: SolverSettings
+    store: storage.StoreLike
+    group: str
+    retry_smaller_increments: bool = True
+    branch: BranchPlan | None = None
+
+    def path_task(self, key: str, exps: tuple[Experiment, ...],
+                  motion: RoadMotion | None) -> PathTask:
+        """The plain sweep's task for ``exps`` (writes, and the fallback from rest)."""
+        return PathTask(PathPlan(key, self.tree.pressure, exps, motion), self.model,
+                        self.settings, self.store, self.group, self.retry_smaller_increments)
+
+
+@dataclass(frozen=True, eq=False)
+class TrunkResult:
+    """A trunk task's result: what it wrote, and the trunk its slides continue (None:
+    the trunk failed, ``reason`` says why, and its slides run from rest)."""
+
+    outcome: PathOutcome
+    trunk: Trunk | None
+    reason: str = ""
+
+
+def trunk_outcome(result: TrunkResult) -> PathOutcome:
+    """The small part of a trunk's result the client reads (the states stay on workers)."""
+    return result.outcome
+
+
+def _todo(task: TreeTask, exps: tuple[Experiment, ...]) -> tuple[list[Experiment], tuple[str, ...]]:
+    status = storage.statuses(task.store, task.group, [e.id for e in exps])
+    todo = [e for e in exps if status.get(e.id) != storage.DONE]
+    return todo, tuple(e.id for e in exps if status.get(e.id) == storage.DONE)
+
+
+def run_trunk(task: TreeTask) -> TrunkResult:
+    """Worker entry point: solve the trunk, write its own experiments not yet done."""
+    tree = task.tree
+    should_stop = cancellation_check()
+    with storage.claim(task.store, task.group, tree.key, should_stop=should_stop) as go:
+        if not go:
+            return TrunkResult(PathOutcome(tree.key), None, "cancelled")
+        todo, skipped = _todo(task, tree.trunk)
+        model = task.model
+        mesh = mesh_for(model)
+        path = LoadPath(tree.deflections, tree.pressure, tree.motion)
+
+        def solve(settings: SolverSettings) -> Trunk:
+            return solve_trunk(model, mesh, path, settings, should_stop, tree.fractions)
+
+        result = guarded(solve, task.settings, retry=task.retry_smaller_increments)
+        plain = task.path_task(tree.key, tuple(todo), tree.motion)
+        if isinstance(result, Failed):
+            outcome = _solve(plain, todo, should_stop) if todo else PathOutcome(tree.key)
+            return TrunkResult(dataclasses.replace(outcome, skipped=skipped), None,
+                               result.reason)
+        solution = result.solution
+        outcome = PathOutcome(tree.key, skipped=skipped, solve_seconds=solution.solve_seconds,
+                              ccx_runs=solution.ccx_runs)
+        if todo:
+            states = measure(mesh, solution, tree.pressure, inflated=True)
+            wanted = {e.id for e in todo}
+            mine = tuple(m for e, m in zip(tree.trunk, states, strict=True) if e.id in wanted)
+            written = _write(plain, todo, Solved(mine, solution.solve_seconds,
+                                                 solution.ccx_runs, solution.increments))
+            outcome = dataclasses.replace(written, skipped=skipped)
+        return TrunkResult(outcome, result)
+
+
+def run_branch(task: TreeTask, trunk: TrunkResult) -> PathOutcome:
+    """Worker entry point: slide from the trunk's state (from rest if the trunk or the
+    slide fails), write the slide's experiments not yet done."""
+    branch = task.branch
+    assert branch is not None, "run_branch needs a TreeTask with its branch"
+    should_stop = cancellation_check()
+    with storage.claim(task.store, task.group, branch.key, should_stop=should_stop) as go:
+        if not go:
+            return PathOutcome(branch.key)
+        todo, skipped = _todo(task, branch.experiments)
+        if not todo:
+            return PathOutcome(branch.key, skipped=skipped)
+        result: Solved | Failed = Failed(f"trunk failed: {trunk.reason}")
+        if trunk.trunk is not None:
+            result = _slide(task, branch, trunk.trunk, should_stop)
+        if isinstance(result, Failed):
+            result = _from_rest(task, branch, should_stop, result.reason)
+        motion = branch.experiments[-1].motion
+        plain = task.path_task(branch.key, branch.experiments, motion)
+        wanted = {e.id for e in todo}
+        if isinstance(result, Solved):
+            result = dataclasses.replace(result, measurements=tuple(
+                m for e, m in zip(branch.experiments, result.measurements, strict=True)
+                if e.id in wanted))
+        return dataclasses.replace(_write(plain, todo, result), skipped=skipped)
+
+
+def _slide(task: TreeTask, branch: BranchPlan, trunk: Trunk, should_stop) -> Solved | Failed:
+    model = task.model
+    mesh = mesh_for(model)
+
+    def solve(settings: SolverSettings) -> Solved:
+        s = solve_branch(model, mesh, trunk, branch.level, branch.shift, settings, should_stop)
+        states = measure(mesh, s, task.tree.pressure, inflated=True)
+        return Solved(tuple(states), s.solve_seconds, s.ccx_runs, s.increments)
+
+    return guarded(solve, task.settings, retry=task.retry_smaller_increments)
+
+
+def _from_rest(task: TreeTask, branch: BranchPlan, should_stop, why: str) -> Solved | Failed:
+    """The slide's experiments as one path from rest (the plain sweep's one-run path,
+    with results at the tree's fractions)."""
+    from farm.experiment import run_load_path
+
+    tree = task.tree
+    path = LoadPath((tree.deflections[branch.level],), tree.pressure,
+                    branch.experiments[-1].motion, tree.fractions)
+
+    def solve(settings: SolverSettings) -> Solved:
+        r = run_load_path(task.model, path, settings, should_stop=should_stop)
+        return Solved(r.measurements[-len(tree.fractions):], r.solve_seconds, r.ccx_runs,
+                      r.increments)
+
+    result = guarded(solve, task.settings, retry=task.retry_smaller_increments)
+    if isinstance(result, Failed):
+        return dataclasses.replace(result, reason=f"{why}; from rest: {result.reason}")
+    return result

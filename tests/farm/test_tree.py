@@ -1,0 +1,118 @@
+"""Load-path trees (issue 29, farm/solve/tree.py): a trunk's states and a branch's slide
+equal the same load cases solved from rest, on the real solver.
+
+Model: the coarse full model of examples/combined_quick.toml (352 nodes), 200 kPa,
+mu 0.6, an untilted road (the coarse mesh's first touch under tilt is the fragile case
+of the issue, not what these tests are about). Tolerances: Fz to 1e-4 of |F| (measured:
+equal to the printed digits at the first level, 2.4e-5 at the next), the slide's forces
+to 5e-4 of |F| (measured 0 and 5.8e-5): friction remembers its path, and the branch's
+rise and slide are cut into other increments than the run from rest.
+"""
+
+from __future__ import annotations
+
+import struct
+
+import numpy as np
+import pytest
+
+from farm.errors import ResultsError, SpecError
+from farm.experiment import run_load_path
+from farm.mesh import mesh_for
+from farm.presets import default_model
+from farm.solve.tree import solve_branch, solve_trunk, split_restart
+from farm.specs import LoadPath, MeshDensity, RoadMotion, SolverSettings
+
+PRESSURE, MU = 0.2, 0.6
+LEVELS = (10.0, 15.0)
+SHIFT = (3.0, -4.0)
+FRACTIONS = (0.5, 1.0)
+
+
+def _record(payload: bytes) -> bytes:
+    n = struct.pack("<i", len(payload))
+    return n + payload + n
+
+
+def test_split_restart_cuts_at_version_records():
+    block = _record(b"Version 2.20".ljust(80)) + _record(b"\x01\x00\x00\x00")
+    other = _record(b"Version 2.20".ljust(80)) + _record(b"\x02\x00\x00\x00") * 2
+    assert split_restart(block + other) == [block, other]
+    assert split_restart(block) == [block]
+
+
+@pytest.mark.parametrize("data", [b"", b"\x05\x00\x00\x00abc",
+                                  _record(b"\x01\x00\x00\x00"),
+                                  _record(b"Version 2.20".ljust(80))[:-1]])
+def test_split_restart_refuses_what_is_not_a_restart_file(data):
+    with pytest.raises(ResultsError):
+        split_restart(data)
+
+
+@pytest.fixture(scope="module")
+def coarse():
+    spec = default_model("full", mesh=MeshDensity(tread=4, sidewall=2, bead=1,
+                                                  circumferential=16))
+    return spec, mesh_for(spec)
+
+
+@pytest.fixture(scope="module")
+def trunk(coarse, ccx):
+    spec, mesh = coarse
+    return solve_trunk(spec, mesh, LoadPath(LEVELS, PRESSURE, RoadMotion(friction=MU)),
+                       SolverSettings(), fractions=FRACTIONS)
+
+
+def _close(a: np.ndarray, b: np.ndarray, rtol: float) -> None:
+    scale = np.linalg.norm(b)
+    assert np.abs(a - b).max() <= rtol * scale, (a, b)
+
+
+@pytest.mark.ccx
+def test_trunk_states_equal_the_path_from_rest(coarse, trunk):
+    spec, _ = coarse
+    rest = run_load_path(spec, LoadPath(LEVELS, PRESSURE, RoadMotion(friction=MU)),
+                         SolverSettings())
+    assert len(trunk.restarts) == len(LEVELS) == len(trunk.solution.states)
+    assert trunk.solution.ccx_runs >= 1
+    for a, b in zip(trunk.solution.states, rest.states, strict=True):
+        assert a.deflection == b.deflection
+        _close(a.road_reaction, b.road_reaction, 1e-4)
+        # the tread forces balance the road (the trunk's own check of equilibrium)
+        _close(a.tread_force.sum(axis=0), a.road_reaction, 1e-3)
+    ref, rest_ref = trunk.solution.reference, rest.reference
+    assert np.allclose(ref.displacement, rest_ref.displacement, atol=1e-6, equal_nan=True)
+
+
+@pytest.mark.ccx
+@pytest.mark.parametrize("level", range(len(LEVELS)))
+def test_branch_equals_the_slide_from_rest(coarse, trunk, level):
+    spec, mesh = coarse
+    branch = solve_branch(spec, mesh, trunk, level, SHIFT, SolverSettings())
+    motion = RoadMotion(friction=MU, shift_x=SHIFT[0], shift_y=SHIFT[1])
+    rest = run_load_path(spec, LoadPath((LEVELS[level],), PRESSURE, motion, FRACTIONS),
+                         SolverSettings())
+    assert branch.ccx_runs == 1
+    assert branch.reference is trunk.solution.reference
+    for f, a, b in zip(FRACTIONS, branch.states, rest.states[-len(FRACTIONS):], strict=True):
+        assert a.motion == motion.scaled(f) == b.motion
+        assert a.deflection == LEVELS[level]
+        _close(a.road_reaction, b.road_reaction, 5e-4)
+        _close(a.tread_force.sum(axis=0), a.road_reaction, 1e-3)
+        assert np.nanmax(np.abs(a.displacement - b.displacement)) < 0.05  # mm
+    # the slide moved the force: the states are not the trunk's own
+    assert abs(branch.states[-1].road_reaction[0]) > 100
+
+
+@pytest.mark.ccx
+def test_tree_refuses_what_it_cannot_do(coarse, trunk):
+    spec, mesh = coarse
+    with pytest.raises(SpecError, match="does not slide"):
+        solve_trunk(spec, mesh, LoadPath((10.0,), PRESSURE,
+                                         RoadMotion(friction=MU, shift_x=1.0)),
+                    SolverSettings())
+    with pytest.raises(SpecError, match="fractions"):
+        solve_trunk(spec, mesh, LoadPath((10.0,), PRESSURE), SolverSettings(),
+                    fractions=(1.0, 0.5))
+    with pytest.raises(SpecError, match="no level 2"):
+        solve_branch(spec, mesh, trunk, 2, SHIFT, SolverSettings())

@@ -1,0 +1,192 @@
+"""Nested designs solved as load-path trees (issue 29): ``[loads.tree]`` through the study
+file, the expansion, the ids, a sweep on ccx, and the fallback from rest.
+
+The physics of a tree (a branch equals the slide from rest) is tested in
+tests/farm/test_tree.py; here: that the design makes the experiments it says, with the
+ids those load cases have from rest, and that a tree sweep stores the same results as
+the plain sweep of the same cases, in fewer ccx runs."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import storage
+from jobs import identity
+from jobs.errors import StudyError
+from jobs.expand import cases, experiments, parameters, tree_plan
+from jobs.nested import trunk_points
+from jobs.storeio import ensure_group
+from jobs.study import parse_study
+from jobs.sweep import run_sweep
+from jobs.tasks import PathOutcome
+from jobs.trees import TreeTask, TrunkResult, run_branch
+
+SOLVER = "CalculiX 2.20"
+ROOT = Path(__file__).resolve().parents[2]
+COARSE = """
+[model]
+kind = "full"
+materials = "table-3.1"
+[model.mesh]
+tread = 4
+sidewall = 2
+bead = 1
+circumferential = 16
+"""
+TREE = """
+[loads.tree]
+trunks = 2
+levels = 2
+slides = 1
+pressure_kpa = [200, 200]
+friction = [0.3, 0.6]
+deflection_mm = [10, 15]
+shift_x_mm = [-3, 3]
+shift_y_mm = [-3, 3]
+fractions = [0.5, 1.0]
+"""
+
+
+def _study(store, tree: str = TREE, model: str = COARSE, head: str = ""):
+    return parse_study(f'[study]\nname = "tree"\nstore = "{store}"\n{head}' + model + tree)
+
+
+def test_design_makes_the_experiments_it_counts_with_ids_from_rest(tmp_path):
+    study = _study(tmp_path / "s.zarr")
+    design = study.tree
+    assert design is not None and study.combined
+    assert design.count == 2 * 2 * (1 + 1 * 2) == len(cases(study))
+    trees = tree_plan(study, SOLVER)
+    exps = experiments(trees)
+    # the ids of the same load cases solved from rest (the trees list a trunk's own
+    # experiments first, cases() each level's trunk state before its slides)
+    assert sorted(e.id for e in exps) == sorted(
+        identity.experiment_id(study.model, d, p, SOLVER, m) for d, p, m in cases(study))
+    assert len({e.id for e in exps}) == len(exps)
+    keys = [t.key for t in trees] + [b.key for t in trees for b in t.branches]
+    assert len(set(keys)) == len(keys)
+    for t in trees:
+        assert list(t.deflections) == sorted(t.deflections)
+        assert all(10 <= d <= 15 for d in t.deflections)
+        assert len({e.motion.friction for e in t.experiments}) == 1  # a trunk parameter
+        for b in t.branches:
+            assert all(-3 <= s <= 3 for s in b.shift)
+            ends = b.experiments[-1].motion
+            half = b.experiments[0].motion
+            assert (ends.shift_x, ends.shift_y) == b.shift
+            assert half.shift_x == pytest.approx(0.5 * b.shift[0], abs=1e-9)
+    assert set(parameters(exps, study.combined)) >= {"friction", "shift_x", "shift_y", "tilt"}
+    # deterministic: the same file gives the same design, another seed another one
+    assert cases(_study(tmp_path / "s.zarr")) == cases(study)
+    other = _study(tmp_path / "s.zarr", TREE.replace("trunks = 2", "trunks = 2\nseed = 1"))
+    assert cases(other) != cases(study)
+
+
+@pytest.mark.parametrize("method", ["lhs", "sobol"])
+def test_each_level_of_the_design_spreads_over_its_range(tmp_path, method):
+    tree = TREE.replace("trunks = 2", f"trunks = 8\nmethod = '{method}'").replace(
+        "levels = 2", "levels = 4")
+    design = _study(tmp_path / "s.zarr", tree).tree
+    points = trunk_points(design)
+    frictions = sorted(t.friction for t in points)
+    # a space-filling design: one trunk in each eighth of the friction range (LHS), or
+    # no eighth left empty twice over (scrambled Sobol')
+    bins = np.histogram(frictions, bins=8, range=(0.3, 0.6))[0]
+    assert bins.max() <= (1 if method == "lhs" else 2)
+    for t in points:
+        assert len(t.deflections) == 4 and len(t.slides) == 4
+
+
+@pytest.mark.parametrize(("change", "match"), [
+    (lambda t: t + "[loads]\npressure_kpa = [200]\n", "loads.pressure_kpa"),
+    (lambda t: t.replace("trunks = 2\n", ""), "trunks"),
+    (lambda t: t.replace("fractions = [0.5, 1.0]", "fractions = [0.5, 0.8]"), "end at 1"),
+    (lambda t: t.replace("fractions = [0.5, 1.0]", "fractions = [1.0, 0.5]"), "fractions"),
+    (lambda t: t.replace("deflection_mm = [10, 15]", "deflection_mm = [0, 15]"),
+     "deflection_mm"),
+    (lambda t: t.replace("pressure_kpa = [200, 200]", "pressure_kpa = [0, 200]"),
+     "pressure_kpa"),
+    (lambda t: t.replace("shift_x_mm = [-3, 3]", "shift_x_mm = [0, 0]").replace(
+        "shift_y_mm = [-3, 3]", "shift_y_mm = [0, 0]"), "shift_x_mm"),
+    (lambda t: t.replace("friction = [0.3, 0.6]", "friction = [0.6, 0.3]"), "low <= high"),
+    (lambda t: t.replace("slides = 1", "slides = 0"), "slides"),
+    (lambda t: t.replace("slides = 1", "slides = 1\nsolve = 'fast'"), "solve"),
+    (lambda t: t.replace("trunks = 2", "trunks = 20000"), "tree"),
+])
+def test_bad_tree_tables_are_refused_with_the_key(tmp_path, change, match):
+    with pytest.raises(StudyError, match=match):
+        _study(tmp_path / "s.zarr", change(TREE))
+
+
+def test_a_tree_needs_the_inflated_contact_model_and_no_adaptive_rounds(tmp_path):
+    reduced = '\n[model]\nkind = "reduced"\nroad = "contact"\n'
+    with pytest.raises(StudyError, match="inflated full model"):
+        _study(tmp_path / "s.zarr", model=reduced)
+    with pytest.raises(StudyError, match="adaptive"):
+        _study(tmp_path / "s.zarr", head="[study.adaptive]\nrounds = 2\nbatch = 2\n")
+
+
+def _quick_example(store, solve: str = "tree"):
+    """examples/combined_tree_quick.toml into ``store``."""
+    text = (ROOT / "examples" / "combined_tree_quick.toml").read_text()
+    text = text.replace('store = "results/combined_tree_quick.zarr"', f'store = "{store}"')
+    return parse_study(text.replace("slides = 1", f"slides = 1\nsolve = '{solve}'"))
+
+
+def _forces(store, name: str = "road_reaction") -> dict[str, np.ndarray]:
+    (group,) = storage.list_groups(store)
+    ds = storage.done(storage.open_dataset(store, group))
+    return dict(zip((str(i) for i in ds["experiment"].values), np.asarray(ds[name]),
+                    strict=True))
+
+
+@pytest.mark.ccx
+def test_tree_sweep_stores_the_results_of_the_plain_sweep_in_fewer_runs(tmp_path):
+    tree = _quick_example(tmp_path / "tree.zarr")
+    assert tree.tree == _study(tmp_path / "s.zarr").tree  # the design of this file's tests
+    report = run_sweep(tree, workers=2)
+    assert report.ok, report.failed
+    assert report.total == 12
+    # 2 trunks + 4 slides (+ the cached inflation), against 2 trunk paths + 8 slides
+    assert report.ccx_runs <= 8
+    again = run_sweep(tree, workers=2)
+    assert again.nothing_to_do and again.skipped == 12
+
+    rest = _quick_example(tmp_path / "rest.zarr", solve="rest")
+    plain = run_sweep(rest, workers=2)
+    assert plain.ok, plain.failed
+    assert plain.ccx_runs >= 10
+    # the road's reaction to the tolerance of tests/farm/test_tree.py; the sum of the
+    # tread forces (contact stress x area, which the coarse mesh's 2-4 contact nodes
+    # make sensitive to the increments) to 0.2 % (measured 0.13 %)
+    for name, rtol in (("road_reaction", 5e-4), ("total_force", 2e-3)):
+        a, b = _forces(tmp_path / "tree.zarr", name), _forces(tmp_path / "rest.zarr", name)
+        assert set(a) == set(b) and len(a) == 12
+        for i in a:
+            assert np.abs(a[i] - b[i]).max() <= rtol * np.linalg.norm(b[i]), (name, a[i], b[i])
+
+
+@pytest.mark.ccx
+def test_a_slide_whose_trunk_failed_is_solved_from_rest(tmp_path):
+    study = _study(tmp_path / "s.zarr")
+    trees = tree_plan(study, SOLVER)
+    tree = trees[0]
+    branch = tree.branches[0]
+    ensure_group(study, SOLVER)
+    exps = experiments(trees)
+    storage.reserve(study.store, study.group_name, [e.id for e in exps],
+                    parameters(exps, True))
+    task = TreeTask(tree, study.model, study.settings, study.store, study.group_name,
+                    branch=branch)
+    outcome = run_branch(task, TrunkResult(PathOutcome(tree.key), None, "no trunk here"))
+    assert outcome.done == tuple(e.id for e in branch.experiments) and not outcome.failed
+    assert outcome.ccx_runs <= 2  # one run from rest for both fractions (+ inflation)
+    status = storage.statuses(study.store, study.group_name, [e.id for e in exps])
+    assert [status[e.id] for e in branch.experiments] == [storage.DONE] * 2
+    assert sum(s == storage.DONE for s in status.values()) == 2
+    # run again: nothing left to do
+    again = run_branch(task, TrunkResult(PathOutcome(tree.key), None, "no trunk here"))
+    assert again.skipped == outcome.done and not again.done
