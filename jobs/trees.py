@@ -49,12 +49,15 @@ class TreeTask:
 
 @dataclass(frozen=True, eq=False)
 class TrunkResult:
-    """A trunk task's result: what it wrote, and the trunk its slides continue (None:
-    the trunk failed, ``reason`` says why, and its slides run from rest)."""
+    """A trunk task's result: what it wrote, the trunk its slides continue (None: the
+    trunk failed before its first deflection, ``reason`` says why; a partial trunk holds
+    the deflections it reached), and per level whether the trunk's own experiment there
+    is done (by the trunk, from rest, or before)."""
 
     outcome: PathOutcome
     trunk: Trunk | None
     reason: str = ""
+    levels_done: tuple[bool, ...] = ()
 
 
 def trunk_outcome(result: TrunkResult) -> PathOutcome:
@@ -74,7 +77,8 @@ def run_trunk(task: TreeTask) -> TrunkResult:
     should_stop = cancellation_check()
     with storage.claim(task.store, task.group, tree.key, should_stop=should_stop) as go:
         if not go:
-            return TrunkResult(PathOutcome(tree.key), None, "cancelled")
+            return TrunkResult(PathOutcome(tree.key), None, "cancelled",
+                               (False,) * len(tree.trunk))
         todo, skipped = _todo(task, tree.trunk)
         model = task.model
         mesh = mesh_for(model)
@@ -84,22 +88,34 @@ def run_trunk(task: TreeTask) -> TrunkResult:
             return solve_trunk(model, mesh, path, settings, should_stop, tree.fractions)
 
         result = guarded(solve, task.settings, retry=task.retry_smaller_increments)
-        plain = task.path_task(tree.key, tuple(todo), tree.motion)
-        if isinstance(result, Failed):
-            outcome = _solve(plain, todo, should_stop) if todo else PathOutcome(tree.key)
-            return TrunkResult(dataclasses.replace(outcome, skipped=skipped), None,
-                               result.reason)
-        solution = result.solution
-        outcome = PathOutcome(tree.key, skipped=skipped, solve_seconds=solution.solve_seconds,
-                              ccx_runs=solution.ccx_runs)
-        if todo:
-            states = measure(mesh, solution, tree.pressure, inflated=True)
-            wanted = {e.id for e in todo}
-            mine = tuple(m for e, m in zip(tree.trunk, states, strict=True) if e.id in wanted)
-            written = _write(plain, todo, Solved(mine, solution.solve_seconds,
-                                                 solution.ccx_runs, solution.increments))
-            outcome = dataclasses.replace(written, skipped=skipped)
-        return TrunkResult(outcome, result)
+        trunk = None if isinstance(result, Failed) else result
+        reached = len(trunk.restarts) if trunk is not None else 0
+        reason = (result.reason if isinstance(result, Failed)
+                  else trunk.failure if trunk is not None and trunk.failure else "")
+        level = {e.id: k for k, e in enumerate(tree.trunk)}
+        parts: list[PathOutcome] = []
+        mine = [e for e in todo if level[e.id] < reached]
+        if trunk is not None and mine:
+            states = measure(mesh, trunk.solution, tree.pressure, inflated=True)
+            solution = trunk.solution
+            parts.append(_write(task.path_task(tree.key, tuple(mine), tree.motion), mine,
+                                Solved(tuple(states[level[e.id]] for e in mine),
+                                       solution.solve_seconds, solution.ccx_runs,
+                                       solution.increments)))
+        elif trunk is not None:
+            parts.append(PathOutcome(tree.key, solve_seconds=trunk.solution.solve_seconds,
+                                     ccx_runs=trunk.solution.ccx_runs))
+        rest = [e for e in todo if level[e.id] >= reached]
+        if rest:  # the levels the trunk did not reach: as the plain sweep solves them
+            parts.append(_solve(task.path_task(tree.key, tuple(rest), tree.motion), rest,
+                                should_stop))
+        done = {*skipped, *(i for p in parts for i in p.done)}
+        outcome = PathOutcome(tree.key, tuple(i for p in parts for i in p.done),
+                              tuple(f for p in parts for f in p.failed), skipped,
+                              sum(p.solve_seconds for p in parts),
+                              sum(p.ccx_runs for p in parts))
+        return TrunkResult(outcome, trunk, reason,
+                           tuple(e.id in done for e in tree.trunk))
 
 
 def run_branch(task: TreeTask, trunk: TrunkResult) -> PathOutcome:
@@ -107,6 +123,7 @@ def run_branch(task: TreeTask, trunk: TrunkResult) -> PathOutcome:
     slide fails), write the slide's experiments not yet done."""
     branch = task.branch
     assert branch is not None, "run_branch needs a TreeTask with its branch"
+    tree = task.tree
     should_stop = cancellation_check()
     with storage.claim(task.store, task.group, branch.key, should_stop=should_stop) as go:
         if not go:
@@ -114,11 +131,18 @@ def run_branch(task: TreeTask, trunk: TrunkResult) -> PathOutcome:
         todo, skipped = _todo(task, branch.experiments)
         if not todo:
             return PathOutcome(branch.key, skipped=skipped)
-        result: Solved | Failed = Failed(f"trunk failed: {trunk.reason}")
-        if trunk.trunk is not None:
+        d = tree.deflections[branch.level]
+        result: Solved | Failed = Failed(f"the trunk did not reach {d:g} mm: {trunk.reason}")
+        if trunk.trunk is not None and branch.level < len(trunk.trunk.restarts):
             result = _slide(task, branch, trunk.trunk, should_stop)
         if isinstance(result, Failed):
-            result = _from_rest(task, branch, should_stop, result.reason)
+            known = branch.level < len(trunk.levels_done)
+            if not known or trunk.levels_done[branch.level]:
+                result = _from_rest(task, branch, should_stop, result.reason)
+            else:  # from rest it would stop where the trunk's own path from rest did
+                result = dataclasses.replace(result, reason=(
+                    f"{result.reason}; not tried from rest: the trunk's own experiment at "
+                    f"{d:g} mm failed from rest too"))
         motion = branch.experiments[-1].motion
         plain = task.path_task(branch.key, branch.experiments, motion)
         wanted = {e.id for e in todo}

@@ -172,10 +172,15 @@ def _motion(path: LoadPath) -> RoadMotion:
 
 
 def _combined_gap(spec: ModelSpec, path: LoadPath) -> float:
-    """Initial clearance of a combined path's road: a tilted road must turn clear of
-    the tyre, whose tread spans +-section_width/2 (the tilt lifts one side by that
-    times the sine)."""
-    lift = 0.5 * spec.geometry.section_width * math.sin(math.radians(abs(_motion(path).tilt)))
+    """Initial clearance of a combined path's road (:func:`tilted_gap`)."""
+    return tilted_gap(spec, _motion(path).tilt)
+
+
+def tilted_gap(spec: ModelSpec, tilt: float) -> float:
+    """Initial clearance of a road tilted by ``tilt`` degrees: it must turn clear of the
+    tyre, whose tread spans +-section_width/2 (the tilt lifts one side by that times the
+    sine); :func:`road_gap` for an untilted one."""
+    lift = 0.5 * spec.geometry.section_width * math.sin(math.radians(abs(tilt)))
     return road_gap(spec) + lift
 
 

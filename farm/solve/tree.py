@@ -35,6 +35,7 @@ from __future__ import annotations
 import itertools
 import math
 import struct
+import time
 import zlib
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -51,9 +52,9 @@ from farm.solve.contact import (
     _road,
     _state,
     path_deck,
-    road_gap,
     slave_faces,
     stage,
+    tilted_gap,
     touch_height,
 )
 from farm.solve.states import PathSolution, SolvedState
@@ -71,6 +72,8 @@ class Trunk:
     ``path.deflections[k]``, zlib-compressed (:func:`solve_branch` continues from it);
     ``fractions`` are those of every branch's slide at which results are written (ccx
     takes ``*TIME POINTS`` only before the first step, so the trunk defines them).
+    ``failure``: why the trunk stopped before its last deflection (a partial trunk: its
+    ``path`` holds the deflections it reached), else None.
     """
 
     path: LoadPath
@@ -78,6 +81,7 @@ class Trunk:
     restarts: tuple[bytes, ...]
     touch_z: float
     fractions: tuple[float, ...] = (1.0,)
+    failure: str | None = None
 
     @property
     def motion(self) -> RoadMotion:
@@ -109,12 +113,6 @@ def split_restart(data: bytes) -> list[bytes]:
     return [data[a:b] for a, b in zip(starts, [*starts[1:], len(data)], strict=True)]
 
 
-def _gap(spec: ModelSpec, tilt: float) -> float:
-    """Initial clearance of the road (contact._combined_gap for a tilt, road_gap else)."""
-    lift = 0.5 * spec.geometry.section_width * math.sin(math.radians(abs(tilt)))
-    return road_gap(spec) + lift
-
-
 def _pressure_lines(spec: ModelSpec, mesh: TyreMesh, pressure: float) -> list[str]:
     return D.cavity_pressure_lines(mesh, pressure, None) if spec.inflated else []
 
@@ -133,7 +131,7 @@ def trunk_deck(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: Solver
                         "only (the slide is a branch's)")
     motion = path.motion or RoadMotion()
     first = LoadPath(path.deflections[:1], path.pressure, path.motion)
-    gap = _gap(spec, motion.tilt)
+    gap = tilted_gap(spec, motion.tilt)
     z_start = touch_z - gap
     road = _road(spec, mesh, z_start)
     steps: list[str] = []
@@ -151,13 +149,34 @@ def trunk_deck(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: Solver
 
 
 def _run(deck: str, settings: SolverSettings, should_stop, jobname: str,
-         inputs: dict[str, bytes] | None = None,
-         restart: bool = False) -> tuple[CcxRun, FrdFile, bytes | None]:
+         inputs: dict[str, bytes] | None = None) -> tuple[CcxRun, FrdFile]:
     with scratch_dir(keep=settings.keep_scratch, prefix=f"{jobname}-") as workdir:
         run = run_ccx(deck, workdir, jobname=jobname, threads=settings.threads,
                       timeout=settings.timeout, should_stop=should_stop, inputs=inputs)
-        state = run.file("rout").read_bytes() if restart else None
-        return run, read_frd(run.file("frd")), state
+        return run, read_frd(run.file("frd"))
+
+
+def _run_trunk(deck: str, settings: SolverSettings, should_stop
+               ) -> tuple[CcxRun | None, FrdFile, list[bytes], SolverError | None]:
+    """The trunk's run: (run, results, restart blocks, None), or, when ccx fails after
+    finishing some steps, (None, their results, their blocks, the error): every step
+    that converged wrote its state before the failure. Raises when none did."""
+    with scratch_dir(keep=settings.keep_scratch, prefix="trunk-") as workdir:
+        try:
+            run: CcxRun | None = run_ccx(deck, workdir, jobname="trunk",
+                                         threads=settings.threads, timeout=settings.timeout,
+                                         should_stop=should_stop)
+            error = None
+        except SolverError as e:
+            run, error = None, e
+        rout = workdir / "trunk.rout"
+        try:
+            blocks = split_restart(rout.read_bytes()) if rout.exists() else []
+        except ResultsError:  # cut short by the failure: nothing to continue from
+            blocks = []
+        if error is not None and (not blocks or error.outcome == "cancelled"):
+            raise error
+        return run, read_frd(workdir / "trunk.frd"), blocks, error
 
 
 def solve_trunk(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: SolverSettings,
@@ -169,7 +188,9 @@ def solve_trunk(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: Solve
     ``path.motion`` may hold friction and tilt (and a stick slope), never a shift;
     ``fractions`` (strictly increasing in (0, 1]) are where its branches' slides write
     their results.
-    Raises :class:`~farm.errors.SolverError` (located along the trunk) when ccx fails.
+    Raises :class:`~farm.errors.SolverError` (located along the trunk) when ccx fails
+    before the first deflection; a failure after it gives a partial trunk
+    (:attr:`Trunk.failure`): every step that converged wrote its state.
     """
     path.check_against(spec)
     fractions = _fractions(fractions)
@@ -179,30 +200,35 @@ def solve_trunk(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: Solve
         touch_z, inflation = touch_height(spec, mesh, path.pressure, settings, should_stop)
         runs += [inflation] if inflation is not None else []
     deck, z_start = trunk_deck(spec, mesh, path, settings, touch_z, fractions)
+    start = time.perf_counter()
     try:
-        run, frd, data = _run(deck, settings, should_stop, "trunk", restart=True)
+        run, frd, blocks, error = _run_trunk(deck, settings, should_stop)
     except SolverError as e:
         raise (e.located(_trunk_stage(spec, path, e.reached)) if e.reached is not None
                else e) from e
-    assert data is not None
-    blocks = split_restart(data)
+    seconds = time.perf_counter() - start
+    failure = None
+    if error is not None:  # a partial trunk: the deflections it reached
+        failure = str(error.located(_trunk_stage(spec, path, error.reached))
+                      if error.reached is not None else error)
+        path = LoadPath(path.deflections[:len(blocks)], path.pressure, path.motion)
     if len(blocks) != len(path.deflections):
         raise ResultsError(f"the trunk wrote {len(blocks)} restart blocks for "
                            f"{len(path.deflections)} deflections")
-    runs.append(run)
     t0 = 1.0 if spec.inflated else 0.0
     times = [t0 + 1.0 + k for k in range(len(path.deflections))]
-    before = sum(r.seconds for r in runs[:-1])
+    before = sum(r.seconds for r in runs)
     states = _states(spec, mesh, frd, path, z_start, times,
                      [(d, RoadMotion(friction=path.motion.friction, tilt=path.motion.tilt,
                                      stick_slope=path.motion.stick_slope)
                        if path.motion else None) for d in path.deflections],
-                     lambda t: before + run.seconds_to(t))
+                     lambda t: before + (run.seconds_to(t) if run else math.nan))
     reference = _reference(spec, mesh, frd, path, z_start)
-    solution = PathSolution(reference, tuple(states), sum(r.seconds for r in runs), len(runs),
-                            sum(r.increments for r in runs))
+    solution = PathSolution(reference, tuple(states), before + (run.seconds if run else seconds),
+                            len(runs) + 1,
+                            sum(r.increments for r in runs) + (run.increments if run else 0))
     return Trunk(path, solution, tuple(zlib.compress(b, 1) for b in blocks), touch_z,
-                 tuple(fractions))
+                 tuple(fractions), failure)
 
 
 def _fractions(fractions: Sequence[float]) -> list[float]:
@@ -230,7 +256,7 @@ def _states(spec: ModelSpec, mesh: TyreMesh, frd: FrdFile, path: LoadPath, z_sta
     faces = slave_faces(mesh)
     road = _road(spec, mesh, z_start)
     tilt = path.motion.tilt if path.motion else 0.0
-    gap = _gap(spec, tilt)
+    gap = tilted_gap(spec, tilt)
     out = []
     for t, (d, m) in zip(times, cases, strict=True):
         z = z_start + gap + d
@@ -259,7 +285,7 @@ def branch_deck(spec: ModelSpec, mesh: TyreMesh, trunk: Trunk, level: int,
     ``shift`` (mm along x and the road's lateral axis) in one step, results at the
     trunk's ``fractions`` of the slide."""
     motion = trunk.motion
-    gap = _gap(spec, motion.tilt)
+    gap = tilted_gap(spec, motion.tilt)
     road = _road(spec, mesh, trunk.touch_z - gap)
     d = trunk.path.deflections[level]
     return "\n".join([
@@ -287,8 +313,8 @@ def solve_branch(spec: ModelSpec, mesh: TyreMesh, trunk: Trunk, level: int,
     deck = branch_deck(spec, mesh, trunk, level, shift, settings)
     d = trunk.path.deflections[level]
     try:
-        run, frd, _ = _run(deck, settings, should_stop, "branch",
-                           inputs={"rin": zlib.decompress(trunk.restarts[level])})
+        run, frd = _run(deck, settings, should_stop, "branch",
+                        inputs={"rin": zlib.decompress(trunk.restarts[level])})
     except SolverError as e:
         where = f"in the slide from the trunk's {d:g} mm state"
         raise (e.located(where) if e.reached is not None else e) from e
@@ -296,7 +322,7 @@ def solve_branch(spec: ModelSpec, mesh: TyreMesh, trunk: Trunk, level: int,
     if len(times) != len(fractions):
         raise ResultsError(f"the branch wrote {len(times)} states for {len(fractions)} "
                            "slide fractions")
-    gap = _gap(spec, motion.tilt)
+    gap = tilted_gap(spec, motion.tilt)
     states = _states(spec, mesh, frd, trunk.path, trunk.touch_z - gap, times,
                      [(d, full.scaled(f)) for f in fractions], run.seconds_to)
     return PathSolution(trunk.solution.reference, tuple(states), run.seconds, 1,

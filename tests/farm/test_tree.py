@@ -116,3 +116,20 @@ def test_tree_refuses_what_it_cannot_do(coarse, trunk):
                     fractions=(1.0, 0.5))
     with pytest.raises(SpecError, match="no level 2"):
         solve_branch(spec, mesh, trunk, 2, SHIFT, SolverSettings())
+
+
+@pytest.mark.ccx
+def test_a_trunk_that_stops_keeps_the_deflections_it_reached(coarse):
+    """On the coarse mesh a tilted road's trunk stops in its third step (15 -> 20 mm,
+    too many cutbacks; docs/combined-loads.md, "Load-path trees"): the trunk keeps the
+    two deflections it reached, with their states and restart blocks, and says why."""
+    spec, mesh = coarse
+    trunk = solve_trunk(spec, mesh, LoadPath((10.0, 15.0, 20.0), PRESSURE,
+                                             RoadMotion(tilt=2.0)), SolverSettings())
+    assert trunk.failure is not None and "15 to 20 mm" in trunk.failure
+    assert trunk.path.deflections == (10.0, 15.0)
+    assert len(trunk.restarts) == len(trunk.solution.states) == 2
+    rest = run_load_path(spec, LoadPath((10.0, 15.0), PRESSURE, RoadMotion(tilt=2.0)),
+                         SolverSettings())
+    for a, b in zip(trunk.solution.states, rest.states, strict=True):
+        _close(a.road_reaction, b.road_reaction, 1e-4)

@@ -8,6 +8,7 @@ the plain sweep of the same cases, in fewer ccx runs."""
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -190,3 +191,12 @@ def test_a_slide_whose_trunk_failed_is_solved_from_rest(tmp_path):
     # run again: nothing left to do
     again = run_branch(task, TrunkResult(PathOutcome(tree.key), None, "no trunk here"))
     assert again.skipped == outcome.done and not again.done
+    # a slide whose level the trunk's own path from rest did not reach either is not
+    # tried from rest again: it fails at once, saying why
+    other = replace(task, branch=trees[1].branches[0], tree=trees[1])
+    stuck = TrunkResult(PathOutcome(trees[1].key), None, "too many cutbacks",
+                        (False,) * len(trees[1].trunk))
+    failed = run_branch(other, stuck)
+    assert not failed.done and failed.ccx_runs == 0 and len(failed.failed) == 2
+    assert all("not tried from rest" in why and "too many cutbacks" in why
+               for _, why in failed.failed)
