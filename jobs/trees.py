@@ -6,11 +6,14 @@ as an argument, so Dask runs it after the trunk, wherever the state is, and neve
 waits on another. Like :mod:`jobs.tasks`, every task skips what the store holds as
 done, writes each experiment into its own slot, and records failures as data.
 
-Fallbacks (the issue's "keep the current retry as the fallback"): a trunk that fails
-even with smaller increments has its own experiments solved as the plain sweep would
-(one path, split deflection by deflection on failure), and its slides run from rest; a
-slide that fails from the trunk's state runs from rest too. A reason is recorded only
-when that fails as well.
+Fallbacks (the issue's "keep the current retry as the fallback"; docs/combined-loads.md,
+"Load-path trees"): a trunk that stops after some deflections keeps them, and the
+levels it did not reach are solved as the plain sweep would (one path, split deflection
+by deflection on failure); a trunk that fails before its first deflection even with
+smaller increments is recorded as failed, with its slides (the same path from rest
+would stop at the same first touch). A slide that fails from the trunk's state runs
+from rest where the trunk's own experiment at its level is done. A reason is recorded
+only when the last attempt fails, and it names every attempt.
 """
 
 from __future__ import annotations
@@ -106,7 +109,15 @@ def run_trunk(task: TreeTask) -> TrunkResult:
             parts.append(PathOutcome(tree.key, solve_seconds=trunk.solution.solve_seconds,
                                      ccx_runs=trunk.solution.ccx_runs))
         rest = [e for e in todo if level[e.id] >= reached]
-        if rest:  # the levels the trunk did not reach: as the plain sweep solves them
+        if rest and trunk is None:
+            # stopped before its first deflection, after the guard's retry: its first
+            # step is the one-run path's deck up to there, so from rest would stop at the
+            # same place (the first touch, as a rule); recorded, not repeated
+            plain = task.path_task(tree.key, tuple(rest), tree.motion)
+            parts.append(_write(plain, rest, Failed(
+                f"{reason} (the trunk, before its first deflection; the same path from "
+                "rest was not tried again)")))
+        elif rest:  # the levels a partial trunk did not reach: as the plain sweep does
             parts.append(_solve(task.path_task(tree.key, tuple(rest), tree.motion), rest,
                                 should_stop))
         done = {*skipped, *(i for p in parts for i in p.done)}
