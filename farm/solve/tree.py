@@ -33,7 +33,6 @@ with different increments are to each other (tests/farm/test_tree.py).
 from __future__ import annotations
 
 import itertools
-import math
 import struct
 import time
 import zlib
@@ -222,7 +221,8 @@ def solve_trunk(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: Solve
                      [(d, RoadMotion(friction=path.motion.friction, tilt=path.motion.tilt,
                                      stick_slope=path.motion.stick_slope)
                        if path.motion else None) for d in path.deflections],
-                     lambda t: before + (run.seconds_to(t) if run else math.nan))
+                     # a failed run's progress is not kept: its whole time (an upper bound)
+                     lambda t: before + (run.seconds_to(t) if run else seconds))
     reference = _reference(spec, mesh, frd, path, z_start)
     solution = PathSolution(reference, tuple(states), before + (run.seconds if run else seconds),
                             len(runs) + 1,

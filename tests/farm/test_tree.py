@@ -129,6 +129,9 @@ def test_a_trunk_that_stops_keeps_the_deflections_it_reached(coarse):
     assert trunk.failure is not None and "15 to 20 mm" in trunk.failure
     assert trunk.path.deflections == (10.0, 15.0)
     assert len(trunk.restarts) == len(trunk.solution.states) == 2
+    # the store takes only finite seconds (the failed run's whole time: an upper bound)
+    assert all(0 < s.solve_seconds <= trunk.solution.solve_seconds
+               for s in trunk.solution.states)
     rest = run_load_path(spec, LoadPath((10.0, 15.0), PRESSURE, RoadMotion(tilt=2.0)),
                          SolverSettings())
     for a, b in zip(trunk.solution.states, rest.states, strict=True):
