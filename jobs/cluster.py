@@ -43,14 +43,6 @@ from jobs.tls import TlsFiles, check_address
 from jobs.wording import plural
 
 ALLOWED_FAILURES = 10  # the embedded scheduler's allowed-failures (Dask's default: 3)
-EMBEDDED_CONFIG = {
-    "distributed.scheduler.allowed-failures": ALLOWED_FAILURES,
-    # A LocalCluster closes a worker's nanny when, 15 s after *any* earlier loss of that
-    # worker, no worker of that name is registered: a worker lost again just then (it is
-    # restarting) is gone for good, and the cluster a worker short (seen in
-    # tests/jobs/test_jobs_worker_loss.py). Our nannies restart their workers: keep them.
-    "distributed.deploy.lost-worker-timeout": "1 day",
-}
 #: Expected durations of the farm's long tasks by key prefix (jobs.expand's keys). Dask
 #: runs a task where its inputs are and moves it only by work stealing, which weighs the
 #: transfer of the inputs against the task's expected time, 0.5 s while unknown: the
@@ -58,12 +50,20 @@ EMBEDDED_CONFIG = {
 #: queued on the trunk's worker one after another while the other worker idled
 #: (benchmarks/bench_throughput.py). Measured on the patch mesh: trunk 2 min, slide 1 min.
 TASK_DURATIONS = {"trunk": "2m", "slide": "1m", "path": "1m"}
+#: What every scheduler the farm starts gets (embedded here, SLURM's in jobs.slurm).
 SCHEDULER_CONFIG = {
     "distributed.scheduler.allowed-failures": ALLOWED_FAILURES,
     **{f"distributed.scheduler.default-task-durations.{k}": v
        for k, v in TASK_DURATIONS.items()},
 }
-EMBEDDED_CONFIG.update(SCHEDULER_CONFIG)
+EMBEDDED_CONFIG = {
+    **SCHEDULER_CONFIG,
+    # A LocalCluster closes a worker's nanny when, 15 s after *any* earlier loss of that
+    # worker, no worker of that name is registered: a worker lost again just then (it is
+    # restarting) is gone for good, and the cluster a worker short (seen in
+    # tests/jobs/test_jobs_worker_loss.py). Our nannies restart their workers: keep them.
+    "distributed.deploy.lost-worker-timeout": "1 day",
+}
 LOST_WORKER_RESUBMITS = 10  # resubmissions of a task whose workers kept dying
 SCHEDULER_VARIABLES = ("FARM_SCHEDULER", "DASK_SCHEDULER_ADDRESS")  # in this order
 CONNECT_TIMEOUT = "20s"  # to reach a running scheduler (and finish a TLS handshake)

@@ -108,8 +108,13 @@ class _Plain:
         self.future.release()
 
 
+def _wanted(retry_failed: bool) -> set[int]:
+    """The statuses of experiments a sweep runs."""
+    return {storage.PENDING} | ({storage.FAILED} if retry_failed else set())
+
+
 def _todo(paths: list, status: dict[str, int], retry_failed: bool) -> list:
-    wanted = {storage.PENDING} | ({storage.FAILED} if retry_failed else set())
+    wanted = _wanted(retry_failed)
     return [p for p in paths if any(status.get(e.id, storage.PENDING) in wanted
                                     for e in p.experiments)]
 
@@ -159,6 +164,7 @@ class Sweep(Strategy[SweepReport]):
         self._pending: dict[Attempts | _Plain, tuple[Study, PathPlan]] = {}
         self._trunks: dict[str, list] = {}  # tree key -> [trunk future, slides running]
         self._tree_of: dict[str, str] = {}  # slide key -> its tree's key
+        self._status: dict[str, int] = {}  # experiment id -> status when the sweep began
         self._before: set[str] = set()
         self._client: Any = None  # the session's dask client, from start()
         self._running, self._last = 0, 0.0
@@ -201,6 +207,7 @@ class Sweep(Strategy[SweepReport]):
         ids = [e.id for e in exps]
         storage.reserve(study.store, study.group_name, ids, parameters(exps, study.combined))
         status = storage.statuses(study.store, study.group_name, ids)
+        self._status.update(status)  # a tree's slides to submit (_submit_tree)
         todo = _todo(paths, status, self.retry_failed)
         self._before |= _account(self.report, study, paths, status, todo)
         return todo
@@ -215,8 +222,7 @@ class Sweep(Strategy[SweepReport]):
         """A trunk task, the small task that hands its outcome to the client, and a task
         per slide with experiments still to do, each taking the trunk's result."""
         client = self._client
-        wanted = {storage.PENDING} | ({storage.FAILED} if self.retry_failed else set())
-        status = storage.statuses(s.store, s.group_name, [e.id for e in tree.experiments])
+        wanted, status = _wanted(self.retry_failed), self._status
         base = TreeTask(tree, s.model, s.settings, s.store, s.group_name,
                         s.retry_smaller_increments)
         trunk = client.submit(run_trunk, base, key=tree.key, pure=False, retries=TASK_RETRIES)
