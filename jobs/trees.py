@@ -7,9 +7,11 @@ waits on another. Like :mod:`jobs.tasks`, every task skips what the store holds 
 done, writes each experiment into its own slot, and records failures as data.
 
 Fallbacks (the issue's "keep the current retry as the fallback"; docs/combined-loads.md,
-"Load-path trees"): a trunk that stops after some deflections keeps them, and the
-levels it did not reach are solved as the plain sweep would (one path, split deflection
-by deflection on failure); a trunk that fails before its first deflection even with
+"Load-path trees"): a trunk whose step fails goes on from rest at the first deflection
+it did not reach (:func:`farm.solve.tree.solve_trunk` re-roots it, so every level keeps
+a saved state for its slides); when a re-rooted part fails before its first deflection,
+the levels left are solved as the plain sweep would (one path, split deflection by
+deflection on failure); a trunk that fails before its first deflection even with
 smaller increments is recorded as failed, with its slides (the same path from rest
 would stop at the same first touch). A slide that fails from the trunk's state runs
 from rest where the trunk's own experiment at its level is done. A reason is recorded

@@ -32,6 +32,7 @@ with different increments are to each other (tests/farm/test_tree.py).
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import struct
 import time
@@ -72,7 +73,9 @@ class Trunk:
     ``fractions`` are those of every branch's slide at which results are written (ccx
     takes ``*TIME POINTS`` only before the first step, so the trunk defines them).
     ``failure``: why the trunk stopped before its last deflection (a partial trunk: its
-    ``path`` holds the deflections it reached), else None.
+    ``path`` holds the deflections it reached), else None. ``reroots``: why each ccx run
+    of the trunk but the last stopped, where the rest was re-rooted from rest
+    (:func:`solve_trunk`).
     """
 
     path: LoadPath
@@ -81,6 +84,7 @@ class Trunk:
     touch_z: float
     fractions: tuple[float, ...] = (1.0,)
     failure: str | None = None
+    reroots: tuple[str, ...] = ()
 
     @property
     def motion(self) -> RoadMotion:
@@ -181,18 +185,66 @@ def _run_trunk(deck: str, settings: SolverSettings, should_stop
 def solve_trunk(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: SolverSettings,
                 should_stop: Callable[[], bool] | None = None,
                 fractions: Sequence[float] = (1.0,)) -> Trunk:
-    """Solve a trunk: inflate (cached), tilt, rise through ``path.deflections`` (one ccx
-    run), keeping the solver's state at each deflection.
+    """Solve a trunk: inflate (cached), tilt, rise through ``path.deflections``, keeping
+    the solver's state at each deflection.
 
     ``path.motion`` may hold friction and tilt (and a stick slope), never a shift;
     ``fractions`` (strictly increasing in (0, 1]) are where its branches' slides write
     their results.
+
+    One ccx run as a rule. When a later step fails (ccx's Newton iteration can diverge
+    in the first increment of a new step whatever the increment, docs/combined-loads.md
+    "Load-path trees"), the trunk is **re-rooted**: the deflections it did not reach
+    become a trunk of their own, whose first step is the one-run path from rest to the
+    first of them (:attr:`Trunk.reroots` says why each happened). Every state is still
+    the state of a path from rest, and every level keeps a saved state for its slides.
+
     Raises :class:`~farm.errors.SolverError` (located along the trunk) when ccx fails
-    before the first deflection; a failure after it gives a partial trunk
-    (:attr:`Trunk.failure`): every step that converged wrote its state.
+    before the first deflection; a re-rooted part that fails so gives a partial trunk
+    (:attr:`Trunk.failure`): the deflections before it keep their states.
     """
     path.check_against(spec)
     fractions = _fractions(fractions)
+    pieces: list[Trunk] = []
+    failure = None
+    while len(done := [d for t in pieces for d in t.path.deflections]) < len(path.deflections):
+        rest = LoadPath(path.deflections[len(done):], path.pressure, path.motion)
+        try:
+            pieces.append(_solve_piece(spec, mesh, rest, settings, should_stop, fractions))
+        except SolverError as e:
+            if not pieces or e.outcome == "cancelled":
+                raise
+            failure = f"{e} (re-rooted from rest at {rest.deflections[0]:g} mm)"
+            break
+    return _joined(pieces, failure)
+
+
+def _joined(pieces: Sequence[Trunk], failure: str | None) -> Trunk:
+    """One trunk of its re-rooted parts, in order (a state's solve_seconds counts the
+    parts before it: what reaching it cost)."""
+    first = pieces[0]
+    if len(pieces) == 1 and failure is None:
+        return first
+    states: list[SolvedState] = []
+    spent = 0.0
+    for t in pieces:
+        states += [dataclasses.replace(s, solve_seconds=spent + s.solve_seconds)
+                   for s in t.solution.states]
+        spent += t.solution.solve_seconds
+    solution = PathSolution(first.solution.reference, tuple(states), spent,
+                            sum(t.solution.ccx_runs for t in pieces),
+                            sum(t.solution.increments for t in pieces))
+    path = LoadPath(tuple(d for t in pieces for d in t.path.deflections),
+                    first.path.pressure, first.path.motion)
+    return Trunk(path, solution, tuple(b for t in pieces for b in t.restarts), first.touch_z,
+                 first.fractions, failure,
+                 tuple(t.failure for t in pieces if t.failure is not None))
+
+
+def _solve_piece(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: SolverSettings,
+                 should_stop: Callable[[], bool] | None, fractions: list[float]) -> Trunk:
+    """One ccx run of a trunk from rest through ``path.deflections`` (partial when a
+    later step fails, raises when it stops before the first)."""
     runs: list[CcxRun] = []
     touch_z = mesh.bottom_z
     if spec.inflated:
@@ -242,7 +294,7 @@ def _fractions(fractions: Sequence[float]) -> list[float]:
 def _trunk_stage(spec: ModelSpec, path: LoadPath, time: float) -> str:
     """Where along the trunk ``time`` (total time) lies."""
     t0 = 1.0 if spec.inflated else 0.0
-    if time <= t0 + 1.0:
+    if time < t0 + 1.0 or len(path.deflections) == 1:  # at t0 + 1 the first step is done
         return stage(spec, LoadPath(path.deflections[:1], path.pressure, path.motion), time)
     k = min(int(time - t0 - 1.0), len(path.deflections) - 2)
     a, b = path.deflections[k], path.deflections[k + 1]

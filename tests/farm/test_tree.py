@@ -11,16 +11,19 @@ rise and slide are cut into other increments than the run from rest.
 
 from __future__ import annotations
 
+import itertools
 import struct
 
 import numpy as np
 import pytest
 
-from farm.errors import ResultsError, SpecError
+from farm.errors import ResultsError, SolverError, SpecError
 from farm.experiment import run_load_path
 from farm.mesh import mesh_for
 from farm.presets import default_model
-from farm.solve.tree import solve_branch, solve_trunk, split_restart
+from farm.solve import tree
+from farm.solve.states import PathSolution, SolvedState
+from farm.solve.tree import Trunk, solve_branch, solve_trunk, split_restart
 from farm.specs import LoadPath, MeshDensity, RoadMotion, SolverSettings
 
 PRESSURE, MU = 0.2, 0.6
@@ -119,20 +122,93 @@ def test_tree_refuses_what_it_cannot_do(coarse, trunk):
 
 
 @pytest.mark.ccx
-def test_a_trunk_that_stops_keeps_the_deflections_it_reached(coarse):
-    """On the coarse mesh a tilted road's trunk stops in its third step (15 -> 20 mm,
-    too many cutbacks; docs/combined-loads.md, "Load-path trees"): the trunk keeps the
-    two deflections it reached, with their states and restart blocks, and says why."""
+def test_a_trunk_whose_step_fails_is_rerooted_from_rest(coarse):
+    """On the coarse mesh a tilted road's trunk stops in its third step (15 -> 20 mm:
+    ccx's Newton iteration diverges in the new step's first increment, whatever the
+    increment; docs/combined-loads.md, "Load-path trees"). The trunk goes on from rest
+    to 20 mm in a second run: every level has its state and its restart block, and
+    each state is that of the path from rest."""
     spec, mesh = coarse
-    trunk = solve_trunk(spec, mesh, LoadPath((10.0, 15.0, 20.0), PRESSURE,
-                                             RoadMotion(tilt=2.0)), SolverSettings())
-    assert trunk.failure is not None and "15 to 20 mm" in trunk.failure
-    assert trunk.path.deflections == (10.0, 15.0)
-    assert len(trunk.restarts) == len(trunk.solution.states) == 2
-    # the store takes only finite seconds (the failed run's whole time: an upper bound)
-    assert all(0 < s.solve_seconds <= trunk.solution.solve_seconds
-               for s in trunk.solution.states)
-    rest = run_load_path(spec, LoadPath((10.0, 15.0), PRESSURE, RoadMotion(tilt=2.0)),
-                         SolverSettings())
-    for a, b in zip(trunk.solution.states, rest.states, strict=True):
+    motion = RoadMotion(tilt=2.0)
+    trunk = solve_trunk(spec, mesh, LoadPath((10.0, 15.0, 20.0), PRESSURE, motion),
+                        SolverSettings())
+    assert trunk.failure is None
+    assert len(trunk.reroots) == 1 and "15 to 20 mm" in trunk.reroots[0]
+    assert trunk.path.deflections == (10.0, 15.0, 20.0)
+    assert len(trunk.restarts) == len(trunk.solution.states) == 3
+    assert trunk.solution.ccx_runs >= 2
+    # the store takes only finite seconds; the re-rooted state counts what came before
+    seconds = [s.solve_seconds for s in trunk.solution.states]
+    assert 0 < seconds[0] <= seconds[1] < seconds[2] <= trunk.solution.solve_seconds
+    rest = run_load_path(spec, LoadPath((10.0, 15.0), PRESSURE, motion), SolverSettings())
+    alone = run_load_path(spec, LoadPath((20.0,), PRESSURE, motion), SolverSettings())
+    for a, b in zip(trunk.solution.states, [*rest.states, *alone.states], strict=True):
         _close(a.road_reaction, b.road_reaction, 1e-4)
+    # and the re-rooted level's saved state carries a slide
+    branch = solve_branch(spec, mesh, trunk, 2, (1.0, 0.0), SolverSettings())
+    assert branch.states[-1].deflection == 20.0
+
+
+def _piece(levels, failure=None):
+    """A stand-in trunk part (for the re-rooting logic only: no solver)."""
+    states = tuple(_fake_state(d, 10.0 * (k + 1)) for k, d in enumerate(levels))
+    solution = PathSolution(_fake_state(0.0, 0.0), states, 10.0 * len(levels), 1, 5)
+    return Trunk(LoadPath(tuple(levels), PRESSURE), solution,
+                 tuple(bytes([k]) for k in range(len(levels))), 1.0, (1.0,), failure)
+
+
+def _fake_state(d, seconds):
+    return SolvedState(d, np.nan, np.zeros((1, 3)), np.zeros((1, 6)), np.zeros((1, 3)),
+                       np.zeros(3), seconds)
+
+
+_FAILED = SolverError("increment_below_minimum", ["ccx"], 201, "first touch")
+
+
+@pytest.mark.parametrize(("outcomes", "reached", "reroots", "failed"), [
+    ([(3,)], 3, 0, False),  # one run reaches every level
+    ([(1, "diverged"), (2,)], 3, 1, False),  # re-rooted once
+    ([(1, "a"), (1, "b"), (1,)], 3, 2, False),  # twice
+    ([(2, "diverged"), _FAILED], 2, 1, True),  # the re-root fails
+])
+def test_rerooting_goes_on_from_the_first_level_not_reached(monkeypatch, outcomes, reached,
+                                                            reroots, failed):
+    asked = []
+
+    def piece(spec, mesh, path, settings, should_stop, fractions):
+        asked.append(path.deflections)
+        out = outcomes[len(asked) - 1]
+        if isinstance(out, Exception):
+            raise out
+        return _piece(path.deflections[:out[0]], *out[1:])
+
+    monkeypatch.setattr(tree, "_solve_piece", piece)
+    trunk = tree.solve_trunk(default_model("full"), None, LoadPath((5.0, 10.0, 15.0), PRESSURE),
+                             SolverSettings())
+    assert asked[0] == (5.0, 10.0, 15.0)
+    for before, after in itertools.pairwise(asked):  # each run starts where the last stopped
+        assert after == (5.0, 10.0, 15.0)[3 - len(after):] and len(after) < len(before)
+    assert len(trunk.path.deflections) == len(trunk.restarts) == reached
+    assert len(trunk.reroots) == reroots and (trunk.failure is not None) == failed
+    seconds = [s.solve_seconds for s in trunk.solution.states]
+    assert seconds == sorted(seconds)  # a later part counts the parts before it
+
+
+def test_a_trunk_that_fails_before_its_first_level_raises(monkeypatch):
+    def piece(*args):
+        raise _FAILED
+
+    monkeypatch.setattr(tree, "_solve_piece", piece)
+    with pytest.raises(SolverError, match="first touch"):
+        tree.solve_trunk(default_model("full"), None, LoadPath((5.0,), PRESSURE),
+                         SolverSettings())
+
+
+@pytest.mark.parametrize(("time", "where"), [
+    (1.5, "in the rise"),  # the first step: the one-run path's own stages
+    (2.0, "rise from 5 to 10 mm"),  # the first step is done: the failure is in the next
+    (3.0, "rise from 10 to 15 mm"),
+])
+def test_a_trunk_failure_is_located_in_its_step(time, where):
+    path = LoadPath((5.0, 10.0, 15.0), PRESSURE, RoadMotion(friction=MU))
+    assert where in tree._trunk_stage(default_model("full"), path, time)
