@@ -14,6 +14,7 @@ import time
 from pathlib import Path
 
 import dask
+import numpy as np
 import psutil
 import pytest
 
@@ -165,11 +166,14 @@ def _our_solves() -> list[psutil.Process]:
     return found
 
 
-def _kill_workers_running_ccx(kills: int, done: list[int]) -> None:
-    """SIGKILL the worker running a ccx solve of ours, ``kills`` times."""
+def _kill_workers_running_ccx(kills: int, done: list[int], jobs: tuple[str, ...] = ()) -> None:
+    """SIGKILL the worker running a ccx solve of ours, ``kills`` times; with ``jobs``,
+    the k-th kill waits for a solve of job name ``jobs[k]`` (``ccx -i <job>``)."""
     deadline = time.monotonic() + 240
     while len(done) < kills and time.monotonic() < deadline:
         for ccx in _our_solves():
+            if jobs and jobs[len(done)] not in ccx.info["cmdline"]:
+                continue
             try:
                 worker = ccx.parent()
                 if worker is None:
@@ -200,3 +204,44 @@ def test_a_sweep_outlives_a_scheduler_that_allows_one_failure(write_study):
     assert report.ok and len(report.done) == 6 and report.resubmitted == 1
     assert storage.status_counts(study.store, study.group_name) == {
         "pending": 0, "done": 6, "failed": 0}
+
+
+def _tree_example(store: Path):
+    """examples/combined_tree_quick.toml (2 trees, 12 experiments, coarse) into ``store``."""
+    text = (Path(__file__).parents[2] / "examples" / "combined_tree_quick.toml").read_text()
+    path = store.with_suffix(".toml")
+    path.write_text(text.replace('store = "results/combined_tree_quick.zarr"',
+                                 f'store = "{store}"'))
+    return load_study(path)
+
+
+@pytest.mark.e2e  # chaos: ~1-2 min of nanny restarts, kept out of the default run
+@pytest.mark.ccx
+def test_a_tree_sweep_outlives_workers_lost_in_a_trunk_and_in_a_slide(tmp_path):
+    """Tree tasks are plain futures (no new keys, jobs/sweep.py): the worker running a
+    trunk's ccx is killed, then the one running a slide's. The nanny brings a worker
+    back, Dask runs what was lost again (the trunk too, where a slide still needs its
+    states), and every experiment ends done with the results of an undisturbed sweep."""
+    kills: list[int] = []
+    with _cluster(3) as cluster:  # Dask's default allowed-failures
+        chaos = threading.Thread(target=_kill_workers_running_ccx,
+                                 args=(2, kills, ("trunk", "branch")), daemon=True)
+        chaos.start()
+        report = run_sweep(_tree_example(tmp_path / "chaos.zarr"),
+                           scheduler=cluster.scheduler_address)
+        chaos.join(timeout=10)
+    assert len(kills) == 2
+    assert report.ok and len(report.done) == 12 and not report.failed
+    calm = run_sweep(_tree_example(tmp_path / "calm.zarr"), workers=1)
+    assert calm.ok and len(calm.done) == 12
+    a, b = (_road_reactions(tmp_path / f"{n}.zarr") for n in ("chaos", "calm"))
+    assert a.keys() == b.keys() and len(a) == 12
+    for k in a:  # the same decks: the same numbers
+        assert abs(a[k] - b[k]).max() <= 1e-6 * abs(b[k]).max(), k
+
+
+def _road_reactions(store: Path) -> dict[str, np.ndarray]:
+    (group,) = storage.list_groups(str(store))
+    ds = storage.done(storage.open_dataset(str(store), group))
+    return dict(zip((str(i) for i in ds["experiment"].values), np.asarray(ds["road_reaction"]),
+                    strict=True))
