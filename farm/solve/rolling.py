@@ -1,0 +1,297 @@
+"""Quasi-static rolling (issue 30): the rim turns while the road travels under it.
+
+CalculiX has no steady-state transport, so a rolling tyre is a large prescribed motion
+in one ccx run (:func:`roll_deck`): inflate, turn the road to its tilt (camber), push it
+up to the deflection with friction on - the one-run combined path of
+:mod:`farm.solve.contact` - then, over one more unit of step time, translate the road
+by ``distance`` mm along the travel direction while the rim turns about the spin axis
+(+y, through the wheel centre at the origin): the bead seat, clamped for a standing
+tyre, is clamped to a turning rim instead (:func:`rim_lines`).
+
+Kinematics (SAE sign convention, wheel frame; the road moves, the wheel stays):
+
+- the wheel travels at speed V along (cos a, sin a) relative to the road, a = the slip
+  angle: the road moves by ``-distance * (cos a, sin a)`` in its own plane;
+- the rim turns by ``phi = (1 + kappa) * distance * cos(a) / r_e`` about +y (a positive
+  turn about +y carries the bottom of the tyre towards -x, with the road), so that the
+  longitudinal slip ratio ``kappa = (omega r_e - V_x) / V_x`` is constant along the roll;
+  ``r_e`` is the free-rolling (effective) radius, the one at which Fx vanishes for
+  kappa = 0 (:func:`free_rolling_radius` finds it by a secant search on Fx).
+
+Results are written at fractions of the roll; a state's forces are the road's reaction
+on the tyre (Fx, Fy, Fz) and its moment about the contact centre (Mx, My, Mz), both from
+the rigid road's nodal reactions, plus the tread forces and stick/slip states of the
+combined loads (:func:`farm.solve.contact._combined_state`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from farm.ccx import deck as D
+from farm.ccx.frd import FrdFile
+from farm.errors import ResultsError, SolverError, SpecError
+from farm.mesh.tyremesh import TyreMesh
+from farm.solve.contact import (
+    TILT_TIME,
+    _solve,
+    friction_forces,
+    road_frame,
+    slave_faces,
+    tilted_gap,
+    touch_height,
+)
+from farm.solve.states import node_field
+from farm.specs import ModelSpec, SolverSettings
+
+SLIP_RATIO = (-1.0, 1.0)  # kappa: full lock to twice the free-rolling spin
+SLIP_ANGLE_DEG = (-20.0, 20.0)
+ROLL_MM = (1.0, 1000.0)  # road travel of one roll
+
+
+@dataclass(frozen=True)
+class Roll:
+    """A rolling experiment's motion (issue 30).
+
+    Parameters
+    ----------
+    friction : Coulomb coefficient mu >= 0 (0: frictionless, the road carries no shear).
+    slip_ratio : longitudinal slip kappa (SAE): > 0 drives, < 0 brakes, 0 rolls freely.
+    slip_angle : angle between the wheel plane and the travel direction, degrees.
+    tilt : road tilt about +x, degrees (camber; :class:`farm.specs.RoadMotion`).
+    distance : road travel of the roll, mm (long enough for a steady patch).
+    rolling_radius : the free-rolling radius r_e, mm, that turns distance into spin.
+    """
+
+    friction: float
+    slip_ratio: float = 0.0
+    slip_angle: float = 0.0
+    tilt: float = 0.0
+    distance: float = 150.0
+    rolling_radius: float = 390.0
+
+    def __post_init__(self) -> None:
+        checks = (("friction", self.friction, (0.0, 2.0)),
+                  ("slip_ratio", self.slip_ratio, SLIP_RATIO),
+                  ("slip_angle", self.slip_angle, SLIP_ANGLE_DEG),
+                  ("tilt", self.tilt, (-10.0, 10.0)),
+                  ("distance", self.distance, ROLL_MM),
+                  ("rolling_radius", self.rolling_radius, (100.0, 1000.0)))
+        for name, value, (low, high) in checks:
+            if not (math.isfinite(value) and low <= value <= high):
+                raise SpecError(f"roll.{name} = {value!r} is outside [{low:g}, {high:g}]; "
+                                "give a value in that range")
+
+    @property
+    def travel(self) -> tuple[float, float]:
+        """The road's displacement in its own plane over the roll, (x, lateral) mm."""
+        a = math.radians(self.slip_angle)
+        return (-self.distance * math.cos(a), -self.distance * math.sin(a))
+
+    @property
+    def spin(self) -> float:
+        """The rim's turn about +y over the roll, radians."""
+        a = math.radians(self.slip_angle)
+        return (1.0 + self.slip_ratio) * self.distance * math.cos(a) / self.rolling_radius
+
+
+@dataclass(frozen=True, eq=False)
+class RolledState:
+    """One state along a roll: road reaction (N) and moment about the contact centre
+    (N mm), tread forces (n_tread, 3) and contact status (n_tread,), the tyre's
+    displacement (n_nodes, 3), how far the road has travelled (mm) and the rim turned
+    (rad)."""
+
+    fraction: float
+    travelled: float
+    spin: float
+    force: np.ndarray
+    moment: np.ndarray
+    tread_force: np.ndarray
+    contact_status: np.ndarray
+    displacement: np.ndarray
+
+
+#: Straight pieces of each bead node's circular path over a roll: the chord of a piece
+#: strays from the arc by r (1 - cos(dphi / 2)), 0.004 mm for the 203 mm bead seat
+#: turning 0.25 rad in 20 pieces.
+RIM_PIECES = 20
+
+
+def rim_lines(mesh: TyreMesh, spin: float, start: float) -> tuple[list[str], list[str]]:
+    """The bead seat turned by ``spin`` radians about +y over step time [start, start + 1]
+    and held before: (amplitude lines, boundary lines).
+
+    Every bead seat node gets its displacement on the circle about the spin axis at
+    RIM_PIECES + 1 times (one amplitude per node and dof, linear between): a rim clamped
+    on a turning wheel. ccx's ``*RIGID BODY`` with the spin on its rotation node was
+    tried first: its first rolling increment started with a residual of 3e7 N and never
+    converged once the spin passed about 0.1 rad (coarse mesh, 200 kPa, 15 mm).
+    """
+    seat = np.asarray(mesh.node_sets["BEAD_SEAT"])
+    xyz = mesh.nodes[seat - 1]
+    times = start + np.linspace(0.0, 1.0, RIM_PIECES + 1)
+    phi = np.linspace(0.0, spin, RIM_PIECES + 1)
+    c, s_ = np.cos(phi)[None, :], np.sin(phi)[None, :]
+    x, z = xyz[:, :1], xyz[:, 2:]
+    ux, uz = x * c + z * s_ - x, -x * s_ + z * c - z  # a turn by phi about +y
+    amplitudes, boundary = [], ["*BOUNDARY", *(f"{n}, 2, 2, 0" for n in seat)]
+    for k, n in enumerate(seat):
+        for dof, u in ((1, ux[k]), (3, uz[k])):
+            name = f"RIM_{n}_{dof}"
+            amplitudes += [f"*AMPLITUDE, NAME={name}",
+                           *D._amplitude([(0.0, 0.0), *zip(times, u, strict=True)])]
+            boundary += [f"*BOUNDARY, AMPLITUDE={name}", f"{n}, {dof}, {dof}, 1"]
+    return amplitudes, boundary
+
+
+def roll_deck(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: float,
+              roll: Roll, settings: SolverSettings, touch_z: float,
+              fractions: Sequence[float]) -> tuple[str, list[float], D.Road, float]:
+    """The one-run deck of a roll; returns (deck, output times of the fractions, road,
+    road start z)."""
+    gap = tilted_gap(spec, roll.tilt)
+    travel = gap + deflection
+    z_start = touch_z - gap
+    radius = spec.geometry.outer_radius
+    # the road must reach past the patch after it has travelled: longer ahead (+x)
+    road = D.road_slab(mesh, z_start, half_length=0.8 * radius + roll.distance,
+                       half_width=0.6 * spec.geometry.section_width, divisions=(16, 4))
+    amplitudes, boundary = D.road_motion_lines(road, travel, roll.travel, roll.tilt, 1.0,
+                                               TILT_TIME if roll.tilt else 0.0)
+    amplitudes += ["*AMPLITUDE, NAME=INFLATE", "0, 0, 1, 1, 2, 1"]
+    rim_amplitudes, rim = rim_lines(mesh, roll.spin, 2.0)
+    times = [2.0 + f for f in fractions]
+    deck = D.assemble(
+        D.mesh_lines(mesh), D.material_lines(spec.materials), D.cord_lines(spec, mesh),
+        road.lines,
+        D.contact_lines(mesh, spec.contact, (roll.friction, D.stick_slope(spec.contact))
+                        if roll.friction > 0 else None),
+        amplitudes, rim_amplitudes, D.time_points_lines([1.0, 2.0, *times]),
+        D.measured_set_lines((*D.written_sets(mesh), "ROAD")),
+        D.static_step_lines(3.0, _capped(settings, roll)),
+        D.friction_controls_lines() if roll.friction > 0 else [],
+        rim, boundary, D.cavity_pressure_lines(mesh, pressure, "INFLATE"),
+        D.output_lines(time_points=True, contact=True), ["*END STEP"],
+    )
+    return deck, times, road, z_start
+
+
+#: The most road travel one increment may take, mm. Measured (coarse full model, 16 and
+#: 64 elements round, 200 kPa, 15 mm, mu 0.6, free rolling over 100 mm): with ccx's
+#: automatic increments the roll's first increment took 25 mm and never converged, not
+#: even cut back to 1e-4 of it (the tread nodes' stick/slip state flipped between
+#: iterations); capped at 5 mm it went through.
+MAX_TRAVEL_MM = 5.0
+
+
+def _capped(settings: SolverSettings, roll: Roll) -> SolverSettings:
+    """``settings`` with the increments capped to :data:`MAX_TRAVEL_MM` of road travel
+    (an increment is a fraction of the roll's unit of step time)."""
+    cap = min(settings.max_increment, MAX_TRAVEL_MM / roll.distance)
+    return dataclasses.replace(settings, max_increment=cap,
+                               initial_increment=min(settings.initial_increment, cap),
+                               min_increment=min(settings.min_increment, cap))
+
+
+def _rolled(frd: FrdFile, mesh: TyreMesh, road: D.Road, roll: Roll, time: float,
+            fraction: float, centre_z: float) -> RolledState:
+    u = node_field(frd, "DISP", time, mesh.n_nodes)
+    forc = frd.at("FORC", time)
+    ids = forc.node_ids
+    on_road = (ids >= road.first_node) & (ids < road.first_node + len(road.xyz))
+    rf = forc.values[on_road, :3]
+    pos = road.xyz[ids[on_road] - road.first_node] + frd.at("DISP", time).values_at(
+        ids[on_road])[:, :3]
+    faces = slave_faces(mesh)
+    force, status, _ = friction_forces(frd, mesh, time, mesh.nodes + np.nan_to_num(u), faces,
+                                       road_frame(frd, mesh, road, time), roll.friction)
+    centre = np.array([0.0, 0.0, centre_z])
+    return RolledState(fraction, fraction * roll.distance, fraction * roll.spin,
+                       rf.sum(axis=0), np.cross(pos - centre, rf).sum(axis=0), force,
+                       status, u)
+
+
+def solve_roll(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: float,
+               roll: Roll, settings: SolverSettings, fractions: Sequence[float] = (1.0,),
+               should_stop: Callable[[], bool] | None = None) -> list[RolledState]:
+    """Roll the inflated, deflected tyre; one state per fraction of the roll."""
+    if not spec.inflated or spec.road != "contact":
+        raise SpecError("rolling needs the inflated full model with the contact road "
+                        "(model kind 'full', road 'contact')")
+    touch_z, _ = touch_height(spec, mesh, pressure, settings, should_stop)
+    deck, times, road, z_start = roll_deck(spec, mesh, deflection, pressure, roll, settings,
+                                           touch_z, fractions)
+    try:
+        _, frd = _solve(deck, settings, should_stop, "roll")
+    except SolverError as e:
+        raise (e.located(_stage(e.reached, deflection, roll)) if e.reached is not None
+               else e) from e
+    # the contact centre: under the wheel centre, on the road plane at the deflection
+    centre_z = z_start + tilted_gap(spec, roll.tilt) + deflection
+    return [_rolled(frd, mesh, road, roll, t, f, centre_z)
+            for t, f in zip(times, fractions, strict=True)]
+
+
+def _stage(time: float, deflection: float, roll: Roll) -> str:
+    """Where along the roll's deck step ``time`` lies."""
+    if time < 1.0:
+        return f"in the inflation, {100 * time:.0f} % of the pressure"
+    if time < 2.0:
+        return f"in the rise to {deflection:g} mm, {100 * (time - 1.0):.0f} % of it"
+    return f"in the roll at {deflection:g} mm, after {(time - 2.0) * roll.distance:.1f} mm"
+
+
+def free_rolling_radius(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: float,
+                        roll: Roll, settings: SolverSettings, *, tolerance: float = 0.005,
+                        max_rolls: int = 6) -> tuple[float, list[tuple[float, float]]]:
+    """The effective rolling radius r_e: where a roll at ``roll.slip_ratio`` = 0 ends
+    with Fx = 0 (within ``tolerance`` of Fz). Secant steps on 1/r (the spin per mm of
+    travel, in which Fx is nearly linear near free rolling), starting from
+    R - deflection / 3 and R, R the inflated tyre's outer radius (:func:`inflated_radius`).
+
+    Returns (r_e, the (radius, Fx) of every roll tried).
+    """
+    r0 = inflated_radius(spec, mesh, pressure, settings)
+    free = dataclasses.replace(roll, slip_ratio=0.0)
+    tried: list[tuple[float, float]] = []
+
+    def fx(radius: float) -> float:
+        [end] = solve_roll(spec, mesh, deflection, pressure,
+                           dataclasses.replace(free, rolling_radius=radius), settings)
+        tried.append((radius, float(end.force[0])))
+        if abs(end.force[0]) <= tolerance * abs(end.force[2]):
+            raise _Found(radius)
+        return float(end.force[0])
+
+    a, b = r0 - deflection / 3.0, r0
+    try:
+        fa, fb = fx(a), fx(b)
+        while len(tried) < max_rolls:
+            if fb == fa:
+                break
+            c = 1.0 / (1.0 / b - fb * (1.0 / b - 1.0 / a) / (fb - fa))
+            a, fa, b, fb = b, fb, c, fx(c)
+    except _Found as found:
+        return found.radius, tried
+    raise ResultsError(f"no free-rolling radius found: Fx at the radii tried (mm, N) was "
+                       f"{[(round(r, 3), round(f, 1)) for r, f in tried]}; allow more "
+                       "rolls (max_rolls) or a looser tolerance")
+
+
+class _Found(Exception):
+    def __init__(self, radius: float) -> None:
+        self.radius = radius
+
+
+def inflated_radius(spec: ModelSpec, mesh: TyreMesh, pressure: float,
+                    settings: SolverSettings) -> float:
+    """The inflated, unloaded tyre's radius at the road's first touch, mm (the wheel
+    centre is the origin; :func:`farm.solve.contact.touch_height`, cached)."""
+    touch_z, _ = touch_height(spec, mesh, pressure, settings)
+    return -touch_z

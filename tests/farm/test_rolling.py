@@ -1,0 +1,122 @@
+"""Quasi-static rolling (issue 30, farm/solve/rolling.py) against physics, on the real solver.
+
+Model: the coarse full model (16 elements round, table-3.1), 200 kPa, 15 mm, rolled 60 mm.
+Its tread is a polygon of 16 sides, so Fz and My rise and fall as nodes pass (measured
+2250-3080 N over a 100 mm roll); the checks here hold node by node or by symmetry, not
+through the shape of the patch: a locked wheel slides at mu Fz, a frictionless tyre
+carries no shear, mirrored slip angles give mirrored forces, Fx grows with the slip
+ratio, and the tread forces balance the road's reaction. The free-rolling radius and
+the stiffnesses need a finer mesh (the slow test below, docs/rolling.md).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from farm.errors import SpecError
+from farm.mesh import mesh_for
+from farm.presets import default_model
+from farm.solve.rolling import Roll, free_rolling_radius, inflated_radius, solve_roll
+from farm.specs import MeshDensity, SolverSettings
+
+PRESSURE, DEFLECTION, MU = 0.2, 15.0, 0.6
+R_E = 402.9  # the coarse model's free-rolling radius at 200 kPa, 15 mm (measured, 100 mm)
+
+
+def _model(circumferential: int):
+    spec = default_model("full", mesh=MeshDensity(tread=4, sidewall=2, bead=1,
+                                                   circumferential=circumferential))
+    return spec, mesh_for(spec)
+
+
+@pytest.fixture(scope="module")
+def coarse():
+    return _model(16)
+
+
+def _roll(coarse, **kw):
+    spec, mesh = coarse
+    roll = Roll(**{"friction": MU, "distance": 60.0, "rolling_radius": R_E, **kw})
+    return solve_roll(spec, mesh, DEFLECTION, PRESSURE, roll, SolverSettings(),
+                      fractions=(0.5, 1.0))
+
+
+def _balanced(state, rtol=5e-3):
+    """The tread forces sum to the road's reaction (two independent readings)."""
+    np.testing.assert_allclose(state.tread_force.sum(axis=0), state.force,
+                               atol=rtol * abs(state.force[2]))
+
+
+@pytest.mark.parametrize(("field", "value"), [
+    ("friction", -0.1), ("slip_ratio", 1.5), ("slip_angle", 30.0), ("distance", 0.0),
+    ("rolling_radius", 50.0), ("tilt", float("nan")),
+])
+def test_a_roll_out_of_range_is_refused_with_its_field(field, value):
+    with pytest.raises(SpecError, match=f"roll.{field}"):
+        Roll(**{"friction": MU, field: value})
+
+
+def test_spin_and_travel_follow_the_slip_definitions():
+    a = np.radians(10.0)
+    roll = Roll(friction=MU, slip_ratio=0.1, slip_angle=10.0, distance=100.0,
+                rolling_radius=400.0)
+    np.testing.assert_allclose(roll.travel, (-100 * np.cos(a), -100 * np.sin(a)))
+    # kappa = (omega r_e - V_x) / V_x over the roll: spin r_e = (1 + kappa) travel_x
+    assert roll.spin * 400.0 == pytest.approx(1.1 * 100 * np.cos(a))
+
+
+@pytest.mark.ccx
+def test_a_locked_wheel_slides_at_mu_fz_against_its_travel(coarse):
+    end = _roll(coarse, slip_ratio=-1.0)[-1]
+    assert end.spin == 0.0
+    fx, fy, fz = end.force
+    assert fx < 0 and abs(fx) == pytest.approx(MU * fz, rel=0.01)  # braking, full slide
+    assert abs(fy) < 1e-3 * fz
+    _balanced(end)
+
+
+@pytest.mark.ccx
+def test_a_frictionless_tyre_rolls_without_shear(coarse):
+    for state in _roll(coarse, friction=0.0, slip_angle=5.0):
+        assert np.abs(state.force[:2]).max() < 1e-3 * state.force[2]
+        _balanced(state)
+
+
+@pytest.mark.ccx
+def test_mirrored_slip_angles_mirror_fy_mx_mz(coarse):
+    left, right = (_roll(coarse, slip_angle=a)[-1] for a in (3.0, -3.0))
+    mirror = np.array([1.0, -1.0, 1.0])
+    np.testing.assert_allclose(right.force, mirror * left.force, atol=1e-3 * left.force[2])
+    np.testing.assert_allclose(right.moment, -mirror * left.moment,
+                               atol=1e-3 * abs(left.moment).max())
+    assert left.force[1] < 0  # the road pushes against the wheel's lateral travel
+    _balanced(left)
+
+
+@pytest.mark.slow
+@pytest.mark.ccx
+def test_fx_grows_with_the_slip_ratio(coarse):
+    fx = [_roll(coarse, slip_ratio=k)[-1].force[0] for k in (-0.02, 0.0, 0.02)]
+    assert fx[0] < 0 < fx[2] and fx[0] < fx[1] < fx[2]
+
+
+@pytest.mark.slow
+@pytest.mark.ccx
+def test_the_free_rolling_radius_lies_between_the_loaded_and_the_inflated_radius():
+    spec, mesh = _model(32)
+    settings = SolverSettings()
+    r_e, tried = free_rolling_radius(spec, mesh, DEFLECTION, PRESSURE,
+                                     Roll(friction=MU, distance=100.0), settings)
+    r = inflated_radius(spec, mesh, PRESSURE, settings)
+    assert r - DEFLECTION < r_e < r
+    radius, fx = tried[-1]
+    assert radius == r_e and abs(fx) < 0.005 * 3000
+    # slip either side of free rolling: traction and braking
+    roll = Roll(friction=MU, distance=100.0, rolling_radius=r_e)
+    drive, brake = (solve_roll(spec, mesh, DEFLECTION, PRESSURE,
+                               dataclasses.replace(roll, slip_ratio=k), settings)[-1]
+                    for k in (0.02, -0.02))
+    assert drive.force[0] > 0 > brake.force[0]
