@@ -27,6 +27,7 @@ combined loads (:func:`farm.solve.contact._combined_state`).
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -105,7 +106,14 @@ class RolledState:
     """One state along a roll: road reaction (N) and moment about the contact centre
     (N mm), tread forces (n_tread, 3) and contact status (n_tread,), the tyre's
     displacement (n_nodes, 3), how far the road has travelled (mm) and the rim turned
-    (rad)."""
+    (rad).
+
+    ``camera`` (n_nodes, 3), mm: what a camera fixed to the contact centre sees (T2Cam
+    is stabilised and looks at the patch while the tyre turns, thesis §2.2): each
+    material point's position minus where the inflated, unloaded tyre, turned by the
+    same spin, would hold it. The rigid turn is removed, the deformation by the road
+    stays; at spin 0 it is the displacement from the inflated state.
+    """
 
     fraction: float
     travelled: float
@@ -115,6 +123,7 @@ class RolledState:
     tread_force: np.ndarray
     contact_status: np.ndarray
     displacement: np.ndarray
+    camera: np.ndarray
 
 
 #: Straight pieces of each bead node's circular path over a roll: the chord of a piece
@@ -166,13 +175,17 @@ def roll_deck(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: floa
                                                TILT_TIME if roll.tilt else 0.0)
     amplitudes += ["*AMPLITUDE, NAME=INFLATE", "0, 0, 1, 1, 2, 1"]
     rim_amplitudes, rim = rim_lines(mesh, roll.spin, 2.0)
+    if not fractions or any(not 0.0 <= f <= 1.0 for f in fractions) or any(
+            b <= a for a, b in itertools.pairwise(fractions)):
+        raise SpecError(f"roll fractions must increase within [0, 1] (0: the standing "
+                        f"tyre before the roll), got {list(fractions)}")
     times = [2.0 + f for f in fractions]
     deck = D.assemble(
         D.mesh_lines(mesh), D.material_lines(spec.materials), D.cord_lines(spec, mesh),
         road.lines,
         D.contact_lines(mesh, spec.contact, (roll.friction, D.stick_slope(spec.contact))
                         if roll.friction > 0 else None),
-        amplitudes, rim_amplitudes, D.time_points_lines([1.0, 2.0, *times]),
+        amplitudes, rim_amplitudes, D.time_points_lines(sorted({1.0, 2.0, *times})),
         D.measured_set_lines((*D.written_sets(mesh), "ROAD")),
         D.static_step_lines(3.0, _capped(settings, roll)),
         D.friction_controls_lines() if roll.friction > 0 else [],
@@ -199,9 +212,20 @@ def _capped(settings: SolverSettings, roll: Roll) -> SolverSettings:
                                min_increment=min(settings.min_increment, cap))
 
 
+def turned(xyz: np.ndarray, spin: float) -> np.ndarray:
+    """Points (n, 3) turned by ``spin`` radians about +y through the origin (the wheel's
+    spin axis; a positive turn carries the bottom of the tyre towards -x)."""
+    c, s = math.cos(spin), math.sin(spin)
+    x, y, z = xyz[:, 0], xyz[:, 1], xyz[:, 2]
+    return np.stack([c * x + s * z, y, -s * x + c * z], axis=1)
+
+
 def _rolled(frd: FrdFile, mesh: TyreMesh, road: D.Road, roll: Roll, time: float,
             fraction: float, centre_z: float) -> RolledState:
     u = node_field(frd, "DISP", time, mesh.n_nodes)
+    spin = fraction * roll.spin
+    inflated = mesh.nodes + node_field(frd, "DISP", 1.0, mesh.n_nodes)
+    camera = mesh.nodes + u - turned(inflated, spin)
     forc = frd.at("FORC", time)
     ids = forc.node_ids
     on_road = (ids >= road.first_node) & (ids < road.first_node + len(road.xyz))
@@ -212,9 +236,8 @@ def _rolled(frd: FrdFile, mesh: TyreMesh, road: D.Road, roll: Roll, time: float,
     force, status, _ = friction_forces(frd, mesh, time, mesh.nodes + np.nan_to_num(u), faces,
                                        road_frame(frd, mesh, road, time), roll.friction)
     centre = np.array([0.0, 0.0, centre_z])
-    return RolledState(fraction, fraction * roll.distance, fraction * roll.spin,
-                       rf.sum(axis=0), np.cross(pos - centre, rf).sum(axis=0), force,
-                       status, u)
+    return RolledState(fraction, fraction * roll.distance, spin, rf.sum(axis=0),
+                       np.cross(pos - centre, rf).sum(axis=0), force, status, u, camera)
 
 
 def solve_roll(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: float,

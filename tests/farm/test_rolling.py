@@ -19,7 +19,13 @@ import pytest
 from farm.errors import SpecError
 from farm.mesh import mesh_for
 from farm.presets import default_model
-from farm.solve.rolling import Roll, free_rolling_radius, inflated_radius, solve_roll
+from farm.solve.rolling import (
+    Roll,
+    free_rolling_radius,
+    inflated_radius,
+    solve_roll,
+    turned,
+)
 from farm.specs import MeshDensity, SolverSettings
 
 PRESSURE, DEFLECTION, MU = 0.2, 15.0, 0.6
@@ -37,11 +43,11 @@ def coarse():
     return _model(16)
 
 
-def _roll(coarse, **kw):
+def _roll(coarse, fractions=(0.5, 1.0), **kw):
     spec, mesh = coarse
     roll = Roll(**{"friction": MU, "distance": 60.0, "rolling_radius": R_E, **kw})
     return solve_roll(spec, mesh, DEFLECTION, PRESSURE, roll, SolverSettings(),
-                      fractions=(0.5, 1.0))
+                      fractions=fractions)
 
 
 def _balanced(state, rtol=5e-3):
@@ -83,6 +89,29 @@ def test_a_frictionless_tyre_rolls_without_shear(coarse):
     for state in _roll(coarse, friction=0.0, slip_angle=5.0):
         assert np.abs(state.force[:2]).max() < 1e-3 * state.force[2]
         _balanced(state)
+
+
+@pytest.mark.ccx
+def test_a_frictionless_roll_by_one_element_pitch_is_the_standing_tyre_again(coarse):
+    """The coarse tyre is a polygon of 16 equal sectors: turned by exactly one sector on
+    a frictionless road it stands on the same faces as before the roll. Checks the rim's
+    turn and the road's travel together (a wrong sign or radius would not repeat)."""
+    pitch = 2 * np.pi / 16
+    before, after = _roll(coarse, friction=0.0, distance=pitch * R_E, fractions=(0.0, 1.0))
+    assert after.spin == pytest.approx(pitch)
+    np.testing.assert_allclose(after.force, before.force, atol=2e-3 * before.force[2])
+    assert np.array_equal(np.sort(after.contact_status), np.sort(before.contact_status))
+    # the camera sees the same deformed tyre: the material point now where point j
+    # stood before the roll (turned onto it) carries j's field
+    nodes = coarse[1].nodes
+    gap = np.linalg.norm(turned(nodes, pitch)[:, None, :] - nodes[None, :, :], axis=2)
+    onto = gap.argmin(axis=1)
+    assert gap.min(axis=1).max() < 1e-6  # every node turns onto a node
+    seen = np.isfinite(before.camera[:, 0])
+    scale = np.abs(before.camera[seen]).max()
+    assert scale > 1.0  # mm: the road deforms the tyre
+    np.testing.assert_allclose(after.camera[seen], before.camera[onto][seen],
+                               atol=2e-3 * scale)
 
 
 @pytest.mark.ccx
