@@ -398,6 +398,7 @@ FRICTION = (0.0, 2.0)  # Coulomb mu: rubber on dry asphalt ~1, on ice ~0.1; 2 is
 SHIFT_MM = (-50.0, 50.0)  # road translation: the default slab reaches 168 mm beyond the
 # wheel plane and the contact patch ~100 mm, so 50 mm keeps the patch on the road
 TILT_DEG = (-10.0, 10.0)  # road rotation about x: camber of a road-going tyre is < 10 deg
+RISES = ("vertical", "normal")  # RoadMotion.rise: how a tilted road is pushed up
 STICK_SLOPE = (1e-3, 1e4)  # N/mm^3
 
 
@@ -425,6 +426,12 @@ class RoadMotion:
     stick_slope : tangential penalty stiffness lambda of ccx's ``*FRICTION``, N/mm^3
         (shear stress per mm of elastic slip); None derives it from the contact law
         (:func:`farm.ccx.deck.stick_slope`, docs/combined-loads.md says why).
+    rise : how a tilted road is pushed up to the deflection: ``"vertical"`` along the
+        wheel's z axis (the farm's rise since issue 13: the road also slides in its own
+        plane by d sin(tilt) while the patch forms), or ``"normal"`` along the road's
+        normal, as a camber rig loads an inclined wheel (the same final plane, no slide;
+        :func:`farm.ccx.deck._rise`, docs/combined-loads.md "Rise direction"). Ignored
+        (and stored as ``"vertical"``) for an untilted road.
 
     All at their defaults the motion is no motion at all: :class:`LoadPath` then holds
     None, so decks, results and ids are those of a vertical experiment.
@@ -436,6 +443,7 @@ class RoadMotion:
     shift_y: float = 0.0
     tilt: float = 0.0
     stick_slope: float | None = None
+    rise: str = "vertical"
 
     def __post_init__(self) -> None:
         _within("motion.friction", self.friction, FRICTION, "(Coulomb coefficient)")
@@ -444,10 +452,14 @@ class RoadMotion:
         _within("motion.tilt", self.tilt, TILT_DEG, "degrees")
         if self.stick_slope is not None:
             _within("motion.stick_slope", self.stick_slope, STICK_SLOPE, "N/mm^3")
+        if self.rise not in RISES:
+            raise SpecError(f"motion.rise = {self.rise!r}: give one of {', '.join(RISES)}")
         for f in dataclasses.fields(self):  # canonical floats: 1 and 1.0 hash alike
             v = getattr(self, f.name)
-            if v is not None:
+            if v is not None and f.name != "rise":
                 object.__setattr__(self, f.name, float(v) + 0.0)
+        if self.tilt == 0.0:  # an untilted road rises along its normal either way
+            object.__setattr__(self, "rise", "vertical")
 
     @property
     def moves(self) -> bool:
@@ -474,6 +486,8 @@ class RoadMotion:
         data = dataclasses.asdict(self)
         if self.stick_slope is None:  # derived from the contact law
             del data["stick_slope"]
+        if self.rise == "vertical":  # the rise of before: ids and decks as they were
+            del data["rise"]
         return data
 
     @classmethod

@@ -88,7 +88,7 @@ def cases(study: Study) -> list[tuple[float, float, RoadMotion | None]]:
         for combo in itertools.product(*(vals for _, vals in axes)):
             case = dict(zip((k for k, _ in axes), combo, strict=True))
             motion = {n: round(_value(case, n), 9) + 0.0 for n in MOTION_PARAMETERS if n in case}
-            m = RoadMotion(**motion) if motion else None
+            m = RoadMotion(**motion, rise=study.rise) if motion else None
             out.append((round(_value(case, "deflection"), 9), round(_value(case, "pressure"), 12),
                         None if m is None or m.is_identity else m))
     return out

@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 from scipy.stats import qmc
 
-from farm.specs import FRICTION, MAX_PRESSURE_MPA, SHIFT_MM, TILT_DEG, RoadMotion
+from farm.specs import FRICTION, MAX_PRESSURE_MPA, RISES, SHIFT_MM, TILT_DEG, RoadMotion
 from jobs.validate import limits, scalars
 from jobs.validate.messages import fail, shown
 
@@ -49,8 +49,8 @@ TRUNK_KEYS = {"pressure_kpa": ("pressure", 1e-3, (0.0, 1000 * MAX_PRESSURE_MPA))
 BRANCH_KEYS = {"deflection_mm": ("deflection", 1.0, (0.0, None)),
                "shift_x_mm": ("shift_x", 1.0, SHIFT_MM),
                "shift_y_mm": ("shift_y", 1.0, SHIFT_MM)}
-KEYS = {"method", "seed", "trunks", "levels", "slides", "fractions", "solve", *TRUNK_KEYS,
-        *BRANCH_KEYS}
+KEYS = {"method", "seed", "trunks", "levels", "slides", "fractions", "solve", "rise",
+        *TRUNK_KEYS, *BRANCH_KEYS}
 #: how a sweep solves the design: as trees, or every case from rest as the plain sweep
 #: plans it (one run per slide; to check a tree against, benchmarks/bench_throughput.py)
 SOLVE = ("tree", "rest")
@@ -68,6 +68,7 @@ class TreeDesign:
     fractions: tuple[float, ...]
     ranges: tuple[tuple[str, float, float], ...]  # (name, low, high), TRUNK/BRANCH names
     solve: str = "tree"  # or "rest" (SOLVE)
+    rise: str = "vertical"  # how tilted roads rise (farm.specs.RoadMotion.rise)
 
     def range(self, name: str) -> tuple[float, float]:
         """(low, high) of ``name``; (0, 0) for an optional trunk key not given."""
@@ -97,12 +98,14 @@ class TrunkPoint:
     tilt: float
     deflections: tuple[float, ...]
     slides: tuple[tuple[Slide, ...], ...]
+    rise: str = "vertical"
 
     def motion(self, shift: tuple[float, float] = (0.0, 0.0), fraction: float = 1.0
                ) -> RoadMotion | None:
         """The motion of an experiment of this trunk; None for a vertical one."""
         m = RoadMotion(friction=self.friction, tilt=self.tilt,
-                       shift_x=_r(shift[0] * fraction), shift_y=_r(shift[1] * fraction))
+                       shift_x=_r(shift[0] * fraction), shift_y=_r(shift[1] * fraction),
+                       rise=self.rise)
         return None if m.is_identity else m
 
 
@@ -121,6 +124,7 @@ def parse_tree(data: Any, where: str = "loads.tree") -> TreeDesign:
                               for k in ("trunks", "levels", "slides"))
     fractions = _fractions(t.get("fractions", [1.0]), f"{where}.fractions")
     solve = scalars.choice(t.get("solve", "tree"), f"{where}.solve", SOLVE)
+    rise = scalars.choice(t.get("rise", "vertical"), f"{where}.rise", RISES)
     ranges = []
     for key, (name, scale, (bottom, top)) in {**TRUNK_KEYS, **BRANCH_KEYS}.items():
         if key not in t:
@@ -132,7 +136,8 @@ def parse_tree(data: Any, where: str = "loads.tree") -> TreeDesign:
         if low > high:
             raise fail(f"{where}.{key}", f"needs low <= high, got {shown(r)}")
         ranges.append((name, low * scale, high * scale))
-    design = TreeDesign(method, seed, trunks, levels, slides, fractions, tuple(ranges), solve)
+    design = TreeDesign(method, seed, trunks, levels, slides, fractions, tuple(ranges), solve,
+                        rise)
     if design.range("shift_x") == design.range("shift_y") == (0.0, 0.0):
         raise fail(f"{where}.shift_x_mm", "and shift_y_mm are both fixed at 0: the slides "
                    "would be the trunk's own states; give a range to one of them")
@@ -186,7 +191,7 @@ def trunk_points(design: TreeDesign) -> list[TrunkPoint]:
                 _seed(design.seed, k, j + 1)))
             for j in range(len(levels)))
         out.append(TrunkPoint(round(float(p), 12) + 0.0, _r(mu), _r(tilt),
-                              tuple(float(x) + 0.0 for x in levels), slides))
+                              tuple(float(x) + 0.0 for x in levels), slides, design.rise))
     return out
 
 

@@ -76,6 +76,7 @@ from farm.errors import SpecError
 from farm.specs import (
     FRICTION,
     MAX_PRESSURE_MPA,
+    RISES,
     SHIFT_MM,
     TILT_DEG,
     LoadPath,
@@ -104,7 +105,7 @@ MOTION_KEYS = {
 }
 #: The store's names of the combined-load parameters (RoadMotion's fields), in order.
 MOTION_PARAMETERS = tuple(name for name, _ in MOTION_KEYS.values())
-LOAD_KEYS = {"pressure_kpa", "deflection_mm", "sample", "tree", *MOTION_KEYS}
+LOAD_KEYS = {"pressure_kpa", "deflection_mm", "sample", "tree", "rise", *MOTION_KEYS}
 MAX_KPA = 1000 * MAX_PRESSURE_MPA
 
 
@@ -148,6 +149,7 @@ class Study:
     motions: tuple[tuple[str, tuple[float, ...]], ...] = ()
     adaptive: AdaptiveSpec | None = None  # [study.adaptive]: rounds chosen by a surrogate
     tree: TreeDesign | None = None  # [loads.tree]: a nested design solved as trees
+    rise: str = "vertical"  # how tilted roads rise (farm.specs.RoadMotion.rise)
 
     @property
     def combined(self) -> bool:
@@ -250,7 +252,12 @@ def _loads(data: Any, model: ModelSpec):
         pressures = (0.0,)
     pressures = pressures or ()
     _check_count(pressures, deflections, sampling, motions=motions)
-    return pressures, deflections, sampling, motions
+    return pressures, deflections, sampling, motions, _rise(t, "loads")
+
+
+def _rise(t: dict, where: str) -> str:
+    """``rise`` (farm.specs.RoadMotion.rise): how a tilted road is pushed up."""
+    return scalars.choice(t.get("rise", "vertical"), f"{where}.rise", RISES)
 
 
 def _check_count(pressures: tuple, deflections: tuple, sampling: Sampling | None,
@@ -294,8 +301,8 @@ def parse_study(text: str, source: str = "<study>") -> Study:
         model = spec_tables.model(data["model"])
         tree = (_tree(data["loads"], model)
                 if isinstance(data["loads"], dict) and "tree" in data["loads"] else None)
-        pressures, deflections, sampling, motions = ((), (), None, ()) if tree else _loads(
-            data["loads"], model)
+        pressures, deflections, sampling, motions, rise = (
+            ((), (), None, (), tree.rise) if tree else _loads(data["loads"], model))
         solver = spec_tables.solver(data.get("solver", {}))
         models = None
         if "models" in data:
@@ -316,7 +323,7 @@ def parse_study(text: str, source: str = "<study>") -> Study:
                               models is not None) if "adaptive" in head else None)
         study = Study(name, store, group, model, pressures, deflections, sampling,
                       solver.settings, solver.max_path_length, solver.retry_smaller_increments,
-                      source, options, models, motions, adaptive, tree)
+                      source, options, models, motions, adaptive, tree, rise)
         _check_loads(study)
         if models is not None:
             _check_models(study)

@@ -175,13 +175,14 @@ def stick_slope(law: ContactLaw) -> float:
 
 
 def road_motion_lines(road: Road, travel: float, shift: tuple[float, float], tilt: float,
-                      t0: float, tilt_time: float) -> tuple[list[str], list[str]]:
+                      t0: float, tilt_time: float,
+                      rise: str = "vertical") -> tuple[list[str], list[str]]:
     """Road boundary conditions of a combined load: tilt, rise, then shift.
 
     Every road node is prescribed (the slab stays rigid and its reactions sum to the
     road's force on the tyre). Over step time [t0, t0 + tilt_time] the road, still
     clear of the tyre, rotates by ``tilt`` degrees about the x axis through (0, 0,
-    ``road.z_top``); over [t0 + tilt_time, t0 + 1] it rises by ``travel``; over
+    ``road.z_top``); over [t0 + tilt_time, t0 + 1] it rises by ``travel`` (:func:`_rise`); over
     [t0 + 1, t0 + 2] it slides in its own plane by ``shift`` (mm along x and along its
     tilted lateral axis (0, cos tilt, sin tilt)). A node's dof has one
     amplitude in ccx (a second ``*BOUNDARY`` replaces the first), so dofs 2 and 3 get
@@ -201,13 +202,31 @@ def road_motion_lines(road: Road, travel: float, shift: tuple[float, float], til
     t1 = t0 + tilt_time
     for k, (uy, uz) in enumerate(groups):
         sy, sz = shift[1] * math.cos(angle), shift[1] * math.sin(angle)  # in the road plane
-        for dof, points in ((2, [(t1, uy), (t0 + 1, uy), (t0 + 2, uy + sy)]),
-                            (3, [(t1, uz), (t0 + 1, uz + travel), (t0 + 2, uz + travel + sz)])):
+        ry, rz = _rise(travel, tilt, rise)
+        for dof, points in ((2, [(t1, uy), (t0 + 1, uy + ry), (t0 + 2, uy + ry + sy)]),
+                            (3, [(t1, uz), (t0 + 1, uz + rz), (t0 + 2, uz + rz + sz)])):
             name = f"ROAD_{k + 1}_{dof}"
             lines += [f"*AMPLITUDE, NAME={name}", *_amplitude([(0.0, 0.0), (t0, 0.0), *points])]
             bcs.append(f"*BOUNDARY, AMPLITUDE={name}")
             bcs += [f"{i}, {dof}, {dof}, 1" for i in ids[index == k]]
     return lines, bcs
+
+
+def _rise(travel: float, tilt: float, rise: str) -> tuple[float, float]:
+    """(uy, uz) of every road node for a rise of ``travel`` mm under the wheel centre.
+
+    ``"vertical"``: along the wheel's z axis. A tilted road then also moves in its own
+    plane by travel sin(tilt), so the tread slides sideways on it while the patch forms.
+    ``"normal"``: along the tilted road's normal by travel cos(tilt), as a camber rig
+    loads an inclined wheel against a level road; the road's plane ends where the
+    vertical rise puts it (a plane moved within itself is the same plane), so deflections
+    keep their meaning, and only the friction history differs
+    (:attr:`farm.specs.RoadMotion.rise`).
+    """
+    if rise == "normal":
+        a = math.radians(tilt)
+        return (-travel * math.cos(a) * math.sin(a), travel * math.cos(a) ** 2)
+    return (0.0, travel)
 
 
 def _tilt_displacement(road: Road, tilt: float) -> np.ndarray:
@@ -222,7 +241,7 @@ def _tilt_displacement(road: Road, tilt: float) -> np.ndarray:
 
 
 def road_position_lines(road: Road, travel: float, shift: tuple[float, float],
-                        tilt: float) -> list[str]:
+                        tilt: float, rise: str = "vertical") -> list[str]:
     """``*BOUNDARY`` (no amplitude) placing every road node where
     :func:`road_motion_lines` takes it: turned by ``tilt``, risen by ``travel`` and slid
     by ``shift`` in its own plane.
@@ -235,10 +254,11 @@ def road_position_lines(road: Road, travel: float, shift: tuple[float, float],
     angle = math.radians(tilt)
     rot = _tilt_displacement(road, tilt)
     sy, sz = shift[1] * math.cos(angle), shift[1] * math.sin(angle)
+    ry, rz = _rise(travel, tilt, rise)
     lines = ["*BOUNDARY"]
     for i, (uy, uz) in zip(ids, rot, strict=True):
-        lines += [f"{i}, 1, 1, {_num(shift[0])}", f"{i}, 2, 2, {_num(uy + sy)}",
-                  f"{i}, 3, 3, {_num(uz + travel + sz)}"]
+        lines += [f"{i}, 1, 1, {_num(shift[0])}", f"{i}, 2, 2, {_num(uy + ry + sy)}",
+                  f"{i}, 3, 3, {_num(uz + rz + sz)}"]
     return lines
 
 

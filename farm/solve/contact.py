@@ -216,7 +216,7 @@ def _combined_deck(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: So
     road = _road(spec, mesh, z_road)
     amplitudes, boundary = D.road_motion_lines(
         road, travel, (motion.shift_x, motion.shift_y), motion.tilt, t0,
-        TILT_TIME if motion.tilt else 0.0)
+        TILT_TIME if motion.tilt else 0.0, motion.rise)
     pressure: list[str] = []
     if spec.inflated:
         amplitudes += ["*AMPLITUDE, NAME=INFLATE", "0, 0, 1, 1, 2, 1"]

@@ -171,8 +171,9 @@ def roll_deck(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: floa
     # the road must reach past the patch after it has travelled: longer ahead (+x)
     road = D.road_slab(mesh, z_start, half_length=0.8 * radius + roll.distance,
                        half_width=0.6 * spec.geometry.section_width, divisions=(16, 4))
+    # camber as a rig gives it: the road pushed along its own normal (no side slide)
     amplitudes, boundary = D.road_motion_lines(road, travel, roll.travel, roll.tilt, 1.0,
-                                               TILT_TIME if roll.tilt else 0.0)
+                                               TILT_TIME if roll.tilt else 0.0, "normal")
     amplitudes += ["*AMPLITUDE, NAME=INFLATE", "0, 0, 1, 1, 2, 1"]
     rim_amplitudes, rim = rim_lines(mesh, roll.spin, 2.0)
     if not fractions or any(not 0.0 <= f <= 1.0 for f in fractions) or any(

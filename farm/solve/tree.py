@@ -140,7 +140,7 @@ def trunk_deck(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: Solver
     steps: list[str] = []
     for d in path.deflections[1:]:
         steps += [*D.static_step_lines(1.0, settings), *_controls(motion),
-                  *D.road_position_lines(road, gap + d, (0.0, 0.0), motion.tilt),
+                  *D.road_position_lines(road, gap + d, (0.0, 0.0), motion.tilt, motion.rise),
                   *_pressure_lines(spec, mesh, path.pressure),
                   *D.output_lines(time_points=True, contact=True, points="STEP_END"),
                   "*END STEP"]
@@ -271,7 +271,8 @@ def _solve_piece(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: Solv
     before = sum(r.seconds for r in runs)
     states = _states(spec, mesh, frd, path, z_start, times,
                      [(d, RoadMotion(friction=path.motion.friction, tilt=path.motion.tilt,
-                                     stick_slope=path.motion.stick_slope)
+                                     stick_slope=path.motion.stick_slope,
+                                     rise=path.motion.rise)
                        if path.motion else None) for d in path.deflections],
                      # a failed run's progress is not kept: its whole time (an upper bound)
                      lambda t: before + (run.seconds_to(t) if run else seconds))
@@ -343,7 +344,7 @@ def branch_deck(spec: ModelSpec, mesh: TyreMesh, trunk: Trunk, level: int,
     return "\n".join([
         *D.restart_lines(read=True, write=False),
         *D.static_step_lines(1.0, settings), *_controls(motion),
-        *D.road_position_lines(road, gap + d, shift, motion.tilt),
+        *D.road_position_lines(road, gap + d, shift, motion.tilt, motion.rise),
         *_pressure_lines(spec, mesh, trunk.path.pressure),
         *D.output_lines(time_points=True, contact=True, points="SLIDE"), "*END STEP"]) + "\n"
 
@@ -361,7 +362,7 @@ def solve_branch(spec: ModelSpec, mesh: TyreMesh, trunk: Trunk, level: int,
         raise SpecError(f"the trunk has {len(trunk.restarts)} deflections, no level {level}")
     motion = trunk.motion
     full = RoadMotion(friction=motion.friction, tilt=motion.tilt, shift_x=shift[0],
-                      shift_y=shift[1], stick_slope=motion.stick_slope)
+                      shift_y=shift[1], stick_slope=motion.stick_slope, rise=motion.rise)
     deck = branch_deck(spec, mesh, trunk, level, shift, settings)
     d = trunk.path.deflections[level]
     try:

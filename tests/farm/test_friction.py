@@ -153,6 +153,46 @@ def test_road_motion_is_rigid_and_keeps_the_contact_centre_on_the_road(shift, ti
                                               shift[1] * math.sin(a)], (len(u), 1)), atol=1e-8)
 
 
+@pytest.mark.parametrize("tilt", [4.0, -6.0])
+def test_a_normal_rise_ends_on_the_same_plane_without_sliding_in_it(tilt):
+    """rise = "normal" pushes the tilted road along its normal (a camber rig); the
+    vertical rise reaches the same plane but slides the road within it by
+    travel sin(tilt) along its lateral axis (farm.ccx.deck._rise)."""
+    mesh = mesh_for(COARSE)
+    road = D.road_slab(mesh, -400.0, 320.0, 168.0)
+
+    def end(travel, rise):
+        amps, bcs = D.road_motion_lines(road, travel, (0.0, 0.0), tilt, 1.0, 0.25, rise)
+        return _final_road_displacement("\n".join(["*X", *amps, *bcs]), road)
+
+    a, travel = math.radians(tilt), 21.25
+    turned = end(0.0, "normal")  # the tilt alone
+    np.testing.assert_allclose(end(travel, "normal") - turned,
+                               np.tile(travel * math.cos(a) * _normal(tilt), (len(turned), 1)),
+                               atol=1e-8)
+    lateral = np.array([0.0, math.cos(a), math.sin(a)])
+    np.testing.assert_allclose(end(travel, "vertical") - end(travel, "normal"),
+                               np.tile(travel * math.sin(a) * lateral, (len(turned), 1)),
+                               atol=1e-8)
+    # and the tree's steps place the road where the ramp does
+    placed = D.road_position_lines(road, travel, (0.0, 0.0), tilt, "normal")
+    values = {(int(n), int(d)): float(v) for n, d, _, v in
+              (line.split(",") for line in placed[1:])}
+    k = road.first_node + 3
+    np.testing.assert_allclose([values[(k, d)] for d in (1, 2, 3)],
+                               end(travel, "normal")[3], atol=1e-8)
+
+
+def test_rise_is_part_of_a_tilted_motion_only():
+    tilted = RoadMotion(friction=0.5, tilt=2.0, rise="normal")
+    assert tilted.to_dict()["rise"] == "normal" and RoadMotion.from_dict(
+        tilted.to_dict()) == tilted
+    assert "rise" not in RoadMotion(friction=0.5, tilt=2.0).to_dict()  # ids as before
+    assert RoadMotion(friction=0.5, rise="normal") == RoadMotion(friction=0.5)  # untilted
+    with pytest.raises(SpecError, match=r"motion\.rise = 'up'"):
+        RoadMotion(tilt=1.0, rise="up")
+
+
 @pytest.mark.parametrize(("kwargs", "match"), [
     ({"friction": -0.1}, r"motion\.friction must be a number in \[0, 2\].*-0\.1"),
     ({"friction": 2.5}, r"motion\.friction .* got 2\.5"),

@@ -115,11 +115,32 @@ def test_each_level_of_the_design_spreads_over_its_range(tmp_path, method):
     (lambda t: t.replace("friction = [0.3, 0.6]", "friction = [0.6, 0.3]"), "low <= high"),
     (lambda t: t.replace("slides = 1", "slides = 0"), "slides"),
     (lambda t: t.replace("slides = 1", "slides = 1\nsolve = 'fast'"), "solve"),
+    (lambda t: t.replace("slides = 1", "slides = 1\nrise = 'up'"), "loads.tree.rise"),
     (lambda t: t.replace("trunks = 2", "trunks = 20000"), "tree"),
 ])
 def test_bad_tree_tables_are_refused_with_the_key(tmp_path, change, match):
     with pytest.raises(StudyError, match=match):
         _study(tmp_path / "s.zarr", change(TREE))
+
+
+def test_rise_normal_changes_the_tilted_experiments_only(tmp_path):
+    """rise = "normal" (farm.specs.RoadMotion.rise) is a different load history for a
+    tilted road, so those experiments get other ids; untilted ones keep theirs."""
+    tilted = TREE.replace("slides = 1", "slides = 1\ntilt_deg = [1, 3]")
+    flat = TREE.replace("slides = 1", "slides = 1\ntilt_deg = [0, 0]")
+    for tree, same in ((tilted, False), (flat, True)):
+        normal = tree.replace("slides = 1", "slides = 1\nrise = 'normal'")
+        before, after = (experiments(tree_plan(_study(tmp_path / "s.zarr", t), SOLVER))
+                         for t in (tree, normal))
+        assert ([e.id for e in before] == [e.id for e in after]) == same
+        assert all(e.motion is None or e.motion.rise == ("vertical" if same else "normal")
+                   for e in after)
+    # and a plain study takes the key in [loads]
+    plain = parse_study(f'[study]\nstore = "{tmp_path / "p.zarr"}"\n' + COARSE + (
+        "[loads]\npressure_kpa = [200]\ndeflection_mm = [10]\ntilt_deg = [2]\n"
+        "friction = [0.5]\nrise = 'normal'\n"))
+    [(_, _, motion)] = cases(plain)
+    assert motion is not None and motion.rise == "normal"
 
 
 def test_a_tree_needs_the_inflated_contact_model_and_no_adaptive_rounds(tmp_path):
