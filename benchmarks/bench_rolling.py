@@ -24,8 +24,8 @@ from farm.experiment import run_load_path
 from farm.mesh import mesh_for
 from farm.presets import default_model
 from farm.solve.contact import touch_height
-from farm.solve.rolling import Roll, solve_roll
-from farm.specs import LoadPath, MeshDensity, RoadMotion, SolverSettings
+from farm.solve.rolling import solve_roll
+from farm.specs import LoadPath, MeshDensity, RoadMotion, Roll, SolverSettings
 
 PRESSURE, DEFLECTION, MU = 0.2, 15.0, 0.6
 

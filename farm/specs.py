@@ -495,6 +495,55 @@ class RoadMotion:
         return _from_dict(cls, data, "motion")
 
 
+# Rolling (issue 30, farm.solve.rolling): bounds of a roll
+SLIP_RATIO = (-1.0, 1.0)  # kappa: full lock to twice the free-rolling spin
+SLIP_ANGLE_DEG = (-20.0, 20.0)
+ROLL_MM = (1.0, 1000.0)  # road travel of one roll
+ROLLING_RADIUS_MM = (100.0, 1000.0)
+
+
+@dataclass(frozen=True)
+class Roll:
+    """A rolling experiment's motion (issue 30).
+
+    Parameters
+    ----------
+    friction : Coulomb coefficient mu >= 0 (0: frictionless, the road carries no shear).
+    slip_ratio : longitudinal slip kappa (SAE): > 0 drives, < 0 brakes, 0 rolls freely.
+    slip_angle : angle between the wheel plane and the travel direction, degrees.
+    tilt : road tilt about +x, degrees (camber; :class:`farm.specs.RoadMotion`).
+    distance : road travel of the roll, mm (long enough for a steady patch).
+    rolling_radius : the free-rolling radius r_e, mm, that turns distance into spin.
+    """
+
+    friction: float
+    slip_ratio: float = 0.0
+    slip_angle: float = 0.0
+    tilt: float = 0.0
+    distance: float = 150.0
+    rolling_radius: float = 390.0
+
+    def __post_init__(self) -> None:
+        _within("roll.friction", self.friction, FRICTION, "(Coulomb coefficient)")
+        _within("roll.slip_ratio", self.slip_ratio, SLIP_RATIO, "")
+        _within("roll.slip_angle", self.slip_angle, SLIP_ANGLE_DEG, "degrees")
+        _within("roll.tilt", self.tilt, TILT_DEG, "degrees")
+        _within("roll.distance", self.distance, ROLL_MM, "mm")
+        _within("roll.rolling_radius", self.rolling_radius, ROLLING_RADIUS_MM, "mm")
+
+    @property
+    def travel(self) -> tuple[float, float]:
+        """The road's displacement in its own plane over the roll, (x, lateral) mm."""
+        a = math.radians(self.slip_angle)
+        return (-self.distance * math.cos(a), -self.distance * math.sin(a))
+
+    @property
+    def spin(self) -> float:
+        """The rim's turn about +y over the roll, radians."""
+        a = math.radians(self.slip_angle)
+        return (1.0 + self.slip_ratio) * self.distance * math.cos(a) / self.rolling_radius
+
+
 @dataclass(frozen=True)
 class LoadPath:
     """Quasi-static loading solved in one go: inflate, then push the road up.

@@ -48,57 +48,7 @@ from farm.solve.contact import (
     touch_height,
 )
 from farm.solve.states import node_field
-from farm.specs import ModelSpec, SolverSettings
-
-SLIP_RATIO = (-1.0, 1.0)  # kappa: full lock to twice the free-rolling spin
-SLIP_ANGLE_DEG = (-20.0, 20.0)
-ROLL_MM = (1.0, 1000.0)  # road travel of one roll
-
-
-@dataclass(frozen=True)
-class Roll:
-    """A rolling experiment's motion (issue 30).
-
-    Parameters
-    ----------
-    friction : Coulomb coefficient mu >= 0 (0: frictionless, the road carries no shear).
-    slip_ratio : longitudinal slip kappa (SAE): > 0 drives, < 0 brakes, 0 rolls freely.
-    slip_angle : angle between the wheel plane and the travel direction, degrees.
-    tilt : road tilt about +x, degrees (camber; :class:`farm.specs.RoadMotion`).
-    distance : road travel of the roll, mm (long enough for a steady patch).
-    rolling_radius : the free-rolling radius r_e, mm, that turns distance into spin.
-    """
-
-    friction: float
-    slip_ratio: float = 0.0
-    slip_angle: float = 0.0
-    tilt: float = 0.0
-    distance: float = 150.0
-    rolling_radius: float = 390.0
-
-    def __post_init__(self) -> None:
-        checks = (("friction", self.friction, (0.0, 2.0)),
-                  ("slip_ratio", self.slip_ratio, SLIP_RATIO),
-                  ("slip_angle", self.slip_angle, SLIP_ANGLE_DEG),
-                  ("tilt", self.tilt, (-10.0, 10.0)),
-                  ("distance", self.distance, ROLL_MM),
-                  ("rolling_radius", self.rolling_radius, (100.0, 1000.0)))
-        for name, value, (low, high) in checks:
-            if not (math.isfinite(value) and low <= value <= high):
-                raise SpecError(f"roll.{name} = {value!r} is outside [{low:g}, {high:g}]; "
-                                "give a value in that range")
-
-    @property
-    def travel(self) -> tuple[float, float]:
-        """The road's displacement in its own plane over the roll, (x, lateral) mm."""
-        a = math.radians(self.slip_angle)
-        return (-self.distance * math.cos(a), -self.distance * math.sin(a))
-
-    @property
-    def spin(self) -> float:
-        """The rim's turn about +y over the roll, radians."""
-        a = math.radians(self.slip_angle)
-        return (1.0 + self.slip_ratio) * self.distance * math.cos(a) / self.rolling_radius
+from farm.specs import ModelSpec, Roll, SolverSettings
 
 
 @dataclass(frozen=True, eq=False)

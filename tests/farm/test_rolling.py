@@ -20,13 +20,12 @@ from farm.errors import SpecError
 from farm.mesh import mesh_for
 from farm.presets import default_model
 from farm.solve.rolling import (
-    Roll,
     free_rolling_radius,
     inflated_radius,
     solve_roll,
     turned,
 )
-from farm.specs import MeshDensity, SolverSettings
+from farm.specs import MeshDensity, Roll, SolverSettings
 
 PRESSURE, DEFLECTION, MU = 0.2, 15.0, 0.6
 R_E = 402.9  # the coarse model's free-rolling radius at 200 kPa, 15 mm (measured, 100 mm)
