@@ -37,6 +37,7 @@ from tyre_farm_cli import (
     invert,
     predict,
     reproduce,
+    roll,
     run,
     sweep,
 )
@@ -87,6 +88,7 @@ def _root(
 
 # The parent imports its children and mounts them: the children never import the parent.
 app.command("run")(run.run)
+app.command("roll")(roll.roll)
 app.add_typer(sweep.app, name="sweep")
 app.command("invert")(invert.invert)
 app.command("calibrate")(calibrate.calibrate)

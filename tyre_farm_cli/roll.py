@@ -1,0 +1,137 @@
+"""``farm roll``: roll the inflated, deflected tyre once (issue 30) and print its forces.
+
+One quasi-static roll in one ccx run (:mod:`farm.solve.rolling`, docs/rolling.md): slip
+ratio, slip angle and camber, with forces, moments and stick/slip counts at points along
+the roll. ``--rolling-radius free`` first finds the free-rolling radius (a few rolls).
+Every argument is checked before the solver starts.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from farm.ccx.runner import find_ccx
+from farm.errors import SpecError
+from farm.mesh import mesh_for
+from farm.solve.rolling import RolledState, free_rolling_radius, inflated_radius, solve_roll
+from farm.specs import MAX_PRESSURE_MPA, THREADS, TIMEOUT_S, LoadPath, Roll, SolverSettings
+from jobs.errors import StudyError
+from jobs.validate import scalars
+from tyre_farm_cli.errors import usage
+from tyre_farm_cli.jsondoc import dump
+from tyre_farm_cli.params import MATERIALS_HELP, MESH_HELP, build_model
+from tyre_farm_cli.progress import LogLines
+
+MAX_SAMPLES = 100
+
+
+def roll(
+    pressure: float = typer.Option(200.0, "--pressure", "-p", help="Inflation pressure, kPa."),
+    deflection: float = typer.Option(15.0, "--deflection", "-d", help="Deflection, mm."),
+    friction: float = typer.Option(0.6, "--friction", help="Coulomb mu, 0-2."),
+    slip_ratio: float = typer.Option(0.0, "--slip-ratio", help="Longitudinal slip kappa "
+                                     "(SAE): > 0 drives, < 0 brakes, -1 locks the wheel."),
+    slip_angle: float = typer.Option(0.0, "--slip-angle", help="Slip angle, degrees, "
+                                     "-20 to 20."),
+    tilt: float = typer.Option(0.0, "--tilt", help="Road tilt about x (camber), degrees."),
+    distance: float = typer.Option(150.0, "--distance", help="Road travel of the roll, mm."),
+    rolling_radius: str = typer.Option(
+        "free", "--rolling-radius", help="Free-rolling radius r_e in mm that turns travel "
+        "into spin, or 'free' to find it first (rolls until Fx = 0 at kappa = 0)."),
+    samples: int = typer.Option(10, "--samples", help="States written along the roll."),
+    materials: str = typer.Option("table-3.1", "--materials", help=MATERIALS_HELP),
+    mesh: str = typer.Option("thesis", "--mesh", help=MESH_HELP),
+    overrides: list[str] = typer.Option(
+        [], "--set", help="Override a model setting, e.g. --set mesh.circumferential=64."),
+    threads: int = typer.Option(1, "--threads", help="Solver threads."),
+    timeout: float = typer.Option(3600.0, "--timeout", help="Seconds per ccx run."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
+) -> None:
+    """Roll the tyre once: forces, moments and stick/slip along the roll."""
+    with usage():
+        spec = build_model("full", materials, "contact", overrides, mesh)
+        settings, fixed = _checked(spec, pressure, deflection, samples, threads, timeout,
+                                   rolling_radius)
+        # every bound of the roll checked now (a placeholder radius when it is found later)
+        motion = Roll(friction=friction, slip_ratio=slip_ratio, slip_angle=slip_angle,
+                      tilt=tilt, distance=distance, rolling_radius=fixed or 400.0)
+    find_ccx()
+    lines = LogLines(every=10.0)
+    lines.log(f"roll: meshing the full model ({mesh})")
+    m = mesh_for(spec)
+    mpa = pressure / 1000.0
+    found = None
+    if fixed is None:
+        lines.log("roll: finding the free-rolling radius (rolls at kappa = 0)")
+        radius, tried = free_rolling_radius(spec, m, deflection, mpa, motion, settings)
+        found = {"radius_mm": radius, "tried": [{"radius_mm": r, "fx_n": f} for r, f in tried]}
+        motion = Roll(**{**motion.__dict__, "rolling_radius": radius})
+    lines.log(f"roll: rolling {distance:g} mm at r_e {motion.rolling_radius:.2f} mm")
+    fractions = tuple(float(f) for f in np.round(np.linspace(0, 1, samples + 1), 9))
+    states = solve_roll(spec, m, deflection, mpa, motion, settings, fractions)
+    radius0 = inflated_radius(spec, m, mpa, settings)
+    if as_json:
+        dump(_document(spec, pressure, deflection, motion, states, radius0, found))
+    else:
+        _print(motion, pressure, deflection, states, radius0, found)
+
+
+def _checked(spec, kpa: float, deflection: float, samples: int, threads: int,
+             timeout: float, radius: str) -> tuple[SolverSettings, float | None]:
+    """Solver settings and the fixed rolling radius (None: find it), bounds checked."""
+    try:
+        scalars.number(kpa, "--pressure", low=0, high=1000 * MAX_PRESSURE_MPA, strict=True)
+        scalars.integer(samples, "--samples", low=1, high=MAX_SAMPLES)
+        scalars.integer(threads, "--threads", low=THREADS[0], high=THREADS[1])
+        scalars.number(timeout, "--timeout", low=TIMEOUT_S[0], high=TIMEOUT_S[1])
+    except StudyError as e:
+        raise SpecError(str(e)) from e
+    LoadPath((deflection,), kpa / 1000.0).check_against(spec)
+    if radius == "free":
+        fixed = None
+    else:
+        try:
+            fixed = float(radius)
+        except ValueError:
+            raise SpecError(f"--rolling-radius: give a radius in mm or 'free', got "
+                            f"{radius!r}") from None
+    return SolverSettings(threads=threads, timeout=timeout), fixed
+
+
+def _row(s: RolledState) -> dict:
+    return {"travel_mm": s.travelled, "spin_deg": math.degrees(s.spin),
+            "force_n": s.force.tolist(), "moment_nm": (s.moment / 1e3).tolist(),
+            "stick_nodes": int((s.contact_status == 1).sum()),
+            "slip_nodes": int((s.contact_status == 2).sum())}
+
+
+def _document(spec, kpa, deflection, motion: Roll, states, radius0, found) -> dict:
+    return {"model": spec.to_dict(), "pressure_kpa": kpa, "deflection_mm": deflection,
+            "roll": motion.__dict__, "inflated_radius_mm": radius0,
+            "free_rolling": found, "states": [_row(s) for s in states]}
+
+
+def _print(motion: Roll, kpa, deflection, states, radius0, found) -> None:
+    title = (f"roll of {motion.distance:g} mm at {kpa:g} kPa, {deflection:g} mm: mu "
+             f"{motion.friction:g}, kappa {motion.slip_ratio:g}, slip angle "
+             f"{motion.slip_angle:g} deg, tilt {motion.tilt:g} deg")
+    table = Table(title=title)
+    cols = ("travel mm", "spin deg", "Fx N", "Fy N", "Fz N", "Mx N m", "My N m", "Mz N m",
+            "stick", "slip")
+    rows = [(f"{r['travel_mm']:.1f}", f"{r['spin_deg']:.2f}",
+             *(f"{v:.1f}" for v in r["force_n"]), *(f"{v:.2f}" for v in r["moment_nm"]),
+             str(r["stick_nodes"]), str(r["slip_nodes"])) for r in map(_row, states)]
+    for i, col in enumerate(cols):
+        table.add_column(col, justify="right", min_width=max(len(r[i]) for r in rows))
+    for row in rows:
+        table.add_row(*row)
+    table.caption = (f"r_e {motion.rolling_radius:.2f} mm"
+                     + (f" (free rolling, {len(found['tried'])} rolls)" if found else "")
+                     + f"; inflated radius {radius0:.2f} mm, loaded {radius0 - deflection:.2f}"
+                     " mm; forces of the road on the tyre, moments about the contact centre")
+    Console().print(table, crop=False)
