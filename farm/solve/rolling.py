@@ -171,6 +171,32 @@ def turned(xyz: np.ndarray, spin: float) -> np.ndarray:
     return np.stack([c * x + s * z, y, -s * x + c * z], axis=1)
 
 
+def on_grid(values: np.ndarray, mesh: TyreMesh, spin: float,
+            grid: np.ndarray | None = None) -> np.ndarray:
+    """Per-node ``values`` (n_nodes, k) of a tyre turned by ``spin`` radians, read at the
+    grid's positions fixed in the contact frame: (n_rows, n_columns, k).
+
+    The grid's columns sit at angles phi (0 under the wheel centre, positive towards
+    +x, :attr:`farm.mesh.tyremesh.TyreMesh.angles`); a turn by ``spin`` about +y takes the
+    material at phi + spin to phi. So column j reads each row's values at phi_j + spin,
+    linear between the columns and periodic round the tyre: what a camera fixed to the
+    contact centre sees at the place of column j (T2Cam's view, thesis §2.2). At a whole
+    number of column pitches of a uniform grid it is the columns shifted.
+    """
+    grid = mesh.inner_grid if grid is None else grid
+    if not mesh.periodic:
+        raise SpecError("a rolled tyre needs the full model (its grid wraps around)")
+    phi = np.asarray(mesh.angles, dtype=float)
+    order = np.argsort(phi)
+    at = phi + spin
+    rows = values[grid - 1]  # (n_rows, n_columns, k)
+    out = np.empty_like(rows)
+    for r in range(rows.shape[0]):
+        for c in range(rows.shape[2]):
+            out[r, :, c] = np.interp(at, phi[order], rows[r, order, c], period=2 * np.pi)
+    return out
+
+
 def _rolled(frd: FrdFile, mesh: TyreMesh, road: D.Road, roll: Roll, time: float,
             fraction: float, centre_z: float) -> RolledState:
     u = node_field(frd, "DISP", time, mesh.n_nodes)

@@ -22,6 +22,7 @@ from farm.presets import default_model
 from farm.solve.rolling import (
     free_rolling_radius,
     inflated_radius,
+    on_grid,
     solve_roll,
     turned,
 )
@@ -109,6 +110,26 @@ def test_a_frictionless_roll_by_one_element_pitch_is_the_standing_tyre_again(coa
     assert scale > 1.0  # mm: the road deforms the tyre
     np.testing.assert_allclose(after.camera[seen], before.camera[onto][seen],
                                atol=2e-3 * scale)
+    # and read on the inner grid fixed in the contact frame, the two views agree
+    mesh = coarse[1]
+    np.testing.assert_allclose(on_grid(after.camera, mesh, after.spin),
+                               on_grid(before.camera, mesh, 0.0), atol=2e-3 * scale)
+
+
+def test_on_grid_reads_the_material_now_at_each_column(coarse):
+    """Turned by half a column pitch, the material at each column is halfway to the
+    next column along +phi (a turn about +y carries the tyre's bottom towards -x, i.e.
+    to smaller phi): on_grid reads the chord's midpoint there, not the one behind."""
+    mesh = coarse[1]
+    field = np.zeros((mesh.n_nodes, 1))
+    field[mesh.inner_grid - 1, 0] = np.sin(mesh.angles)[None, :]
+    pitch = 2 * np.pi / 16
+    seen = on_grid(field, mesh, pitch / 2)[..., 0]
+    ahead = 0.5 * (np.sin(mesh.angles) + np.sin(mesh.angles + pitch))
+    np.testing.assert_allclose(seen, np.broadcast_to(ahead, seen.shape), atol=1e-9)
+    np.testing.assert_allclose(on_grid(field, mesh, pitch)[..., 0],
+                               np.broadcast_to(np.sin(mesh.angles + pitch), seen.shape),
+                               atol=1e-9)
 
 
 @pytest.mark.ccx
