@@ -10,6 +10,13 @@ by side: wall and CPU seconds of ccx, and their ratio roll / slide; then Fx, Fy,
 along the roll and the first travel after which every later Fx stays within 1 % of the
 final one (the roll-in distance; "not settled" when only the last one does). Nothing is
 asserted (noisy machines).
+
+``--curves``: the rolling tyre's characteristic curves instead (issue 30): Fx against
+the slip ratio (``--kappas``) and Fy, Mz against the slip angle (``--alphas``), one roll
+each at the given radius, the values at the end of the roll; printed as tables with
+the slip stiffness dFx/dkappa and the cornering stiffness dFy/dalpha fitted through the
+origin over the points with |kappa| <= 0.005 and |alpha| <= 1 degree, and the pneumatic
+trail -Mz/Fy. ``--figure PATH`` also draws them (PNG).
 """
 
 from __future__ import annotations
@@ -20,6 +27,7 @@ import time
 
 import numpy as np
 
+from farm.errors import SolverError
 from farm.experiment import run_load_path
 from farm.mesh import mesh_for
 from farm.presets import default_model
@@ -51,6 +59,68 @@ def settled(travel: np.ndarray, fx: np.ndarray, rtol: float = 0.01) -> float | N
     return None
 
 
+def curves(spec, mesh, settings, args) -> None:
+    """Fx(kappa), Fy(alpha) and Mz(alpha) at the end of one roll each (see the module)."""
+    base = Roll(friction=MU, distance=args.distance, rolling_radius=args.radius)
+    kappas = [float(k) for k in args.kappas.split(",")]
+    alphas = [float(a) for a in args.alphas.split(",")]
+
+    def end(**kw):
+        """The state at the end of one roll, or None when ccx failed (printed: data)."""
+        roll = Roll(**{**base.__dict__, **kw})
+        try:
+            return solve_roll(spec, mesh, DEFLECTION, PRESSURE, roll, settings)[-1]
+        except SolverError as e:
+            print(f"  {kw}: failed, {e.outcome} ({e.where})", flush=True)
+            return None
+
+    print(f"{'kappa':>8} {'Fx N':>9}", flush=True)
+    fx = []
+    for k in kappas:
+        state = end(slip_ratio=k)
+        fx.append(np.nan if state is None else state.force[0])
+        print(f"{k:8.4f} {fx[-1]:9.1f}", flush=True)
+    print(f"{'alpha deg':>9} {'Fy N':>9} {'Mz N m':>9} {'trail mm':>9}", flush=True)
+    fy, mz = [], []
+    for a in alphas:
+        state = end(slip_angle=a)
+        fy.append(np.nan if state is None else state.force[1])
+        mz.append(np.nan if state is None else state.moment[2] / 1e3)
+        trail = -1e3 * mz[-1] / fy[-1] if abs(fy[-1]) > 1e-9 else float("nan")
+        print(f"{a:9.2f} {fy[-1]:9.1f} {mz[-1]:9.2f} {trail:9.1f}", flush=True)
+    k, f = np.array(kappas), np.array(fx)
+    small = (np.abs(k) <= 0.005) & np.isfinite(f)
+    if small.any() and np.any(k[small]):
+        c_k = float(k[small] @ f[small] / (k[small] @ k[small]))
+        print(f"slip stiffness dFx/dkappa: {c_k:.0f} N per unit slip (small-slip fit)")
+    a, f = np.radians(alphas), np.array(fy)
+    small = (np.abs(np.array(alphas)) <= 1.0) & np.isfinite(f)
+    if small.any() and np.any(a[small]):
+        c_a = float(a[small] @ f[small] / (a[small] @ a[small]))
+        print(f"cornering stiffness dFy/dalpha: {c_a:.0f} N/rad ({c_a * np.pi / 180:.1f} N/deg)")
+    if args.figure:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        fig, ax = plt.subplots(1, 3, figsize=(12, 3.6))
+        ax[0].plot(kappas, fx, "o-")
+        ax[0].set(xlabel="slip ratio kappa", ylabel="Fx (N)")
+        ax[1].plot(alphas, fy, "o-")
+        ax[1].set(xlabel="slip angle (deg)", ylabel="Fy (N)")
+        ax[2].plot(alphas, mz, "o-")
+        ax[2].set(xlabel="slip angle (deg)", ylabel="Mz (N m)")
+        for axis in ax:
+            axis.grid(alpha=0.3)
+        fig.suptitle(f"rolling, {mesh.n_nodes} nodes, {PRESSURE * 1000:g} kPa, "
+                     f"{DEFLECTION:g} mm, mu {MU:g}, {args.distance:g} mm rolls, "
+                     f"r_e {args.radius:g} mm")
+        fig.tight_layout()
+        fig.savefig(args.figure, dpi=110)
+        print(f"figure: {args.figure}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--circumferential", type=int, default=32)
@@ -58,12 +128,20 @@ def main() -> None:
     parser.add_argument("--slip-ratio", type=float, default=0.005)
     parser.add_argument("--radius", type=float, default=400.57,
                         help="free-rolling radius, mm (measured on 32 elements round)")
+    parser.add_argument("--curves", action="store_true",
+                        help="Fx(kappa), Fy(alpha), Mz(alpha) instead of the cost")
+    parser.add_argument("--kappas", default="-0.01,-0.005,-0.002,0,0.002,0.005,0.01")
+    parser.add_argument("--alphas", default="-2,-1,-0.5,0.5,1,2,4")
+    parser.add_argument("--figure", default=None)
     args = parser.parse_args()
     spec = default_model("full", mesh=MeshDensity(tread=4, sidewall=2, bead=1,
                                                   circumferential=args.circumferential))
     mesh = mesh_for(spec)
     settings = SolverSettings()
     touch_height(spec, mesh, PRESSURE, settings)  # cached before timing
+    if args.curves:
+        curves(spec, mesh, settings, args)
+        return
     _, slide_wall, slide_cpu = _timed(lambda: run_load_path(
         spec, LoadPath((DEFLECTION,), PRESSURE, RoadMotion(friction=MU, shift_x=10.0)),
         settings))
