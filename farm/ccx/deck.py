@@ -200,9 +200,9 @@ def road_motion_lines(road: Road, travel: float, shift: tuple[float, float], til
     lines = ["*AMPLITUDE, NAME=ROAD_MOVE", f"0, 0, {_num(t0 + 1)}, 0, {_num(t0 + 2)}, 1"]
     bcs = ["*BOUNDARY, AMPLITUDE=ROAD_MOVE", f"ROAD, 1, 1, {_num(shift[0])}"]
     t1 = t0 + tilt_time
+    sy, sz = shift[1] * math.cos(angle), shift[1] * math.sin(angle)  # in the road plane
+    ry, rz = _rise(travel, tilt, rise)
     for k, (uy, uz) in enumerate(groups):
-        sy, sz = shift[1] * math.cos(angle), shift[1] * math.sin(angle)  # in the road plane
-        ry, rz = _rise(travel, tilt, rise)
         for dof, points in ((2, [(t1, uy), (t0 + 1, uy + ry), (t0 + 2, uy + ry + sy)]),
                             (3, [(t1, uz), (t0 + 1, uz + rz), (t0 + 2, uz + rz + sz)])):
             name = f"ROAD_{k + 1}_{dof}"

@@ -270,10 +270,8 @@ def _solve_piece(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: Solv
     times = [t0 + 1.0 + k for k in range(len(path.deflections))]
     before = sum(r.seconds for r in runs)
     states = _states(spec, mesh, frd, path, z_start, times,
-                     [(d, RoadMotion(friction=path.motion.friction, tilt=path.motion.tilt,
-                                     stick_slope=path.motion.stick_slope,
-                                     rise=path.motion.rise)
-                       if path.motion else None) for d in path.deflections],
+                     # a trunk's motion has no shift (trunk_deck refuses one)
+                     [(d, path.motion) for d in path.deflections],
                      # a failed run's progress is not kept: its whole time (an upper bound)
                      lambda t: before + (run.seconds_to(t) if run else seconds))
     reference = _reference(spec, mesh, frd, path, z_start)
@@ -361,8 +359,7 @@ def solve_branch(spec: ModelSpec, mesh: TyreMesh, trunk: Trunk, level: int,
     if not 0 <= level < len(trunk.restarts):
         raise SpecError(f"the trunk has {len(trunk.restarts)} deflections, no level {level}")
     motion = trunk.motion
-    full = RoadMotion(friction=motion.friction, tilt=motion.tilt, shift_x=shift[0],
-                      shift_y=shift[1], stick_slope=motion.stick_slope, rise=motion.rise)
+    full = dataclasses.replace(motion, shift_x=shift[0], shift_y=shift[1])
     deck = branch_deck(spec, mesh, trunk, level, shift, settings)
     d = trunk.path.deflections[level]
     try:
