@@ -22,6 +22,7 @@ trail -Mz/Fy. ``--figure PATH`` also draws them (PNG).
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import resource
 import time
 
@@ -67,7 +68,7 @@ def curves(spec, mesh, settings, args) -> None:
 
     def end(**kw):
         """The state at the end of one roll, or None when ccx failed (printed: data)."""
-        roll = Roll(**{**base.__dict__, **kw})
+        roll = dataclasses.replace(base, **kw)
         try:
             return solve_roll(spec, mesh, DEFLECTION, PRESSURE, roll, settings)[-1]
         except SolverError as e:

@@ -8,6 +8,7 @@ Every argument is checked before the solver starts.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -70,7 +71,7 @@ def roll(
         lines.log("roll: finding the free-rolling radius (rolls at kappa = 0)")
         radius, tried = free_rolling_radius(spec, m, deflection, mpa, motion, settings)
         found = {"radius_mm": radius, "tried": [{"radius_mm": r, "fx_n": f} for r, f in tried]}
-        motion = Roll(**{**motion.__dict__, "rolling_radius": radius})
+        motion = dataclasses.replace(motion, rolling_radius=radius)
     lines.log(f"roll: rolling {distance:g} mm at r_e {motion.rolling_radius:.2f} mm")
     fractions = tuple(float(f) for f in np.round(np.linspace(0, 1, samples + 1), 9))
     states = solve_roll(spec, m, deflection, mpa, motion, settings, fractions)
@@ -112,7 +113,7 @@ def _row(s: RolledState) -> dict:
 
 def _document(spec, kpa, deflection, motion: Roll, states, radius0, found) -> dict:
     return {"model": spec.to_dict(), "pressure_kpa": kpa, "deflection_mm": deflection,
-            "roll": motion.__dict__, "inflated_radius_mm": radius0,
+            "roll": dataclasses.asdict(motion), "inflated_radius_mm": radius0,
             "free_rolling": found, "states": [_row(s) for s in states]}
 
 

@@ -35,20 +35,18 @@ from dataclasses import dataclass
 import numpy as np
 
 from farm.ccx import deck as D
-from farm.ccx.frd import FrdFile
 from farm.errors import ResultsError, SolverError, SpecError
 from farm.mesh.tyremesh import TyreMesh
 from farm.solve.contact import (
     TILT_TIME,
+    _combined_state,
     _solve,
-    friction_forces,
-    road_frame,
     slave_faces,
     tilted_gap,
     touch_height,
 )
-from farm.solve.states import node_field
-from farm.specs import ModelSpec, Roll, SolverSettings
+from farm.solve.states import SolvedState, node_field
+from farm.specs import ModelSpec, RoadMotion, Roll, SolverSettings
 
 
 @dataclass(frozen=True, eq=False)
@@ -95,16 +93,16 @@ def rim_lines(mesh: TyreMesh, spin: float, start: float) -> tuple[list[str], lis
     seat = np.asarray(mesh.node_sets["BEAD_SEAT"])
     xyz = mesh.nodes[seat - 1]
     times = start + np.linspace(0.0, 1.0, RIM_PIECES + 1)
-    phi = np.linspace(0.0, spin, RIM_PIECES + 1)
-    c, s_ = np.cos(phi)[None, :], np.sin(phi)[None, :]
-    x, z = xyz[:, :1], xyz[:, 2:]
-    ux, uz = x * c + z * s_ - x, -x * s_ + z * c - z  # a turn by phi about +y
+    # (n_seat, pieces + 1, 3): each seat node's displacement at each time
+    u = np.stack([turned(xyz, phi) - xyz for phi in np.linspace(0.0, spin, RIM_PIECES + 1)],
+                 axis=1)
     amplitudes, boundary = [], ["*BOUNDARY", *(f"{n}, 2, 2, 0" for n in seat)]
     for k, n in enumerate(seat):
-        for dof, u in ((1, ux[k]), (3, uz[k])):
+        for dof in (1, 3):
             name = f"RIM_{n}_{dof}"
             amplitudes += [f"*AMPLITUDE, NAME={name}",
-                           *D._amplitude([(0.0, 0.0), *zip(times, u, strict=True)])]
+                           *D._amplitude([(0.0, 0.0), *zip(times, u[k, :, dof - 1],
+                                                           strict=True)])]
             boundary += [f"*BOUNDARY, AMPLITUDE={name}", f"{n}, {dof}, {dof}, 1"]
     return amplitudes, boundary
 
@@ -197,24 +195,16 @@ def on_grid(values: np.ndarray, mesh: TyreMesh, spin: float,
     return out
 
 
-def _rolled(frd: FrdFile, mesh: TyreMesh, road: D.Road, roll: Roll, time: float,
-            fraction: float, centre_z: float) -> RolledState:
-    u = node_field(frd, "DISP", time, mesh.n_nodes)
+def _rolled(state: SolvedState, inflated: np.ndarray, mesh: TyreMesh, roll: Roll,
+            fraction: float) -> RolledState:
+    """A roll's state from the combined-load state at its time (the road's reaction and
+    moment, tread forces, stick/slip) and the inflated tyre's node positions."""
     spin = fraction * roll.spin
-    inflated = mesh.nodes + node_field(frd, "DISP", 1.0, mesh.n_nodes)
-    camera = mesh.nodes + u - turned(inflated, spin)
-    forc = frd.at("FORC", time)
-    ids = forc.node_ids
-    on_road = (ids >= road.first_node) & (ids < road.first_node + len(road.xyz))
-    rf = forc.values[on_road, :3]
-    pos = road.xyz[ids[on_road] - road.first_node] + frd.at("DISP", time).values_at(
-        ids[on_road])[:, :3]
-    faces = slave_faces(mesh)
-    force, status, _ = friction_forces(frd, mesh, time, mesh.nodes + np.nan_to_num(u), faces,
-                                       road_frame(frd, mesh, road, time), roll.friction)
-    centre = np.array([0.0, 0.0, centre_z])
-    return RolledState(fraction, fraction * roll.distance, spin, rf.sum(axis=0),
-                       np.cross(pos - centre, rf).sum(axis=0), force, status, u, camera)
+    assert state.road_moment is not None and state.contact_status is not None
+    camera = mesh.nodes + state.displacement - turned(inflated, spin)
+    return RolledState(fraction, fraction * roll.distance, spin, state.road_reaction,
+                       state.road_moment, state.tread_force, state.contact_status,
+                       state.displacement, camera)
 
 
 def solve_roll(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: float,
@@ -234,7 +224,11 @@ def solve_roll(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: flo
                else e) from e
     # the contact centre: under the wheel centre, on the road plane at the deflection
     centre_z = z_start + tilted_gap(spec, roll.tilt) + deflection
-    return [_rolled(frd, mesh, road, roll, t, f, centre_z)
+    faces = slave_faces(mesh)
+    inflated = mesh.nodes + node_field(frd, "DISP", 1.0, mesh.n_nodes)
+    motion = RoadMotion(friction=roll.friction, tilt=roll.tilt, rise="normal")
+    return [_rolled(_combined_state(frd, mesh, faces, road, t, deflection, centre_z, motion),
+                    inflated, mesh, roll, f)
             for t, f in zip(times, fractions, strict=True)]
 
 
@@ -259,34 +253,24 @@ def free_rolling_radius(spec: ModelSpec, mesh: TyreMesh, deflection: float, pres
     """
     r0 = inflated_radius(spec, mesh, pressure, settings)
     free = dataclasses.replace(roll, slip_ratio=0.0)
-    tried: list[tuple[float, float]] = []
-
-    def fx(radius: float) -> float:
+    tried: list[tuple[float, float]] = []  # (radius, Fx)
+    radius = r0 - deflection / 3.0
+    while len(tried) < max_rolls:
         [end] = solve_roll(spec, mesh, deflection, pressure,
                            dataclasses.replace(free, rolling_radius=radius), settings)
         tried.append((radius, float(end.force[0])))
         if abs(end.force[0]) <= tolerance * abs(end.force[2]):
-            raise _Found(radius)
-        return float(end.force[0])
-
-    a, b = r0 - deflection / 3.0, r0
-    try:
-        fa, fb = fx(a), fx(b)
-        while len(tried) < max_rolls:
-            if fb == fa:
-                break
-            c = 1.0 / (1.0 / b - fb * (1.0 / b - 1.0 / a) / (fb - fa))
-            a, fa, b, fb = b, fb, c, fx(c)
-    except _Found as found:
-        return found.radius, tried
+            return radius, tried
+        if len(tried) == 1:
+            radius = r0
+            continue
+        (a, fa), (b, fb) = tried[-2:]
+        if fb == fa:
+            break
+        radius = 1.0 / (1.0 / b - fb * (1.0 / b - 1.0 / a) / (fb - fa))
     raise ResultsError(f"no free-rolling radius found: Fx at the radii tried (mm, N) was "
                        f"{[(round(r, 3), round(f, 1)) for r, f in tried]}; allow more "
                        "rolls (max_rolls) or a looser tolerance")
-
-
-class _Found(Exception):
-    def __init__(self, radius: float) -> None:
-        self.radius = radius
 
 
 def inflated_radius(spec: ModelSpec, mesh: TyreMesh, pressure: float,
