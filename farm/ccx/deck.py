@@ -262,6 +262,71 @@ def road_position_lines(road: Road, travel: float, shift: tuple[float, float],
     return lines
 
 
+#: Step time (of a unit step) over which a new step holds the road where the last one
+#: left it before moving it (:func:`road_step_lines`), and the new step's first increment.
+STEP_DWELL = 0.1
+
+
+def _road_values(road: Road, travel: float, shift: tuple[float, float], tilt: float,
+                 rise: str) -> np.ndarray:
+    """(ux, uy, uz) of every road node placed as :func:`road_position_lines` places it."""
+    angle = math.radians(tilt)
+    rot = _tilt_displacement(road, tilt)
+    ry, rz = _rise(travel, tilt, rise)
+    sy, sz = shift[1] * math.cos(angle), shift[1] * math.sin(angle)
+    return np.column_stack([np.full(len(rot), float(shift[0])),
+                            rot[:, 0] + ry + sy, rot[:, 1] + rz + sz])
+
+
+def road_step_lines(road: Road, before: tuple[float, tuple[float, float]],
+                    after: tuple[float, tuple[float, float]], tilt: float, rise: str,
+                    name: str, dwell: float = STEP_DWELL) -> list[str]:
+    """Step cards moving the road from ``before`` to ``after`` ((travel, shift) as in
+    :func:`road_position_lines`): held still for the step time [0, ``dwell``], then
+    linearly to the new place at step time 1.
+
+    Why the hold: ccx 2.20 starts every step with its internal force vector at zero
+    (``nonlingeo.c`` allocates it per step; only a dynamic step recomputes it before the
+    first increment), and when a prescribed displacement changes by more than 1e-5 in a
+    step's first increment its first iteration is "purely linear" and adds that
+    increment's linear forces to this vector (``ilin``; ``resultsmech.f``: "if the forced
+    displacements were changed at the start of a nonlinear step"). In a later step the
+    first iteration so sees the whole preload - the inflation, the road's reaction - as
+    out of balance, and Newton starts from a tyre pushed by all of it once more: the
+    divergence of new steps "whatever the increment" (docs/combined-loads.md). With the
+    road still in the first increment (of at most ``dwell``), ccx takes an ordinary
+    iteration from the true internal forces instead.
+
+    ccx scales an amplitude's boundary value (``xboun * amplitude``), so the hold is an
+    amplitude per group of node dofs with the same old-to-new ratio (a row of the slab);
+    a dof that does not move keeps its value, and one whose new value is zero (no ratio
+    reaches the old one) ramps plainly. Amplitude names start with ``name`` and must be
+    new to the run (ccx keeps a run's amplitudes across steps and restarts).
+    """
+    if not 0 < dwell < 1:
+        raise ValueError(f"dwell must lie in (0, 1), got {dwell!r}")
+    ids = np.arange(road.first_node, road.first_node + len(road.xyz))
+    old = _road_values(road, before[0], before[1], tilt, rise)
+    new = _road_values(road, after[0], after[1], tilt, rise)
+    plain = ["*BOUNDARY"]
+    held: dict[tuple[int, str], list[int]] = {}
+    for (node, dof), u1 in np.ndenumerate(new):
+        u0 = old[node, dof]
+        if abs(u1 - u0) <= 1e-12 or abs(u1) <= 1e-9:
+            plain.append(f"{ids[node]}, {dof + 1}, {dof + 1}, {_num(u1)}")
+        else:
+            held.setdefault((dof + 1, _num(u0 / u1)), []).append(node)
+    lines: list[str] = []
+    bcs: list[str] = []
+    for k, ((dof, ratio), nodes) in enumerate(sorted(held.items())):
+        amp = f"{name}_{k + 1}"
+        lines += [f"*AMPLITUDE, NAME={amp}",
+                  *_amplitude([(0.0, float(ratio)), (dwell, float(ratio)), (1.0, 1.0)])]
+        bcs.append(f"*BOUNDARY, AMPLITUDE={amp}")
+        bcs += [f"{ids[n]}, {dof}, {dof}, {_num(new[n, dof - 1])}" for n in nodes]
+    return [*lines, *(plain if len(plain) > 1 else []), *bcs]
+
+
 def _amplitude(points: list[tuple[float, float]]) -> list[str]:
     """Amplitude data lines: at most four (time, value) pairs a line (ccx reads no more
     from one line: a fifth pair is silently dropped), each time once (the first of
@@ -271,14 +336,19 @@ def _amplitude(points: list[tuple[float, float]]) -> list[str]:
     return [", ".join(pairs[k:k + 4]) for k in range(0, len(pairs), 4)]
 
 
-def static_step_lines(period: float, settings: SolverSettings) -> list[str]:
+def static_step_lines(period: float, settings: SolverSettings,
+                      first: float | None = None) -> list[str]:
     """NLGEOM static step with automatic incrementation over ``period``.
 
-    Increment sizes are fractions of one load ramp, which lasts one unit of step time.
+    Increment sizes are fractions of one load ramp, which lasts one unit of step time;
+    ``first`` caps the first increment (a step after another: at most its
+    :data:`STEP_DWELL`, :func:`road_step_lines`).
     """
+    start = settings.initial_increment if first is None else min(first,
+                                                                 settings.initial_increment)
     return [f"*STEP, NLGEOM, INC={settings.max_increments}", "*STATIC",
-            f"{_num(settings.initial_increment)}, {_num(period)}, "
-            f"{_num(settings.min_increment)}, {_num(settings.max_increment)}"]
+            f"{_num(start)}, {_num(period)}, "
+            f"{_num(min(start, settings.min_increment))}, {_num(settings.max_increment)}"]
 
 
 #: Cutbacks ccx may take within one increment of a frictional path (its default is 5).

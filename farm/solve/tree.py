@@ -138,14 +138,15 @@ def trunk_deck(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: Solver
     z_start = touch_z - gap
     road = _road(spec, mesh, z_start)
     steps: list[str] = []
-    for d in path.deflections[1:]:
-        steps += [*D.static_step_lines(1.0, settings), *_controls(motion),
-                  *D.road_position_lines(road, gap + d, (0.0, 0.0), motion.tilt, motion.rise),
+    for k, (before, d) in enumerate(itertools.pairwise(path.deflections)):
+        steps += [*D.static_step_lines(1.0, settings, first=D.STEP_DWELL), *_controls(motion),
+                  *D.road_step_lines(road, (gap + before, (0.0, 0.0)), (gap + d, (0.0, 0.0)),
+                                     motion.tilt, motion.rise, f"RISE{k + 2}"),
                   *_pressure_lines(spec, mesh, path.pressure),
                   *D.output_lines(time_points=True, contact=True, points="STEP_END"),
                   "*END STEP"]
     model = [*D.restart_lines(read=False, write=True), "*TIME POINTS, NAME=STEP_END", "1",
-             "*TIME POINTS, NAME=SLIDE", *(D._num(f) for f in fractions)]
+             "*TIME POINTS, NAME=SLIDE", *(D._num(_slide_time(f)) for f in fractions)]
     deck, _, z = path_deck(spec, mesh, first, settings, touch_z, model=model, then=steps)
     assert abs(z - z_start) < 1e-9, "the trunk's road starts where the one-run path's does"
     return deck, z_start
@@ -282,6 +283,12 @@ def _solve_piece(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: Solv
                  tuple(fractions), failure)
 
 
+def _slide_time(fraction: float) -> float:
+    """Step time of a branch at which its road has slid by ``fraction`` of the shift: the
+    road holds still for the first :data:`~farm.ccx.deck.STEP_DWELL` of the step."""
+    return D.STEP_DWELL + fraction * (1.0 - D.STEP_DWELL)
+
+
 def _fractions(fractions: Sequence[float]) -> list[float]:
     out = [float(f) for f in fractions]
     if not out or any(not 0 < f <= 1 for f in out) or any(
@@ -341,8 +348,9 @@ def branch_deck(spec: ModelSpec, mesh: TyreMesh, trunk: Trunk, level: int,
     d = trunk.path.deflections[level]
     return "\n".join([
         *D.restart_lines(read=True, write=False),
-        *D.static_step_lines(1.0, settings), *_controls(motion),
-        *D.road_position_lines(road, gap + d, shift, motion.tilt, motion.rise),
+        *D.static_step_lines(1.0, settings, first=D.STEP_DWELL), *_controls(motion),
+        *D.road_step_lines(road, (gap + d, (0.0, 0.0)), (gap + d, shift), motion.tilt,
+                           motion.rise, "SLIDE"),
         *_pressure_lines(spec, mesh, trunk.path.pressure),
         *D.output_lines(time_points=True, contact=True, points="SLIDE"), "*END STEP"]) + "\n"
 

@@ -444,3 +444,79 @@ def test_default_mesh_longitudinal_force_saturates_at_mu_fz():
     assert 0 < quarter.total_force[0] < last.total_force[0]
     assert last.total_force[0] == pytest.approx(0.3 * last.total_force[2], rel=5e-3)
     assert abs(last.total_force[1]) < 1e-3 * last.total_force[2]
+
+
+def _step_road(lines: list[str], road: D.Road, before: np.ndarray, t: float) -> np.ndarray:
+    """Road displacements at step time ``t`` of a step written by road_step_lines, as ccx
+    evaluates them: an amplitude scales its value, a plain value ramps from the last."""
+    amps: dict[str, np.ndarray] = {}
+    u = np.full(before.shape, np.nan)
+    current: str | None = None
+    k = 0
+    while k < len(lines):
+        line = lines[k]
+        if line.startswith("*AMPLITUDE, NAME="):
+            data = []
+            while k + 1 < len(lines) and not lines[k + 1].startswith("*"):
+                data += [float(v) for v in lines[k + 1].split(",")]
+                k += 1
+            amps[line.split("=")[1]] = np.reshape(data, (-1, 2))
+        elif line.startswith("*BOUNDARY"):
+            current = line.split("AMPLITUDE=")[1] if "AMPLITUDE=" in line else None
+        else:
+            node, dof, _, value = (v.strip() for v in line.split(","))
+            n, d = int(node) - road.first_node, int(dof) - 1
+            if current is None:
+                u[n, d] = before[n, d] + (float(value) - before[n, d]) * t
+            else:
+                times, values = amps[current].T
+                u[n, d] = float(value) * np.interp(t, times, values)
+        k += 1
+    return u
+
+
+@pytest.mark.parametrize("tilt", [0.0, 4.0, -6.0])
+@pytest.mark.parametrize("rise", ["vertical", "normal"])
+@pytest.mark.parametrize(("before", "after"), [
+    ((15.0, (0.0, 0.0)), (22.5, (0.0, 0.0))),  # a trunk's next level
+    ((22.5, (0.0, 0.0)), (22.5, (-6.0, 8.0))),  # a slide
+    ((22.5, (3.0, 0.0)), (22.5, (0.0, 2.0))),  # back to x = 0: that dof cannot be held
+])
+def test_a_new_step_holds_the_road_then_moves_it_to_its_new_place(tilt, rise, before, after):
+    """road_step_lines: still at the old place through the dwell (ccx's first increment,
+    which must not move a prescribed dof: deck.road_step_lines says why), then linear
+    to the place road_position_lines gives."""
+    road = D.road_slab(mesh_for(COARSE), -400.0, 320.0, 168.0)
+    lines = D.road_step_lines(road, before, after, tilt, rise, "S")
+
+    def placed(travel, shift):
+        values = {(int(n), int(d)): float(v) for n, d, _, v in
+                  (line.split(",") for line in D.road_position_lines(
+                      road, travel, shift, tilt, rise)[1:])}
+        return np.array([[values[(road.first_node + i, d)] for d in (1, 2, 3)]
+                         for i in range(len(road.xyz))])
+
+    old, new = placed(*before), placed(*after)
+    dwell = D.STEP_DWELL
+    np.testing.assert_allclose(_step_road(lines, road, old, 1.0), new, atol=1e-9)
+    ramped = np.abs(new) <= 1e-9  # no ratio of a zero reaches the old value
+    for t in (0.0, dwell / 2, dwell):
+        u = _step_road(lines, road, old, t)
+        np.testing.assert_allclose(u[~ramped], old[~ramped], atol=1e-9)
+        np.testing.assert_allclose(u[ramped], (old + (new - old) * t)[ramped], atol=1e-9)
+    # between the dwell and the end every held dof moves linearly in step time
+    s = 0.4
+    u = _step_road(lines, road, old, dwell + s * (1 - dwell))
+    np.testing.assert_allclose(u[~ramped], (old + (new - old) * s)[~ramped], atol=1e-9)
+    unheld = ramped & (np.abs(new - old) > 1e-9)  # moves in the first increment
+    assert unheld.any() == (before[1][0] != 0.0)
+
+
+def test_a_step_without_motion_writes_no_amplitude():
+    road = D.road_slab(mesh_for(COARSE), -400.0, 320.0, 168.0)
+    lines = D.road_step_lines(road, (20.0, (1.0, 2.0)), (20.0, (1.0, 2.0)), 3.0, "vertical", "S")
+    assert not any(line.startswith("*AMPLITUDE") for line in lines)
+    assert lines[0] == "*BOUNDARY" and len(lines) == 1 + 3 * len(road.xyz)
+    with pytest.raises(ValueError, match="dwell"):
+        D.road_step_lines(road, (20.0, (0.0, 0.0)), (25.0, (0.0, 0.0)), 0.0, "vertical", "S",
+                          dwell=1.0)

@@ -17,6 +17,7 @@ import struct
 import numpy as np
 import pytest
 
+from farm.ccx import deck as D
 from farm.errors import ResultsError, SolverError, SpecError
 from farm.experiment import run_load_path
 from farm.mesh import mesh_for
@@ -122,13 +123,35 @@ def test_tree_refuses_what_it_cannot_do(coarse, trunk):
 
 
 @pytest.mark.ccx
-def test_a_trunk_whose_step_fails_is_rerooted_from_rest(coarse):
-    """On the coarse mesh a tilted road's trunk stops in its third step (15 -> 20 mm:
-    ccx's Newton iteration diverges in the new step's first increment, whatever the
-    increment; docs/combined-loads.md, "Load-path trees"). The trunk goes on from rest
-    to 20 mm in a second run: every level has its state and its restart block, and
-    each state is that of the path from rest."""
+def test_a_tilted_trunk_climbs_every_level_in_one_run(coarse):
+    """The coarse tilted trunk whose third step (15 -> 20 mm) used to diverge: with the
+    road held still in each new step's first increment (farm.ccx.deck.road_step_lines)
+    it climbs all three levels in one ccx run, and every state is the path from rest's."""
     spec, mesh = coarse
+    motion = RoadMotion(tilt=2.0)
+    trunk = solve_trunk(spec, mesh, LoadPath((10.0, 15.0, 20.0), PRESSURE, motion),
+                        SolverSettings())
+    assert trunk.failure is None and trunk.reroots == ()
+    assert trunk.solution.ccx_runs == 1 and len(trunk.restarts) == 3
+    rest = run_load_path(spec, LoadPath((10.0, 15.0, 20.0), PRESSURE, motion),
+                         SolverSettings())
+    for a, b in zip(trunk.solution.states, rest.states, strict=True):
+        _close(a.road_reaction, b.road_reaction, 1e-4)
+
+
+def _unheld_steps(road, before, after, tilt, rise, name, dwell=0.1):
+    """The road's new place without the hold: as the trees wrote it until 2026-11-27."""
+    return D.road_position_lines(road, after[0], after[1], tilt, rise)
+
+
+@pytest.mark.ccx
+def test_a_trunk_whose_step_fails_is_rerooted_from_rest(coarse, monkeypatch):
+    """Without the hold ccx diverges in the tilted trunk's third step (the first
+    iteration of a new step starts from zero internal forces: road_step_lines says
+    why). The trunk goes on from rest to 20 mm in a second run: every level has its
+    state and its restart block, and each state is that of the path from rest."""
+    spec, mesh = coarse
+    monkeypatch.setattr(D, "road_step_lines", _unheld_steps)
     motion = RoadMotion(tilt=2.0)
     trunk = solve_trunk(spec, mesh, LoadPath((10.0, 15.0, 20.0), PRESSURE, motion),
                         SolverSettings())
