@@ -8,7 +8,7 @@ shares them:
 - the **trunk** (:func:`solve_trunk`) is one ccx run per model, pressure, friction and
   tilt: the first step is the one-run path of :mod:`farm.solve.contact` up to the first
   deflection; each further deflection is a step of its own that raises the road
-  (:func:`farm.ccx.deck.road_position_lines`). ``*RESTART, WRITE`` appends the solver's
+  (:func:`farm.ccx.deck.road_step_lines`). ``*RESTART, WRITE`` appends the solver's
   state at the end of every step to the restart file, so the trunk leaves one state per
   deflection (:func:`split_restart` cuts them apart). Its states at the deflections are
   experiments too (friction and tilt, no slide);
@@ -17,17 +17,20 @@ shares them:
   is the experiment of that shift (a monotonic slide passes through the same states as a
   shorter one along the same line).
 
-A branch's step restates the road's position and the pressure without amplitudes: step
-time starts at 0 in a new step, so the first step's amplitudes would start over.
+Every later step holds the road where the last one left it for its first increment,
+then moves it (step-time amplitudes: step time starts at 0 in a new step, so the first
+step's would start over). Without the hold ccx 2.20 begins such a step with a linear
+iteration that sees the whole preload as out of balance and diverges "whatever the
+increment" (:func:`farm.ccx.deck.road_step_lines` has the source lines; on the coarse
+tilted trunk of the tests the hold took a trunk that re-rooted in its third step to one
+run of 8 s instead of three of 21 s).
 
-Measured on the patch mesh with ``reinforced-calibrated`` (200 kPa, mu 0.6, tilt 2
-degrees, slide (3, -4) mm; docs/combined-loads.md, "Load-path trees"): a trunk through
-10, 15 and 20 mm took 127 s, each branch 43-53 s, the same experiment from rest 110-168
-s; Fz agreed within 0.01 %, Fx and Fy within 0.7 %. Friction remembers its path, and a
-new step in ccx starts with an out-of-balance force of a few per cent of the contact
-shear (the first iteration's residual does not depend on the increment): the branch's
-partial-slip forces are therefore as close to the run from rest as two runs from rest
-with different increments are to each other (tests/farm/test_tree.py).
+Measured on the patch mesh with ``reinforced-calibrated`` before the hold (200 kPa, mu
+0.6, tilt 2 degrees, slide (3, -4) mm; docs/combined-loads.md, "Load-path trees"): a
+trunk through 10, 15 and 20 mm took 127 s, each branch 43-53 s, the same experiment
+from rest 110-168 s; Fz agreed within 0.01 %, Fx and Fy within 0.7 %. Friction
+remembers its path: a branch's partial-slip forces are as close to the run from rest as
+two runs from rest with different increments are to each other (tests/farm/test_tree.py).
 """
 
 from __future__ import annotations
@@ -193,9 +196,9 @@ def solve_trunk(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: Solve
     ``fractions`` (strictly increasing in (0, 1]) are where its branches' slides write
     their results.
 
-    One ccx run as a rule. When a later step fails (ccx's Newton iteration can diverge
-    in the first increment of a new step whatever the increment, docs/combined-loads.md
-    "Load-path trees"), the trunk is **re-rooted**: the deflections it did not reach
+    One ccx run as a rule. When a later step fails nevertheless (before the hold of
+    :func:`farm.ccx.deck.road_step_lines` they did as a rule), the trunk is
+    **re-rooted**: the deflections it did not reach
     become a trunk of their own, whose first step is the one-run path from rest to the
     first of them (:attr:`Trunk.reroots` says why each happened). Every state is still
     the state of a path from rest, and every level keeps a saved state for its slides.

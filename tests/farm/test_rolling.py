@@ -17,15 +17,18 @@ import numpy as np
 import pytest
 
 from farm.errors import SpecError
+from farm.measure.measurement import measure
 from farm.mesh import mesh_for
 from farm.presets import default_model
 from farm.solve.rolling import (
+    camera_state,
     free_rolling_radius,
     inflated_radius,
     on_grid,
     solve_roll,
     turned,
 )
+from farm.solve.states import PathSolution
 from farm.specs import MeshDensity, Roll, SolverSettings
 
 PRESSURE, DEFLECTION, MU = 0.2, 15.0, 0.6
@@ -114,6 +117,34 @@ def test_a_frictionless_roll_by_one_element_pitch_is_the_standing_tyre_again(coa
     mesh = coarse[1]
     np.testing.assert_allclose(on_grid(after.camera, mesh, after.spin),
                                on_grid(before.camera, mesh, 0.0), atol=2e-3 * scale)
+    # so is every array the store holds, read at the grid's fixed places
+    seen_before, seen_after = measure(
+        mesh, PathSolution(before.reference, (camera_state(before, mesh),
+                                              camera_state(after, mesh)), 1.0, 1, 1),
+        PRESSURE, inflated=True)
+    # (moments to 2e-3 of Fz times 100 mm: a frictionless tyre has no Mx, Mz to compare)
+    floor = {"moment": 100.0 * before.force[2]}
+    for name, a in seen_after.arrays().items():
+        b = seen_before.arrays()[name]
+        np.testing.assert_allclose(a, b, atol=2e-3 * max(np.abs(b).max(), floor.get(name, 0)),
+                                   err_msg=name)
+    assert np.array_equal(seen_after.contact_status, seen_before.contact_status)
+    assert np.abs(seen_after.strain).max() > 1e-3  # the road strains the liner
+
+
+@pytest.mark.ccx
+def test_the_camera_sees_the_standing_tyre_before_the_roll(coarse):
+    """At spin 0 the camera's view is the solver's state itself: the measurements of the
+    contact path (farm.measure.measure) unchanged."""
+    mesh = coarse[1]
+    [start] = _roll(coarse, fractions=(0.0,), slip_angle=3.0)
+    solution = PathSolution(start.reference, (start.solved,), 1.0, 1, 1)
+    direct = measure(mesh, solution, PRESSURE, inflated=True)[0]
+    viewed = measure(mesh, dataclasses.replace(solution, states=(camera_state(start, mesh),)),
+                     PRESSURE, inflated=True)[0]
+    for name, a in viewed.arrays().items():
+        np.testing.assert_allclose(a, direct.arrays()[name], rtol=1e-12, atol=1e-12,
+                                   err_msg=name)
 
 
 def test_on_grid_reads_the_material_now_at_each_column(coarse):
