@@ -21,6 +21,7 @@ from farm.measure.patch import PatchMetrics, inflation_growth, patch_metrics, tr
 from farm.mesh import TyreMesh, mesh_for
 from farm.solve.contact import solve_contact_path
 from farm.solve.iterative import solve_iterative_path
+from farm.solve.rolling import solve_rolling_path
 from farm.solve.states import PathSolution, SolvedState
 from farm.specs import LoadPath, ModelSpec, SolverSettings
 
@@ -97,7 +98,10 @@ class PathResult:
 
 def solve_path(model: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: SolverSettings,
                should_stop: Callable[[], bool] | None = None) -> PathSolution:
-    """Dispatch on the road boundary condition of ``model``."""
+    """Dispatch on the road boundary condition of ``model`` (and on a rolling motion:
+    :func:`farm.solve.rolling.solve_rolling_path`)."""
+    if path.motion is not None and path.motion.rolls:
+        return solve_rolling_path(model, mesh, path, settings, should_stop)
     solver = solve_contact_path if model.road == "contact" else solve_iterative_path
     return solver(model, mesh, path, settings, should_stop)
 

@@ -431,7 +431,16 @@ class RoadMotion:
         plane by d sin(tilt) while the patch forms), or ``"normal"`` along the road's
         normal, as a camber rig loads an inclined wheel (the same final plane, no slide;
         :func:`farm.ccx.deck._rise`, docs/combined-loads.md "Rise direction"). Ignored
-        (and stored as ``"vertical"``) for an untilted road.
+        (and stored as ``"vertical"``) for an untilted road; always ``"normal"`` for a
+        tilted roll.
+    roll : road travel of a roll, mm (0: no roll; issue 30, :mod:`farm.solve.rolling`):
+        the deflected tyre rolls while the road travels ``roll`` mm under it, and the
+        experiment is the state at the roll's end, seen by a camera fixed to the contact
+        centre. A roll and a shift exclude each other.
+    slip_ratio, slip_angle : longitudinal slip kappa (SAE) and slip angle (degrees) of
+        the roll (:class:`Roll`).
+    rolling_radius : the free-rolling radius r_e (mm) that turns the road's travel into
+        the rim's spin; None: found for each experiment (Fx = 0 at kappa = 0).
 
     All at their defaults the motion is no motion at all: :class:`LoadPath` then holds
     None, so decks, results and ids are those of a vertical experiment.
@@ -444,8 +453,14 @@ class RoadMotion:
     tilt: float = 0.0
     stick_slope: float | None = None
     rise: str = "vertical"
+    # rolling (issue 30, farm.solve.rolling): a roll of ``roll`` mm instead of a shift
+    roll: float = 0.0
+    slip_ratio: float = 0.0
+    slip_angle: float = 0.0
+    rolling_radius: float | None = None
 
     def __post_init__(self) -> None:
+        self._check_roll()
         _within("motion.friction", self.friction, FRICTION, "(Coulomb coefficient)")
         _within("motion.shift_x", self.shift_x, SHIFT_MM, "mm")
         _within("motion.shift_y", self.shift_y, SHIFT_MM, "mm")
@@ -460,6 +475,39 @@ class RoadMotion:
                 object.__setattr__(self, f.name, float(v) + 0.0)
         if self.tilt == 0.0:  # an untilted road rises along its normal either way
             object.__setattr__(self, "rise", "vertical")
+        elif self.rolls:  # a rolling tyre is pressed along the road's normal, as on a rig
+            object.__setattr__(self, "rise", "normal")
+
+    def _check_roll(self) -> None:
+        if self.roll == 0.0:
+            if self.slip_ratio or self.slip_angle or self.rolling_radius is not None:
+                raise SpecError("motion.slip_ratio, slip_angle and rolling_radius belong to "
+                                "a roll: give motion.roll, the road travel in mm")
+            return
+        _within("motion.roll", self.roll, ROLL_MM, "mm")
+        _within("motion.slip_ratio", self.slip_ratio, SLIP_RATIO, "")
+        _within("motion.slip_angle", self.slip_angle, SLIP_ANGLE_DEG, "degrees")
+        if self.rolling_radius is not None:
+            _within("motion.rolling_radius", self.rolling_radius, ROLLING_RADIUS_MM, "mm")
+        if self.shift_x or self.shift_y:
+            raise SpecError("a motion either slides the road (shift_x, shift_y) or rolls the "
+                            "tyre (roll), not both")
+
+    @property
+    def rolls(self) -> bool:
+        """Whether the tyre rolls (:attr:`roll` mm of road travel, issue 30)."""
+        return self.roll > 0.0
+
+    def as_roll(self, rolling_radius: float | None = None) -> Roll:
+        """The :class:`Roll` of a rolling motion; ``rolling_radius`` stands in for a free
+        one (None here: the radius that :func:`farm.solve.rolling.free_rolling_radius`
+        finds)."""
+        radius = self.rolling_radius if self.rolling_radius is not None else rolling_radius
+        if not self.rolls or radius is None:
+            raise SpecError("not a roll, or a free-rolling radius still to be found")
+        return Roll(friction=self.friction, slip_ratio=self.slip_ratio,
+                    slip_angle=self.slip_angle, tilt=self.tilt, distance=self.roll,
+                    rolling_radius=radius)
 
     @property
     def moves(self) -> bool:
@@ -475,7 +523,8 @@ class RoadMotion:
     @property
     def is_identity(self) -> bool:
         """No friction, tilt or shift: the vertical experiment itself."""
-        return not (self.friction or self.moves or self.tilt or self.stick_slope is not None)
+        return not (self.friction or self.moves or self.tilt or self.stick_slope is not None
+                    or self.rolls)
 
     def scaled(self, fraction: float) -> RoadMotion:
         """The shift ``fraction`` of the way along its ramp (same friction and tilt)."""
@@ -488,6 +537,11 @@ class RoadMotion:
             del data["stick_slope"]
         if self.rise == "vertical":  # the rise of before: ids and decks as they were
             del data["rise"]
+        if not self.rolls:  # ids of slides and standing tyres as before rolling existed
+            for name in ("roll", "slip_ratio", "slip_angle", "rolling_radius"):
+                del data[name]
+        elif self.rolling_radius is None:  # free: found by the worker
+            del data["rolling_radius"]
         return data
 
     @classmethod
@@ -613,6 +667,10 @@ class LoadPath:
             # a tilted road rises under the tread edge: keep that edge off the rim too
             lift = 0.5 * model.geometry.tread_width * math.sin(math.radians(abs(
                 self.motion.tilt)))
+            if self.motion.rolls and (not model.inflated or len(self.deflections) != 1):
+                raise SpecError("a roll needs the inflated full model and one deflection, "
+                                f"got model kind {model.kind!r} and deflections "
+                                f"{list(self.deflections)}")
             if self.deflections[-1] + lift >= limit:
                 raise SpecError(
                     f"deflection {self.deflections[-1]} mm plus the tilted road's rise at the "

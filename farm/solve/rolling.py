@@ -35,6 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from farm.ccx import deck as D
+from farm.ccx.runner import CcxRun
 from farm.errors import ResultsError, SolverError, SpecError
 from farm.measure.patch import tread_areas
 from farm.measure.surface import VOIGT, tensor_from_voigt
@@ -47,8 +48,8 @@ from farm.solve.contact import (
     tilted_gap,
     touch_height,
 )
-from farm.solve.states import SolvedState
-from farm.specs import ModelSpec, RoadMotion, Roll, SolverSettings
+from farm.solve.states import PathSolution, SolvedState
+from farm.specs import LoadPath, ModelSpec, RoadMotion, Roll, SolverSettings
 
 
 @dataclass(frozen=True, eq=False)
@@ -286,6 +287,13 @@ def solve_roll(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: flo
                roll: Roll, settings: SolverSettings, fractions: Sequence[float] = (1.0,),
                should_stop: Callable[[], bool] | None = None) -> list[RolledState]:
     """Roll the inflated, deflected tyre; one state per fraction of the roll."""
+    return _roll_run(spec, mesh, deflection, pressure, roll, settings, fractions,
+                     should_stop)[1]
+
+
+def _roll_run(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: float,
+              roll: Roll, settings: SolverSettings, fractions: Sequence[float],
+              should_stop: Callable[[], bool] | None) -> tuple[CcxRun, list[RolledState]]:
     if not spec.inflated or spec.road != "contact":
         raise SpecError("rolling needs the inflated full model with the contact road "
                         "(model kind 'full', road 'contact')")
@@ -293,7 +301,7 @@ def solve_roll(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: flo
     deck, times, road, z_start = roll_deck(spec, mesh, deflection, pressure, roll, settings,
                                            touch_z, fractions)
     try:
-        _, frd = _solve(deck, settings, should_stop, "roll")
+        run, frd = _solve(deck, settings, should_stop, "roll")
     except SolverError as e:
         raise (e.located(_stage(e.reached, deflection, roll)) if e.reached is not None
                else e) from e
@@ -303,9 +311,42 @@ def solve_roll(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: flo
     motion = RoadMotion(friction=roll.friction, tilt=roll.tilt, rise="normal")
     still = RoadMotion(friction=roll.friction)
     reference = _combined_state(frd, mesh, faces, road, 1.0, 0.0, np.nan, still)
-    return [_rolled(_combined_state(frd, mesh, faces, road, t, deflection, centre_z, motion),
-                    reference, mesh, roll, f)
-            for t, f in zip(times, fractions, strict=True)]
+    return run, [_rolled(_combined_state(frd, mesh, faces, road, t, deflection, centre_z,
+                                         motion, run.seconds_to(t)), reference, mesh, roll, f)
+                 for t, f in zip(times, fractions, strict=True)]
+
+
+def solve_rolling_path(spec: ModelSpec, mesh: TyreMesh, path: LoadPath,
+                       settings: SolverSettings,
+                       should_stop: Callable[[], bool] | None = None) -> PathSolution:
+    """A rolling experiment (``path.motion.rolls``) as a load path of one state: the end
+    of the roll, read by the camera (:func:`camera_state`), so that
+    :func:`farm.measure.measurement.measure` and the store take it as any other state.
+
+    A free rolling radius (``motion.rolling_radius`` None) is found first
+    (:func:`free_rolling_radius`, a few rolls at kappa = 0); the path's seconds and ccx
+    runs count those rolls too, and the roll that ends there is reused when kappa = 0.
+    """
+    motion = path.motion
+    if motion is None or not motion.rolls:
+        raise SpecError("not a rolling path: give the motion a roll (mm of road travel)")
+    if len(path.deflections) != 1:
+        raise SpecError(f"a rolling path has one deflection, got {list(path.deflections)}")
+    [deflection] = path.deflections
+    spent, runs, increments = 0.0, 0, 0
+    radius = motion.rolling_radius
+    if radius is None:
+        radius, tried = free_rolling_radius(spec, mesh, deflection, path.pressure,
+                                            motion.as_roll(400.0), settings,
+                                            should_stop=should_stop)
+        spent, runs = sum(t.seconds for t in tried), len(tried)
+        increments = sum(t.increments for t in tried)
+    run, [end] = _roll_run(spec, mesh, deflection, path.pressure, motion.as_roll(radius),
+                           settings, (1.0,), should_stop)
+    seen = dataclasses.replace(camera_state(end, mesh), motion=motion,
+                               solve_seconds=spent + run.seconds)
+    return PathSolution(end.reference, (seen,), spent + run.seconds, runs + 1,
+                        increments + run.increments)
 
 
 def _stage(time: float, deflection: float, roll: Roll) -> str:
@@ -317,35 +358,50 @@ def _stage(time: float, deflection: float, roll: Roll) -> str:
     return f"in the roll at {deflection:g} mm, after {(time - 2.0) * roll.distance:.1f} mm"
 
 
+@dataclass(frozen=True)
+class RadiusTry:
+    """One roll of :func:`free_rolling_radius`: its radius (mm), Fx at its end (N), and
+    what its ccx run cost."""
+
+    radius: float
+    fx: float
+    seconds: float
+    increments: int
+
+
 def free_rolling_radius(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: float,
                         roll: Roll, settings: SolverSettings, *, tolerance: float = 0.005,
-                        max_rolls: int = 6) -> tuple[float, list[tuple[float, float]]]:
+                        max_rolls: int = 6,
+                        should_stop: Callable[[], bool] | None = None,
+                        ) -> tuple[float, list[RadiusTry]]:
     """The effective rolling radius r_e: where a roll at ``roll.slip_ratio`` = 0 ends
     with Fx = 0 (within ``tolerance`` of Fz). Secant steps on 1/r (the spin per mm of
     travel, in which Fx is nearly linear near free rolling), starting from
     R - deflection / 3 and R, R the inflated tyre's outer radius (:func:`inflated_radius`).
 
-    Returns (r_e, the (radius, Fx) of every roll tried).
+    Returns (r_e, every roll tried).
     """
     r0 = inflated_radius(spec, mesh, pressure, settings)
     free = dataclasses.replace(roll, slip_ratio=0.0)
-    tried: list[tuple[float, float]] = []  # (radius, Fx)
+    tried: list[RadiusTry] = []
     radius = r0 - deflection / 3.0
     while len(tried) < max_rolls:
-        [end] = solve_roll(spec, mesh, deflection, pressure,
-                           dataclasses.replace(free, rolling_radius=radius), settings)
-        tried.append((radius, float(end.force[0])))
+        run, [end] = _roll_run(spec, mesh, deflection, pressure,
+                               dataclasses.replace(free, rolling_radius=radius), settings,
+                               (1.0,), should_stop)
+        tried.append(RadiusTry(radius, float(end.force[0]), run.seconds, run.increments))
         if abs(end.force[0]) <= tolerance * abs(end.force[2]):
             return radius, tried
         if len(tried) == 1:
             radius = r0
             continue
-        (a, fa), (b, fb) = tried[-2:]
-        if fb == fa:
+        a, b = tried[-2:]
+        if b.fx == a.fx:
             break
-        radius = 1.0 / (1.0 / b - fb * (1.0 / b - 1.0 / a) / (fb - fa))
+        radius = 1.0 / (1.0 / b.radius - b.fx * (1.0 / b.radius - 1.0 / a.radius)
+                        / (b.fx - a.fx))
     raise ResultsError(f"no free-rolling radius found: Fx at the radii tried (mm, N) was "
-                       f"{[(round(r, 3), round(f, 1)) for r, f in tried]}; allow more "
+                       f"{[(round(t.radius, 3), round(t.fx, 1)) for t in tried]}; allow more "
                        "rolls (max_rolls) or a looser tolerance")
 
 

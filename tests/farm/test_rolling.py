@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from farm.errors import SpecError
+from farm.experiment import run_load_path
 from farm.measure.measurement import measure
 from farm.mesh import mesh_for
 from farm.presets import default_model
@@ -29,7 +30,7 @@ from farm.solve.rolling import (
     turned,
 )
 from farm.solve.states import PathSolution
-from farm.specs import MeshDensity, Roll, SolverSettings
+from farm.specs import LoadPath, MeshDensity, RoadMotion, Roll, SolverSettings
 
 PRESSURE, DEFLECTION, MU = 0.2, 15.0, 0.6
 R_E = 402.9  # the coarse model's free-rolling radius at 200 kPa, 15 mm (measured, 100 mm)
@@ -190,11 +191,51 @@ def test_the_free_rolling_radius_lies_between_the_loaded_and_the_inflated_radius
                                      Roll(friction=MU, distance=100.0), settings)
     r = inflated_radius(spec, mesh, PRESSURE, settings)
     assert r - DEFLECTION < r_e < r
-    radius, fx = tried[-1]
-    assert radius == r_e and abs(fx) < 0.005 * 3000
+    assert tried[-1].radius == r_e and abs(tried[-1].fx) < 0.005 * 3000
     # slip either side of free rolling: traction and braking
     roll = Roll(friction=MU, distance=100.0, rolling_radius=r_e)
     drive, brake = (solve_roll(spec, mesh, DEFLECTION, PRESSURE,
                                dataclasses.replace(roll, slip_ratio=k), settings)[-1]
                     for k in (0.02, -0.02))
     assert drive.force[0] > 0 > brake.force[0]
+
+
+def test_a_rolling_motion_is_a_roll_and_keeps_other_ids():
+    """RoadMotion.roll (issue 30): a motion rolls or slides, never both; slip needs a
+    roll; a motion without a roll hashes as before rolling existed."""
+    slide = RoadMotion(friction=0.5, shift_x=2.0, tilt=1.0)
+    assert "roll" not in slide.to_dict() and not slide.rolls
+    rolling = RoadMotion(friction=0.5, tilt=2.0, roll=80.0, slip_angle=3.0)
+    assert rolling.rolls and not rolling.is_identity and rolling.rise == "normal"
+    assert rolling.to_dict()["slip_angle"] == 3.0 and "rolling_radius" not in rolling.to_dict()
+    assert RoadMotion.from_dict(rolling.to_dict()) == rolling
+    roll = rolling.as_roll(401.0)
+    assert (roll.distance, roll.slip_angle, roll.rolling_radius, roll.tilt) == (80.0, 3.0,
+                                                                                401.0, 2.0)
+    with pytest.raises(SpecError, match="free-rolling radius"):
+        rolling.as_roll()
+    with pytest.raises(SpecError, match="not both"):
+        RoadMotion(friction=0.5, roll=80.0, shift_y=1.0)
+    with pytest.raises(SpecError, match=r"motion\.roll"):
+        RoadMotion(friction=0.5, slip_ratio=0.01)
+    with pytest.raises(SpecError, match=r"motion\.slip_angle"):
+        RoadMotion(friction=0.5, roll=80.0, slip_angle=45.0)
+
+
+@pytest.mark.ccx
+def test_a_rolling_load_path_is_measured_in_the_camera_frame(coarse):
+    """run_load_path with a rolling motion: one experiment, the roll's end seen by the
+    camera, whose tread forces balance the road's reaction (exactly at a whole number
+    of element pitches; the coarse grid is uniform) and whose motion is the path's."""
+    spec, _ = coarse
+    pitch = 2 * np.pi / 16
+    motion = RoadMotion(friction=MU, roll=2 * pitch * R_E, slip_angle=2.0,
+                        rolling_radius=R_E)
+    result = run_load_path(spec, LoadPath((DEFLECTION,), PRESSURE, motion))
+    [m] = result.measurements
+    assert m.motion == motion and result.ccx_runs == 1 and m.solve_seconds > 0
+    fz = m.road_reaction[2]
+    assert fz > 1000.0 and m.road_reaction[1] < 0  # Fy opposes the lateral travel
+    np.testing.assert_allclose(m.total_force, m.road_reaction, atol=0.02 * fz)
+    assert m.contact_nodes > 0 and set(np.unique(m.contact_status)) <= {0, 1, 2}
+    assert np.abs(m.displacement).max() > 1.0  # mm: the camera sees the road's dent
