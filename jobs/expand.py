@@ -22,7 +22,7 @@ from scipy.stats import qmc
 from farm.specs import RoadMotion
 from jobs import nested
 from jobs.identity import experiment_id, legacy_experiment_id, path_key, resolve_ids
-from jobs.study import MOTION_PARAMETERS, Study
+from jobs.study import CASE_PARAMETERS, MOTION_PARAMETERS, ROLL_PARAMETERS, Study
 
 
 @dataclass(frozen=True)
@@ -60,7 +60,7 @@ def cases(study: Study) -> list[tuple[float, float, RoadMotion | None]]:
     listed = {"deflection": study.deflections or (None,),
               "pressure": study.pressures or (None,),
               **dict(study.motions)}
-    order = ("deflection", "pressure", *(n for n in MOTION_PARAMETERS if n in listed))
+    order = ("deflection", "pressure", *(n for n in CASE_PARAMETERS if n in listed))
     rows: list[dict[str, float]]
     if study.sampling is None:
         rows = [{}]
@@ -82,13 +82,16 @@ def cases(study: Study) -> list[tuple[float, float, RoadMotion | None]]:
         if study.sampling is None:
             # the grid of before: every pressure x every deflection (pressure outer)
             axes = [("pressure", listed["pressure"]), ("deflection", listed["deflection"]),
-                    *((n, listed[n]) for n in MOTION_PARAMETERS if n in listed)]
+                    *((n, listed[n]) for n in CASE_PARAMETERS if n in listed)]
         else:
             axes = [(k, [values[k]] if k in values else listed[k]) for k in order]
         for combo in itertools.product(*(vals for _, vals in axes)):
             case = dict(zip((k for k, _ in axes), combo, strict=True))
-            motion = {n: round(_value(case, n), 9) + 0.0 for n in MOTION_PARAMETERS if n in case}
-            m = RoadMotion(**motion, rise=study.rise) if motion else None
+            motion: dict[str, float | None] = {
+                n: round(_value(case, n), 9) + 0.0 for n in CASE_PARAMETERS if n in case}
+            if study.rolling is not None:  # every case of a rolling study rolls
+                motion.update(study.rolling.fields())
+            m = RoadMotion(**motion, rise=study.rise) if motion else None  # type: ignore[arg-type]
             out.append((round(_value(case, "deflection"), 9), round(_value(case, "pressure"), 12),
                         None if m is None or m.is_identity else m))
     return out
@@ -138,7 +141,8 @@ def plan(study: Study, solver: str, held: frozenset[str] = frozenset()) -> list[
             ids = resolve_ids(ids, [legacy_experiment_id(study.model, d, p, solver)
                                     for d in found], held)
         experiments = [Experiment(i, d, p, m) for i, d in zip(ids, found, strict=True)]
-        size = 1 if m is not None and m.moves else (study.max_path_length or len(experiments))
+        size = (1 if m is not None and (m.moves or m.rolls)
+                else (study.max_path_length or len(experiments)))
         for k in range(0, len(experiments), size):
             piece = tuple(experiments[k:k + size])
             paths.append(PathPlan(path_key(e.id for e in piece), p, piece, m))
@@ -204,13 +208,15 @@ def experiments(paths: Sequence[PathPlan | TreePlan]) -> list[Experiment]:
     return [e for path in paths for e in path.experiments]
 
 
-def parameters(exps: list[Experiment], combined: bool = False) -> dict[str, np.ndarray]:
+def parameters(exps: list[Experiment], combined: bool = False,
+               rolling: bool = False) -> dict[str, np.ndarray]:
     """The load-case parameters the store keeps per experiment: deflection (mm) and
     pressure (MPa); with ``combined`` (a study with combined-load keys) also friction,
-    shift_x (mm), shift_y (mm) and tilt (deg), 0 for a vertical case among them."""
+    shift_x (mm), shift_y (mm) and tilt (deg), 0 for a vertical case among them; with
+    ``rolling`` (issue 30) also slip_ratio and slip_angle (deg)."""
     out = {"deflection": np.array([e.deflection for e in exps]),
            "pressure": np.array([e.pressure for e in exps])}
-    if combined:
-        for name in MOTION_PARAMETERS:
-            out[name] = np.array([getattr(e.motion, name) if e.motion else 0.0 for e in exps])
+    names = (*(MOTION_PARAMETERS if combined else ()), *(ROLL_PARAMETERS if rolling else ()))
+    for name in names:
+        out[name] = np.array([getattr(e.motion, name) if e.motion else 0.0 for e in exps])
     return out

@@ -77,7 +77,11 @@ from farm.specs import (
     FRICTION,
     MAX_PRESSURE_MPA,
     RISES,
+    ROLL_MM,
+    ROLLING_RADIUS_MM,
     SHIFT_MM,
+    SLIP_ANGLE_DEG,
+    SLIP_RATIO,
     TILT_DEG,
     LoadPath,
     ModelSpec,
@@ -105,7 +109,31 @@ MOTION_KEYS = {
 }
 #: The store's names of the combined-load parameters (RoadMotion's fields), in order.
 MOTION_PARAMETERS = tuple(name for name, _ in MOTION_KEYS.values())
-LOAD_KEYS = {"pressure_kpa", "deflection_mm", "sample", "tree", "rise", *MOTION_KEYS}
+#: Keys of a rolling study (issue 30; listed in [loads] or sampled): RoadMotion's fields
+ROLL_KEYS = {
+    "slip_ratio": ("slip_ratio", SLIP_RATIO),
+    "slip_angle_deg": ("slip_angle", SLIP_ANGLE_DEG),
+}
+ROLL_PARAMETERS = tuple(name for name, _ in ROLL_KEYS.values())
+#: Every key of a load case beyond deflection and pressure, in design order
+CASE_KEYS = {**MOTION_KEYS, **ROLL_KEYS}
+CASE_PARAMETERS = (*MOTION_PARAMETERS, *ROLL_PARAMETERS)
+LOAD_KEYS = {"pressure_kpa", "deflection_mm", "sample", "tree", "rise", "roll", *CASE_KEYS}
+#: [loads.roll]: the road travel of every roll (mm) and the free-rolling radius
+ROLL_DEFAULTS = {"distance_mm": 150.0, "rolling_radius_mm": "free"}
+
+
+@dataclass(frozen=True)
+class Rolling:
+    """``[loads.roll]`` of a rolling study: how far every roll goes (mm) and the
+    free-rolling radius (mm; None: found for each experiment)."""
+
+    distance: float = 150.0
+    rolling_radius: float | None = None
+
+    def fields(self) -> dict[str, float | None]:
+        """RoadMotion's fields of these settings."""
+        return {"roll": self.distance, "rolling_radius": self.rolling_radius}
 MAX_KPA = 1000 * MAX_PRESSURE_MPA
 
 
@@ -150,14 +178,15 @@ class Study:
     adaptive: AdaptiveSpec | None = None  # [study.adaptive]: rounds chosen by a surrogate
     tree: TreeDesign | None = None  # [loads.tree]: a nested design solved as trees
     rise: str = "vertical"  # how tilted roads rise (farm.specs.RoadMotion.rise)
+    rolling: Rolling | None = None  # rolling cases (issue 30): [loads.roll] or slip keys
 
     @property
     def combined(self) -> bool:
         """Whether the study gives combined-load keys (listed or sampled): its group then
         holds the parameters friction, shift_x, shift_y, tilt and the combined variables."""
         sampled = {name for name, _, _ in self.sampling.ranges} if self.sampling else set()
-        return (bool(self.motions) or bool(sampled & set(MOTION_PARAMETERS))
-                or self.tree is not None)
+        return (bool(self.motions) or bool(sampled & set(CASE_PARAMETERS))
+                or self.tree is not None or self.rolling is not None)
 
     @property
     def location(self) -> str:
@@ -180,7 +209,7 @@ class Study:
 
 def _sampling(data: Any, where: str) -> Sampling:
     t = scalars.table(data, where, {"method", "n", "seed", "deflection_mm", "pressure_kpa",
-                                    *MOTION_KEYS}, {"method", "n"})
+                                    *CASE_KEYS}, {"method", "n"})
     method = scalars.choice(t["method"], f"{where}.method", SAMPLING_METHODS)
     n = scalars.integer(t["n"], f"{where}.n", low=1)
     limits.EXPERIMENTS.check(n, f"{where}.n", f"a design of n = {n} points")
@@ -191,7 +220,7 @@ def _sampling(data: Any, where: str) -> Sampling:
     for key, name, scale, bottom, top in (
             ("deflection_mm", "deflection", 1.0, 0, None),
             ("pressure_kpa", "pressure", 1e-3, 0, MAX_KPA),
-            *((k, name, 1.0, *bounds) for k, (name, bounds) in MOTION_KEYS.items())):
+            *((k, name, 1.0, *bounds) for k, (name, bounds) in CASE_KEYS.items())):
         if key in t:
             r = t[key]
             if not (isinstance(r, list) and len(r) == 2):
@@ -202,7 +231,7 @@ def _sampling(data: Any, where: str) -> Sampling:
             ranges.append((name, low * scale, high * scale))
     if not ranges:
         raise fail(where, "give a range for deflection_mm, pressure_kpa or a combined-load "
-                   f"key ({', '.join(MOTION_KEYS)})")
+                   f"key ({', '.join(CASE_KEYS)})")
     return Sampling(method, n, seed, tuple(ranges))
 
 
@@ -225,14 +254,14 @@ def _loads(data: Any, model: ModelSpec):
     sampling = _sampling(t["sample"], "loads.sample") if "sample" in t else None
     sampled = {name for name, _, _ in sampling.ranges} if sampling else set()
     names = {"pressure_kpa": "pressure", "deflection_mm": "deflection",
-             **{k: name for k, (name, _) in MOTION_KEYS.items()}}
+             **{k: name for k, (name, _) in CASE_KEYS.items()}}
     clash = sorted(k for k in names if k in t and names[k] in sampled)
     if clash:
         raise fail(f"loads.{clash[0]}", "is both sampled and listed; give it in one place")
     motions = tuple((name, lists.values(t[key], f"loads.{key}", low=bounds[0], high=bounds[1]))
-                    for key, (name, bounds) in MOTION_KEYS.items() if key in t)
-    if (motions or sampled & set(MOTION_PARAMETERS)) and model.road != "contact":
-        key = next(k for k, (name, _) in MOTION_KEYS.items()
+                    for key, (name, bounds) in CASE_KEYS.items() if key in t)
+    if (motions or sampled & set(CASE_PARAMETERS)) and model.road != "contact":
+        key = next(k for k, (name, _) in CASE_KEYS.items()
                    if k in t or name in sampled)
         where = f"loads.{key}" if key in t else f"loads.sample.{key}"
         raise fail(where, f"combined loads need the contact road (model.road = "
@@ -252,7 +281,33 @@ def _loads(data: Any, model: ModelSpec):
         pressures = (0.0,)
     pressures = pressures or ()
     _check_count(pressures, deflections, sampling, motions=motions)
-    return pressures, deflections, sampling, motions, _rise(t, "loads")
+    given = {name for name, _ in motions} | sampled
+    rolling = (_rolling(t.get("roll", {}), given, model)
+               if "roll" in t or given & set(ROLL_PARAMETERS) else None)
+    return pressures, deflections, sampling, motions, _rise(t, "loads"), rolling
+
+
+def _rolling(data: Any, given: set[str], model: ModelSpec) -> Rolling:
+    """``[loads.roll]`` (optional where a slip key is given: its defaults)."""
+    t = scalars.table(data, "loads.roll", set(ROLL_DEFAULTS))
+    shifts = sorted(given & {"shift_x", "shift_y"})
+    if shifts:
+        raise fail(f"loads.{shifts[0]}_mm", "a rolling study rolls the tyre instead of "
+                   "sliding the road: drop the shift or the roll")
+    if model.road != "contact" or not model.inflated:
+        raise fail("loads.roll", "rolling needs the inflated full model with the contact "
+                   f"road, the model is {shown(model.kind)} with road = {shown(model.road)}")
+    low, high = ROLL_MM
+    distance = scalars.number(t.get("distance_mm", ROLL_DEFAULTS["distance_mm"]),
+                              "loads.roll.distance_mm", low=low, high=high)
+    radius = t.get("rolling_radius_mm", "free")
+    if isinstance(radius, str) and radius != "free":
+        raise fail("loads.roll.rolling_radius_mm", f"must be a radius in mm or \"free\", "
+                   f"got {shown(radius)}")
+    if radius != "free":
+        low, high = ROLLING_RADIUS_MM
+        radius = scalars.number(radius, "loads.roll.rolling_radius_mm", low=low, high=high)
+    return Rolling(float(distance), None if radius == "free" else float(radius))
 
 
 def _rise(t: dict, where: str) -> str:
@@ -301,8 +356,8 @@ def parse_study(text: str, source: str = "<study>") -> Study:
         model = spec_tables.model(data["model"])
         tree = (_tree(data["loads"], model)
                 if isinstance(data["loads"], dict) and "tree" in data["loads"] else None)
-        pressures, deflections, sampling, motions, rise = (
-            ((), (), None, (), tree.rise) if tree else _loads(data["loads"], model))
+        pressures, deflections, sampling, motions, rise, rolling = (
+            ((), (), None, (), tree.rise, None) if tree else _loads(data["loads"], model))
         solver = spec_tables.solver(data.get("solver", {}))
         models = None
         if "models" in data:
@@ -323,7 +378,7 @@ def parse_study(text: str, source: str = "<study>") -> Study:
                               models is not None) if "adaptive" in head else None)
         study = Study(name, store, group, model, pressures, deflections, sampling,
                       solver.settings, solver.max_path_length, solver.retry_smaller_increments,
-                      source, options, models, motions, adaptive, tree, rise)
+                      source, options, models, motions, adaptive, tree, rise, rolling)
         _check_loads(study)
         if models is not None:
             _check_models(study)
@@ -334,7 +389,7 @@ def _adaptive(data: Any, pressures: tuple, deflections: tuple, sampling: Samplin
               motions: tuple, models: bool) -> AdaptiveSpec:
     spec = parse_adaptive(data)
     listed = {"pressure_kpa": pressures, "deflection_mm": deflections,
-              **{key: dict(motions).get(name, ()) for key, (name, _) in MOTION_KEYS.items()}}
+              **{key: dict(motions).get(name, ()) for key, (name, _) in CASE_KEYS.items()}}
     sampled = tuple(name for name, _, _ in sampling.ranges) if sampling else ()
     check_loads(spec, sampled, listed, sampling.n if sampling else 0, models)
     return spec
@@ -366,6 +421,9 @@ def _check_loads(study: Study) -> None:
     for p in [*study.pressures, *ranges.get("pressure", ())]:
         try:
             LoadPath(tuple(sorted({low, top})), p, motion).check_against(study.model)
+            if study.rolling is not None:  # one deflection a roll; the highest, tilted
+                LoadPath((top,), p, RoadMotion(tilt=steepest, **study.rolling.fields())
+                         ).check_against(study.model)
         except SpecError as e:
             raise StudyError(f"loads: {e}") from e
 

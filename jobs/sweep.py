@@ -205,7 +205,9 @@ class Sweep(Strategy[SweepReport]):
         paths: list = tree_plan(study, solver) if trees else plan(study, solver, _held(study))
         exps = experiments(paths)
         ids = [e.id for e in exps]
-        storage.reserve(study.store, study.group_name, ids, parameters(exps, study.combined))
+        rolling = study.rolling is not None
+        storage.reserve(study.store, study.group_name, ids,
+                        parameters(exps, study.combined, rolling))
         status = storage.statuses(study.store, study.group_name, ids)
         self._status.update(status)  # a tree's slides to submit (_submit_tree)
         todo = _todo(paths, status, self.retry_failed)

@@ -141,6 +141,8 @@ KNOWN_PARAMETER_UNITS = {
     "shift_x": "mm",
     "shift_y": "mm",
     "tilt": "deg",
+    "slip_ratio": "1",
+    "slip_angle": "deg",
 }
 #: The combined-load parameters (farm.specs.RoadMotion's fields, store units above):
 #: reserving any of them makes a group a combined one (:data:`COMBINED_VARIABLES`).
@@ -151,6 +153,9 @@ COMBINED_LONG_NAMES = {
     "shift_x": "road slide along x (longitudinal) after the deflection",
     "shift_y": "road slide along its lateral axis after the deflection",
     "tilt": "road rotation about x (camber), +y side up",
+    # rolling (issue 30): a combined group whose experiments roll instead of sliding
+    "slip_ratio": "longitudinal slip kappa (SAE) of the roll: > 0 drives, < 0 brakes",
+    "slip_angle": "slip angle of the roll: between the wheel plane and its travel",
 }
 
 RESULT_VARIABLES = (
