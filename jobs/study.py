@@ -422,8 +422,9 @@ def _check_loads(study: Study) -> None:
         try:
             LoadPath(tuple(sorted({low, top})), p, motion).check_against(study.model)
             if study.rolling is not None:  # one deflection a roll; the highest, tilted
-                LoadPath((top,), p, RoadMotion(tilt=steepest, **study.rolling.fields())
-                         ).check_against(study.model)
+                roll = RoadMotion(tilt=steepest, roll=study.rolling.distance,
+                                  rolling_radius=study.rolling.rolling_radius)
+                LoadPath((top,), p, roll).check_against(study.model)
         except SpecError as e:
             raise StudyError(f"loads: {e}") from e
 

@@ -367,8 +367,12 @@ def make_combined_store(
     coupling: float = 0.1,
     group: str = "combined",
     seed: int = 0,
+    rolling: bool = False,
 ) -> str:
     """Write a synthetic combined-load group (issue 13) into ``path``; returns its name.
+
+    ``rolling`` (issue 30) adds the parameters ``slip_ratio`` (0.002 x shift_x) and
+    ``slip_angle`` (0.5 x tilt, deg) of a rolling group: linear in what shapes the fields.
 
     Same schema as :func:`make_store` plus the load parameters ``friction`` (1),
     ``shift_x``, ``shift_y`` (mm) and ``tilt`` (deg) along ``experiment`` and all three
@@ -385,6 +389,9 @@ def make_combined_store(
     ds = _skeleton(geo, c["deflection"], c["pressure"], status, forces, group, seed)
     for name in COMBINED_PARAMETERS:
         ds[name] = ("experiment", c[name], {"units": _COMBINED_UNITS[name], "role": "parameter"})
+    if rolling:
+        ds["slip_ratio"] = ("experiment", 0.002 * c["shift_x"], {"units": "1", "role": "parameter"})
+        ds["slip_angle"] = ("experiment", 0.5 * c["tilt"], {"units": "deg", "role": "parameter"})
     rng = np.random.default_rng([seed, 13])
     for name, field in combined_fields(geo, c).items():
         scale = SCALE["displacement" if name == "displacement" else "strain"]

@@ -51,7 +51,10 @@ from analysis.studies.common import Report
 
 #: load parameters of a combined-load group (docs/combined-loads.md, RoadMotion.to_dict)
 MOTION_PARAMETERS = ("friction", "shift_x", "shift_y", "tilt")
-LOAD_PARAMETERS = ("deflection", "pressure", *MOTION_PARAMETERS)
+#: a rolling group's (issue 30, docs/rolling.md): predicted too, as the field asks
+ROLL_PARAMETERS = ("slip_ratio", "slip_angle")
+LOAD_PARAMETERS = ("deflection", "pressure", *MOTION_PARAMETERS, *ROLL_PARAMETERS)
+ROLL_UNITS = {"slip_ratio": "1", "slip_angle": "deg"}
 #: input sets; "both" = displacement and strain side by side, one block each
 INPUT_SETS = {
     "displacement": ("displacement",),
@@ -86,11 +89,12 @@ def varying_parameters(ds: xr.Dataset) -> list[str]:
 def check_combined(ds: xr.Dataset) -> list[str]:
     """The varying load parameters; :class:`NoVarianceError` unless a motion one varies."""
     varying = varying_parameters(ds)
-    if not any(p in varying for p in MOTION_PARAMETERS):
+    if not any(p in varying for p in (*MOTION_PARAMETERS, *ROLL_PARAMETERS)):
         shown = ", ".join(varying) or "none"
         raise NoVarianceError(
             f"group {ds.attrs.get('group', '?')!r} is not a combined-load selection: none of "
-            f"{', '.join(MOTION_PARAMETERS)} varies (varying: {shown}); run a combined study "
+            f"{', '.join((*MOTION_PARAMETERS, *ROLL_PARAMETERS))} varies (varying: {shown}); "
+            "run a combined study "
             "(e.g. examples/combined_quick.toml) or use `farm analyse plsr`"
         )
     return varying
@@ -199,7 +203,9 @@ class _Results:
                setup: _Setup) -> None:
         """The held-out errors of one model's predictions ``P`` of ``Yt``."""
         shown = key["scenario"] == "noise-free" and key["method"] == "plsr"
-        if key["target"] == "totals":
+        if key["target"] == "slip":
+            self.totals.append(_total_errors(P, Yt, Y, key, tuple(ROLL_UNITS)))
+        elif key["target"] == "totals":
             self.totals.append(_total_errors(P, Yt, Y, key))
             if shown:
                 self.preds[key["inputs"]] = (Y[setup.test], P)
@@ -240,7 +246,12 @@ def _targets(ds: xr.Dataset) -> dict[str, tuple[np.ndarray, list[int]]]:
                                                        "component").values, dtype=float)
     M = forces.shape[1]
     Y_map = np.concatenate([forces[:, :, j] for j in range(3)], axis=1)
-    return {"totals": (totals(ds), [1] * 6), "nodal": (Y_map, [M, M, M])}
+    out = {"totals": (totals(ds), [1] * 6), "nodal": (Y_map, [M, M, M])}
+    rolled = [n for n in ROLL_PARAMETERS if n in varying_parameters(ds)]
+    if rolled:  # a rolling study: its slip ratio and slip angle, from the camera too
+        out["slip"] = (np.column_stack([np.asarray(ds[n].values, dtype=float)
+                                        for n in ROLL_PARAMETERS]), [1, 1])
+    return out
 
 
 def _scenario_sigmas(vars_: tuple[str, ...], blocks: list[np.ndarray]) -> dict[str, np.ndarray]:
@@ -370,14 +381,16 @@ def _pct(rmse: float, span: float) -> float:
     return 100.0 * rmse / span if span > 0 else float("nan")
 
 
-def _total_errors(P, Yt, Y_all, key) -> pd.DataFrame:
-    """RMSE per total over the held-out rows (and draws), % of the total's range over all
-    selected experiments: the load range of the design, not that of a few test cases."""
+def _total_errors(P, Yt, Y_all, key, names: tuple[str, ...] = TOTALS) -> pd.DataFrame:
+    """RMSE per total (or slip parameter) over the held-out rows (and draws), % of its
+    range over all selected experiments: the load range of the design, not that of a few
+    test cases."""
     rows = []
-    for j, name in enumerate(TOTALS):
+    for j, name in enumerate(names):
         rmse = float(np.sqrt(np.mean((P[:, j] - Yt[:, j]) ** 2)))
         span = float(np.ptp(Y_all[:, j]))
-        rows.append({**key, "total": name, "unit": "N" if name[0] == "F" else "N mm",
+        unit = ROLL_UNITS.get(name) or ("N" if name[0] == "F" else "N mm")
+        rows.append({**key, "total": name, "unit": unit,
                      "rmse": rmse, "range": span, "rmse_pct_range": _pct(rmse, span)})
     return pd.DataFrame(rows)
 
@@ -476,7 +489,8 @@ def _summary(report, ds, varying, train, test, folds, draws, figures, cap) -> No
     tot = report.tables["totals"]
     wide = tot.pivot_table(index=["inputs", "method", "scenario", "training"], columns="total",
                            values="rmse_pct_range", sort=False).reset_index()
-    wide = wide[["inputs", "method", "scenario", "training", *TOTALS]]
+    slips = [n for n in ROLL_PARAMETERS if n in wide.columns]  # a rolling group's
+    wide = wide[["inputs", "method", "scenario", "training", *TOTALS, *slips]]
     nod = report.tables["nodal"].pivot_table(index=["inputs", "method", "scenario", "training"],
                                              columns="component", values="rmse_pct_range",
                                              sort=False).reset_index()
