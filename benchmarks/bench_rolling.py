@@ -1,6 +1,6 @@
 """Cost of a rolling experiment (issue 30) vs a slide on the same mesh, and how far a roll
 must go before its forces settle (run: .venv/bin/python benchmarks/bench_rolling.py
-[--circumferential N] [--distance MM] [--slip-ratio K] [--radius MM]).
+[--circumferential N] [--wall T,S,B] [--distance MM] [--slip-ratio K] [--radius MM]).
 
 Both cases are one ccx run from rest on the full model with ``table-3.1`` materials at
 200 kPa and 15 mm, mu 0.6, the inflation pre-run cached before timing: a slide of 10 mm
@@ -12,11 +12,12 @@ final one (the roll-in distance; "not settled" when only the last one does). Not
 asserted (noisy machines).
 
 ``--curves``: the rolling tyre's characteristic curves instead (issue 30): Fx against
-the slip ratio (``--kappas``) and Fy, Mz against the slip angle (``--alphas``), one roll
-each at the given radius, the values at the end of the roll; printed as tables with
-the slip stiffness dFx/dkappa and the cornering stiffness dFy/dalpha fitted through the
-origin over the points with |kappa| <= 0.005 and |alpha| <= 1 degree, and the pneumatic
-trail -Mz/Fy. ``--figure PATH`` also draws them (PNG).
+the slip ratio (``--kappas``, empty: none) and Fy, Mz against the slip angle
+(``--alphas``), one roll each at the given radius (``--radius free``: found first), the
+values at the end of the roll; printed as tables with the slip stiffness dFx/dkappa and
+the cornering stiffness dFy/dalpha fitted through the origin over the points with
+|kappa| <= 0.005 and |alpha| <= 1 degree, and the pneumatic trail -Mz/Fy. ``--figure
+PATH`` also draws them (PNG). ``--wall`` sets the elements through the wall.
 """
 
 from __future__ import annotations
@@ -33,7 +34,7 @@ from farm.experiment import run_load_path
 from farm.mesh import mesh_for
 from farm.presets import default_model
 from farm.solve.contact import touch_height
-from farm.solve.rolling import solve_roll
+from farm.solve.rolling import free_rolling_radius, solve_roll
 from farm.specs import LoadPath, MeshDensity, RoadMotion, Roll, SolverSettings
 
 PRESSURE, DEFLECTION, MU = 0.2, 15.0, 0.6
@@ -62,9 +63,16 @@ def settled(travel: np.ndarray, fx: np.ndarray, rtol: float = 0.01) -> float | N
 
 def curves(spec, mesh, settings, args) -> None:
     """Fx(kappa), Fy(alpha) and Mz(alpha) at the end of one roll each (see the module)."""
-    base = Roll(friction=MU, distance=args.distance, rolling_radius=args.radius)
-    kappas = [float(k) for k in args.kappas.split(",")]
-    alphas = [float(a) for a in args.alphas.split(",")]
+    if args.radius == "free":
+        found, tried = free_rolling_radius(spec, mesh, DEFLECTION, PRESSURE,
+                                           Roll(friction=MU, distance=args.distance),
+                                           settings)
+        print(f"free-rolling radius: {found:.2f} mm ({len(tried)} rolls; Fx at the last "
+              f"{tried[-1].fx:.1f} N)", flush=True)
+        args.radius = found
+    base = Roll(friction=MU, distance=args.distance, rolling_radius=float(args.radius))
+    kappas = [float(k) for k in args.kappas.split(",") if k.strip()]
+    alphas = [float(a) for a in args.alphas.split(",") if a.strip()]
 
     def end(**kw):
         """The state at the end of one roll, or None when ccx failed (printed: data)."""
@@ -127,16 +135,23 @@ def main() -> None:
     parser.add_argument("--circumferential", type=int, default=32)
     parser.add_argument("--distance", type=float, default=150.0)
     parser.add_argument("--slip-ratio", type=float, default=0.005)
-    parser.add_argument("--radius", type=float, default=400.57,
-                        help="free-rolling radius, mm (measured on 32 elements round)")
+    parser.add_argument("--radius", default="400.57",
+                        help="free-rolling radius, mm (measured on 32 elements round, wall "
+                             "4,2,1), or 'free' to find it first (--curves)")
+    parser.add_argument("--wall", default="4,2,1",
+                        help="elements through the tread, sidewall and bead: 4,2,1 (the "
+                             "tests' coarse wall) or 8,5,2 (the thesis', `farm roll`'s)")
     parser.add_argument("--curves", action="store_true",
                         help="Fx(kappa), Fy(alpha), Mz(alpha) instead of the cost")
     parser.add_argument("--kappas", default="-0.01,-0.005,-0.002,0,0.002,0.005,0.01")
     parser.add_argument("--alphas", default="-2,-1,-0.5,0.5,1,2,4")
     parser.add_argument("--figure", default=None)
     args = parser.parse_args()
-    spec = default_model("full", mesh=MeshDensity(tread=4, sidewall=2, bead=1,
+    tread, sidewall, bead = (int(n) for n in args.wall.split(","))
+    spec = default_model("full", mesh=MeshDensity(tread=tread, sidewall=sidewall, bead=bead,
                                                   circumferential=args.circumferential))
+    if args.radius != "free" or not args.curves:
+        args.radius = float(args.radius)
     mesh = mesh_for(spec)
     settings = SolverSettings()
     touch_height(spec, mesh, PRESSURE, settings)  # cached before timing
