@@ -15,6 +15,7 @@ from __future__ import annotations
 import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from scipy.stats import qmc
@@ -87,11 +88,12 @@ def cases(study: Study) -> list[tuple[float, float, RoadMotion | None]]:
             axes = [(k, [values[k]] if k in values else listed[k]) for k in order]
         for combo in itertools.product(*(vals for _, vals in axes)):
             case = dict(zip((k for k, _ in axes), combo, strict=True))
-            motion: dict[str, float | None] = {
+            motion: dict[str, Any] = {
                 n: round(_value(case, n), 9) + 0.0 for n in CASE_PARAMETERS if n in case}
             if study.rolling is not None:  # every case of a rolling study rolls
-                motion.update(study.rolling.fields())
-            m = RoadMotion(**motion, rise=study.rise) if motion else None  # type: ignore[arg-type]
+                motion |= {"roll": study.rolling.distance,
+                           "rolling_radius": study.rolling.rolling_radius}
+            m = RoadMotion(**motion, rise=study.rise) if motion else None
             out.append((round(_value(case, "deflection"), 9), round(_value(case, "pressure"), 12),
                         None if m is None or m.is_identity else m))
     return out

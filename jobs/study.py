@@ -130,10 +130,6 @@ class Rolling:
 
     distance: float = 150.0
     rolling_radius: float | None = None
-
-    def fields(self) -> dict[str, float | None]:
-        """RoadMotion's fields of these settings."""
-        return {"roll": self.distance, "rolling_radius": self.rolling_radius}
 MAX_KPA = 1000 * MAX_PRESSURE_MPA
 
 
