@@ -325,7 +325,8 @@ def solve_rolling_path(spec: ModelSpec, mesh: TyreMesh, path: LoadPath,
 
     A free rolling radius (``motion.rolling_radius`` None) is found first
     (:func:`free_rolling_radius`, a few rolls at kappa = 0); the path's seconds and ccx
-    runs count those rolls too, and the roll that ends there is reused when kappa = 0.
+    runs count those rolls too. (At kappa = 0 the last of them is the experiment's own
+    roll, solved once more: kept simple, at the cost of one roll.)
     """
     motion = path.motion
     if motion is None or not motion.rolls:

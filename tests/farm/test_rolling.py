@@ -239,3 +239,16 @@ def test_a_rolling_load_path_is_measured_in_the_camera_frame(coarse):
     np.testing.assert_allclose(m.total_force, m.road_reaction, atol=0.02 * fz)
     assert m.contact_nodes > 0 and set(np.unique(m.contact_status)) <= {0, 1, 2}
     assert np.abs(m.displacement).max() > 1.0  # mm: the camera sees the road's dent
+
+
+@pytest.mark.slow
+@pytest.mark.ccx
+def test_a_free_rolling_path_finds_its_radius_first(coarse):
+    """rolling_radius None: the path finds r_e (rolls at kappa = 0 until Fx is 0.5 % of
+    Fz) and then rolls; its ccx runs count the search, and at kappa = 0 it ends free."""
+    spec, _ = coarse
+    result = run_load_path(spec, LoadPath((DEFLECTION,), PRESSURE,
+                                          RoadMotion(friction=MU, roll=60.0)))
+    [m] = result.measurements
+    assert result.ccx_runs >= 3  # two secant starts at least, then the roll
+    assert abs(m.road_reaction[0]) <= 0.005 * m.road_reaction[2]
