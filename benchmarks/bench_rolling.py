@@ -113,13 +113,14 @@ def curves(spec, mesh, settings, args) -> None:
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        fig, ax = plt.subplots(1, 3, figsize=(12, 3.6))
-        ax[0].plot(kappas, fx, "o-")
-        ax[0].set(xlabel="slip ratio kappa", ylabel="Fx (N)")
-        ax[1].plot(alphas, fy, "o-")
-        ax[1].set(xlabel="slip angle (deg)", ylabel="Fy (N)")
-        ax[2].plot(alphas, mz, "o-")
-        ax[2].set(xlabel="slip angle (deg)", ylabel="Mz (N m)")
+        panels = ([(kappas, fx, "slip ratio kappa", "Fx (N)")] if kappas else []) + (
+            [(alphas, fy, "slip angle (deg)", "Fy (N)"),
+             (alphas, mz, "slip angle (deg)", "Mz (N m)")] if alphas else [])
+        fig, ax = plt.subplots(1, len(panels), figsize=(4 * len(panels), 3.6), squeeze=False)
+        ax = ax[0]
+        for axis, (x, y, xlabel, ylabel) in zip(ax, panels, strict=True):
+            axis.plot(x, y, "o-")
+            axis.set(xlabel=xlabel, ylabel=ylabel)
         for axis in ax:
             axis.grid(alpha=0.3)
         fig.suptitle(f"rolling, {mesh.n_nodes} nodes, {PRESSURE * 1000:g} kPa, "
