@@ -16,12 +16,12 @@ from pathlib import Path
 import numpy as np
 
 from farm.ccx.runner import ccx_version
+from farm.measure.camera import rolling_solution
 from farm.measure.measurement import Measurement, measure
 from farm.measure.patch import PatchMetrics, inflation_growth, patch_metrics, tread_areas
 from farm.mesh import TyreMesh, mesh_for
 from farm.solve.contact import solve_contact_path
 from farm.solve.iterative import solve_iterative_path
-from farm.solve.rolling import solve_rolling_path
 from farm.solve.states import PathSolution, SolvedState
 from farm.specs import LoadPath, ModelSpec, SolverSettings
 
@@ -99,9 +99,9 @@ class PathResult:
 def solve_path(model: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: SolverSettings,
                should_stop: Callable[[], bool] | None = None) -> PathSolution:
     """Dispatch on the road boundary condition of ``model`` (and on a rolling motion:
-    :func:`farm.solve.rolling.solve_rolling_path`)."""
+    :func:`farm.measure.camera.rolling_solution`: the roll's end as the camera sees it)."""
     if path.motion is not None and path.motion.rolls:
-        return solve_rolling_path(model, mesh, path, settings, should_stop)
+        return rolling_solution(model, mesh, path, settings, should_stop)
     solver = solve_contact_path if model.road == "contact" else solve_iterative_path
     return solver(model, mesh, path, settings, should_stop)
 

@@ -37,8 +37,6 @@ import numpy as np
 from farm.ccx import deck as D
 from farm.ccx.runner import CcxRun
 from farm.errors import ResultsError, SolverError, SpecError
-from farm.measure.patch import tread_areas
-from farm.measure.surface import VOIGT, tensor_from_voigt
 from farm.mesh.tyremesh import TyreMesh
 from farm.solve.contact import (
     TILT_TIME,
@@ -48,7 +46,7 @@ from farm.solve.contact import (
     tilted_gap,
     touch_height,
 )
-from farm.solve.states import PathSolution, SolvedState
+from farm.solve.states import SolvedState
 from farm.specs import LoadPath, ModelSpec, RoadMotion, Roll, SolverSettings
 
 
@@ -67,7 +65,7 @@ class RolledState:
 
     ``solved`` is the state as the solver left it (material node order, strains in the
     reference axes), ``reference`` the inflated, unloaded tyre before the road touched:
-    :func:`camera_state` re-reads ``solved`` at the grid's fixed places.
+    :func:`farm.measure.camera.camera_state` re-reads ``solved`` at the grid's fixed places.
     """
 
     fraction: float
@@ -204,72 +202,6 @@ def on_grid(values: np.ndarray, mesh: TyreMesh, spin: float,
     return out
 
 
-def _turn_matrix(spin: float) -> np.ndarray:
-    """The matrix of :func:`turned`: ``turned(p, spin) == p @ R.T``."""
-    c, s = math.cos(spin), math.sin(spin)
-    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
-
-
-def _nearest_column(values: np.ndarray, mesh: TyreMesh, spin: float,
-                    grid: np.ndarray) -> np.ndarray:
-    """Like :func:`on_grid` for values that do not interpolate (stick/slip states): the
-    column nearest to phi + spin, (n_rows, n_columns, k)."""
-    phi = np.asarray(mesh.angles, dtype=float)
-    gap = np.angle(np.exp(1j * (phi[None, :] - (phi + spin)[:, None])))  # wrapped
-    nearest = np.argmin(np.abs(gap), axis=1)
-    return values[grid - 1][:, nearest]
-
-
-def camera_state(rolled: RolledState, mesh: TyreMesh) -> SolvedState:
-    """The rolled state read at the grid's fixed places, as a standing tyre's state.
-
-    What lies at each node's place in the contact frame is the material the spin has
-    carried there (:func:`on_grid`); each array is re-read so that
-    :func:`farm.measure.measurement.measure` takes it as it takes a standing tyre's:
-
-    - displacement: the reference's + the camera field, so that its change from the
-      inflated reference is what the camera sees (the inflated tyre is axisymmetric);
-    - strain: each material point's Lagrange strain is referred to its own reference
-      axes; turned with it by the spin, its surface components are its own;
-    - tread forces: as force per tributary area (a refined window holds smaller nodes),
-      times the fixed place's area; stick/slip from the nearest column;
-    - the road's reaction and moment, the road height and the motion: unchanged.
-
-    Between the columns of a grid that is not uniform, the re-read forces sum to the road's reaction
-    only approximately (``road_reaction`` stays exact; ``total_force`` is their sum).
-    """
-    state, spin = rolled.solved, rolled.spin
-    first, stop = mesh.tread_rows
-    tread_grid = mesh.outer_grid[first:stop]
-    n_tread = tread_grid.size
-
-    def tread(values: np.ndarray) -> np.ndarray:  # (n_tread, k) grid order -> on grid
-        full = np.zeros((mesh.n_nodes, values.shape[1]))
-        full[tread_grid.ravel() - 1] = values
-        return on_grid(full, mesh, spin, tread_grid).reshape(n_tread, -1)
-
-    displacement = rolled.reference.displacement.copy()
-    for grid in (mesh.inner_grid, mesh.outer_grid):
-        displacement[grid.ravel() - 1] += on_grid(rolled.camera, mesh, spin,
-                                                  grid).reshape(-1, 3)
-    # R E R^T: the strain in the axes the spin turned the material's into
-    turn = _turn_matrix(spin)
-    tensors = turn @ tensor_from_voigt(state.strain) @ turn.T
-    voigt = np.stack([tensors[:, i, j] for i, j in VOIGT], axis=1)
-    full = np.zeros((mesh.n_nodes, 6))
-    full[mesh.inner_grid.ravel() - 1] = voigt
-    strain = on_grid(full, mesh, spin).reshape(-1, 6)
-    areas = tread_areas(mesh)[:, None]
-    force = tread(state.tread_force / areas) * areas
-    status = np.zeros((mesh.n_nodes, 1))
-    assert state.contact_status is not None and state.tread_slip is not None
-    status[tread_grid.ravel() - 1, 0] = state.contact_status
-    contact = _nearest_column(status, mesh, spin, tread_grid).reshape(-1).astype(np.int8)
-    return dataclasses.replace(state, displacement=displacement, strain=strain,
-                               tread_force=force, contact_status=contact,
-                               tread_slip=tread(state.tread_slip))
-
-
 def _rolled(state: SolvedState, reference: SolvedState, mesh: TyreMesh, roll: Roll,
             fraction: float) -> RolledState:
     """A roll's state from the combined-load state at its time (the road's reaction and
@@ -316,17 +248,17 @@ def _roll_run(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: floa
                  for t, f in zip(times, fractions, strict=True)]
 
 
-def solve_rolling_path(spec: ModelSpec, mesh: TyreMesh, path: LoadPath,
-                       settings: SolverSettings,
-                       should_stop: Callable[[], bool] | None = None) -> PathSolution:
-    """A rolling experiment (``path.motion.rolls``) as a load path of one state: the end
-    of the roll, read by the camera (:func:`camera_state`), so that
-    :func:`farm.measure.measurement.measure` and the store take it as any other state.
+def roll_to_end(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: SolverSettings,
+                should_stop: Callable[[], bool] | None = None,
+                ) -> tuple[RolledState, float, int, int]:
+    """A rolling experiment (``path.motion.rolls``): its state at the roll's end, and the
+    solver seconds, ccx runs and increments it took.
 
     A free rolling radius (``motion.rolling_radius`` None) is found first
-    (:func:`free_rolling_radius`, a few rolls at kappa = 0); the path's seconds and ccx
-    runs count those rolls too. (At kappa = 0 the last of them is the experiment's own
-    roll, solved once more: kept simple, at the cost of one roll.)
+    (:func:`free_rolling_radius`, a few rolls at kappa = 0); the seconds and runs count
+    those rolls too. (At kappa = 0 the last of them is the experiment's own roll, solved
+    once more: kept simple, at the cost of one roll.) The camera's view of the state is
+    :func:`farm.measure.camera.rolling_solution`'s.
     """
     motion = path.motion
     if motion is None or not motion.rolls:
@@ -344,10 +276,7 @@ def solve_rolling_path(spec: ModelSpec, mesh: TyreMesh, path: LoadPath,
         increments = sum(t.increments for t in tried)
     run, [end] = _roll_run(spec, mesh, deflection, path.pressure, motion.as_roll(radius),
                            settings, (1.0,), should_stop)
-    seen = dataclasses.replace(camera_state(end, mesh), motion=motion,
-                               solve_seconds=spent + run.seconds)
-    return PathSolution(end.reference, (seen,), spent + run.seconds, runs + 1,
-                        increments + run.increments)
+    return end, spent + run.seconds, runs + 1, increments + run.increments
 
 
 def _stage(time: float, deflection: float, roll: Roll) -> str:

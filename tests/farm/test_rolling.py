@@ -18,11 +18,11 @@ import pytest
 
 from farm.errors import SpecError
 from farm.experiment import run_load_path
+from farm.measure.camera import camera_state
 from farm.measure.measurement import measure
 from farm.mesh import mesh_for
 from farm.presets import default_model
 from farm.solve.rolling import (
-    camera_state,
     free_rolling_radius,
     inflated_radius,
     on_grid,
