@@ -244,22 +244,17 @@ def road_position_lines(road: Road, travel: float, shift: tuple[float, float],
                         tilt: float, rise: str = "vertical") -> list[str]:
     """``*BOUNDARY`` (no amplitude) placing every road node where
     :func:`road_motion_lines` takes it: turned by ``tilt``, risen by ``travel`` and slid
-    by ``shift`` in its own plane.
+    by ``shift`` in its own plane (:func:`_road_values`).
 
-    For the steps that continue a saved state (:mod:`farm.solve.tree`): a new step's
-    step time starts at 0, so the amplitudes of the first step would start the road
-    over; absolute values without an amplitude ramp linearly from where the road is.
+    In a later step these values ramp from where the road is from the first increment
+    on, which makes ccx's first iteration linear: the trees use :func:`road_step_lines`
+    (the same place, reached after a hold); the tests use this to reproduce the decks
+    of before.
     """
     ids = np.arange(road.first_node, road.first_node + len(road.xyz))
-    angle = math.radians(tilt)
-    rot = _tilt_displacement(road, tilt)
-    sy, sz = shift[1] * math.cos(angle), shift[1] * math.sin(angle)
-    ry, rz = _rise(travel, tilt, rise)
-    lines = ["*BOUNDARY"]
-    for i, (uy, uz) in zip(ids, rot, strict=True):
-        lines += [f"{i}, 1, 1, {_num(shift[0])}", f"{i}, 2, 2, {_num(uy + ry + sy)}",
-                  f"{i}, 3, 3, {_num(uz + rz + sz)}"]
-    return lines
+    values = _road_values(road, travel, shift, tilt, rise)
+    return ["*BOUNDARY", *(f"{i}, {dof + 1}, {dof + 1}, {_num(values[k, dof])}"
+                           for k, i in enumerate(ids) for dof in range(3))]
 
 
 #: Step time (of a unit step) over which a new step holds the road where the last one
