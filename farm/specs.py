@@ -710,6 +710,10 @@ class SolverSettings:
     max_increment: float = 0.5
     max_increments: int = 500
     keep_scratch: bool = False
+    # Combined loads: the rise begins a second step (the road still clear of the tyre,
+    # held for that step's first increment), so that ccx's increments start small again
+    # before contact (farm.ccx.deck.Split; docs/combined-loads.md, "First touch").
+    split_rise: bool = False
 
     def __post_init__(self) -> None:
         low, high = THREADS
@@ -731,6 +735,9 @@ class SolverSettings:
                 and 1 <= self.max_increments <= MAX_INCREMENTS):
             raise SpecError(f"solver.max_increments must be an integer in [1, {MAX_INCREMENTS}], "
                             f"got {self.max_increments!r}")
+        if not isinstance(self.split_rise, bool):
+            raise SpecError("solver.split_rise must be true or false, got "
+                            f"{shown(self.split_rise)}")
 
 
 def content_hash(data: Any) -> str:

@@ -5,7 +5,8 @@ through :func:`guarded`, which applies the failure policy that
 :class:`farm.ccx.outcome.Outcome` owns:
 
 1. an outcome worth it (:attr:`Outcome.retry_smaller`: non-convergence, a crash) is
-   retried ONCE with four times smaller increments;
+   retried ONCE with four times smaller increments and, for a combined-load path, its
+   rise in a step of its own (:attr:`farm.specs.SolverSettings.split_rise`);
 2. what still fails comes back as :class:`Failed` data with its reason - a sweep records
    it in the store, a loop caches it (the same input would fail again) unless it is
    :attr:`~Failed.transient` (a timeout: not a property of the input);
@@ -79,12 +80,16 @@ T = TypeVar("T")
 
 
 def smaller_increments(settings: SolverSettings) -> SolverSettings:
-    """The same settings with four times smaller increments (and room for more of them)."""
+    """The retry's settings: four times smaller increments (and room for more of them),
+    and a combined path's rise begun in a step of its own, where increments start small
+    again before first touch (``split_rise``: the retry that got the first-touch
+    failures through, docs/combined-loads.md "First touch"; smaller increments alone
+    got none of them through)."""
     return dataclasses.replace(
         settings, initial_increment=settings.initial_increment / 4,
         max_increment=settings.max_increment / 4,
         min_increment=min(settings.min_increment, settings.initial_increment / 400),
-        max_increments=settings.max_increments * 4)
+        max_increments=settings.max_increments * 4, split_rise=True)
 
 
 def guarded(solve: Callable[[SolverSettings], T], settings: SolverSettings, *,

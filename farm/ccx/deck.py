@@ -5,8 +5,10 @@ gmsh physical groups), the Neo-Hookean materials, an optional rigid road slab wi
 node-to-surface contact, and one NLGEOM static step. Loads ramp with amplitudes inside
 ONE step: inflation over step time [0, 1], then the road over [1, 2]. (Inflating and
 loading as two ``*STEP``s was fragile in a prototype: a 9-40 mm first correction and
-cutbacks at the start of the second step.) ``*TIME POINTS`` make one run produce results
-at every deflection of a load path.
+cutbacks at the start of the second step - ccx's linear first iteration when a boundary
+moves in a step's first increment, :func:`road_step_lines`; a later step that holds its
+loads for its first increment converges, :class:`Split`.) ``*TIME POINTS`` make one run
+produce results at every deflection of a load path.
 """
 
 from __future__ import annotations
@@ -175,8 +177,8 @@ def stick_slope(law: ContactLaw) -> float:
 
 
 def road_motion_lines(road: Road, travel: float, shift: tuple[float, float], tilt: float,
-                      t0: float, tilt_time: float,
-                      rise: str = "vertical") -> tuple[list[str], list[str]]:
+                      t0: float, tilt_time: float, rise: str = "vertical",
+                      split: Split | None = None) -> tuple[list[str], list[str]]:
     """Road boundary conditions of a combined load: tilt, rise, then shift.
 
     Every road node is prescribed (the slab stays rigid and its reactions sum to the
@@ -190,6 +192,9 @@ def road_motion_lines(road: Road, travel: float, shift: tuple[float, float], til
     dof 1 moves only in the last ramp. The rotation is exact at the end of its ramp
     (linear ramps of the end displacements keep the top plane flat, an affine map).
 
+    ``split``: the deck is cut into two steps (:class:`Split`), every amplitude in total
+    time with the hold inserted.
+
     Returns the amplitude lines (model definition) and the boundary lines (the step).
     """
     ids = np.arange(road.first_node, road.first_node + len(road.xyz))
@@ -197,7 +202,7 @@ def road_motion_lines(road: Road, travel: float, shift: tuple[float, float], til
     rot = _tilt_displacement(road, tilt)
     groups, index = np.unique(rot, axis=0, return_inverse=True)
     index = np.ravel(index)
-    lines = ["*AMPLITUDE, NAME=ROAD_MOVE", f"0, 0, {_num(t0 + 1)}, 0, {_num(t0 + 2)}, 1"]
+    lines = amplitude_lines("ROAD_MOVE", [(0.0, 0.0), (t0 + 1, 0.0), (t0 + 2, 1.0)], split)
     bcs = ["*BOUNDARY, AMPLITUDE=ROAD_MOVE", f"ROAD, 1, 1, {_num(shift[0])}"]
     t1 = t0 + tilt_time
     sy, sz = shift[1] * math.cos(angle), shift[1] * math.sin(angle)  # in the road plane
@@ -206,7 +211,7 @@ def road_motion_lines(road: Road, travel: float, shift: tuple[float, float], til
         for dof, points in ((2, [(t1, uy), (t0 + 1, uy + ry), (t0 + 2, uy + ry + sy)]),
                             (3, [(t1, uz), (t0 + 1, uz + rz), (t0 + 2, uz + rz + sz)])):
             name = f"ROAD_{k + 1}_{dof}"
-            lines += [f"*AMPLITUDE, NAME={name}", *_amplitude([(0.0, 0.0), (t0, 0.0), *points])]
+            lines += amplitude_lines(name, [(0.0, 0.0), (t0, 0.0), *points], split)
             bcs.append(f"*BOUNDARY, AMPLITUDE={name}")
             bcs += [f"{i}, {dof}, {dof}, 1" for i in ids[index == k]]
     return lines, bcs
@@ -322,6 +327,57 @@ def road_step_lines(road: Road, before: tuple[float, tuple[float, float]],
     return [*lines, *(plain if len(plain) > 1 else []), *bcs]
 
 
+#: Step time of the hold that begins the second step of a :class:`Split` deck, and that
+#: step's first increment: 0.01 of the rise's ramp, 0.2-0.3 mm of road travel on the
+#: combined paths measured (docs/combined-loads.md, "First touch").
+SPLIT_HOLD = 0.01
+
+
+@dataclass(frozen=True)
+class Split:
+    """A one-step deck's time layout cut at time ``at`` into two steps: the second
+    holds every load still for its first increment, of ``hold``; every time after ``at``
+    moves on by ``hold``.
+
+    Why (:attr:`farm.specs.SolverSettings.split_rise`): ccx's automatic increments grow
+    through the easy inflation; the rise then starts with increments of half its ramp,
+    and the stick/slip state of the first tread nodes to touch a tilted frictional road
+    flips from iteration to iteration while they are cut back (docs/combined-loads.md).
+    A new step starts its increments small again. The hold keeps the step's first
+    iteration an ordinary one (:func:`road_step_lines` says why a moving first increment
+    is not). Amplitudes and time points of a split deck are in total time, so that
+    loads ramp across the cut as they did in one step.
+    """
+
+    at: float
+    hold: float = SPLIT_HOLD
+
+    def time(self, t: float) -> float:
+        """The total time of the one-step layout's time ``t``."""
+        return t + self.hold if t > self.at else t
+
+    def layout(self, total: float) -> float:
+        """The one-step layout's time of total time ``total`` (the hold maps to ``at``)."""
+        return total if total <= self.at else max(self.at, total - self.hold)
+
+    def points(self, points: Sequence[tuple[float, float]]) -> list[tuple[float, float]]:
+        """Amplitude ``points`` (time, value) of the one-step layout, held over the cut
+        (after the last point an amplitude keeps its last value, in ccx as here)."""
+        ts, vs = zip(*points, strict=True)
+        v = float(np.interp(self.at, ts, vs))
+        return ([p for p in points if p[0] <= self.at] + [(self.at, v), (self.at + self.hold, v)]
+                + [(t + self.hold, u) for t, u in points if t > self.at])
+
+
+def amplitude_lines(name: str, points: Sequence[tuple[float, float]],
+                    split: Split | None = None) -> list[str]:
+    """``*AMPLITUDE`` of (time, value) ``points`` in step time, or in total time with
+    the hold of ``split`` inserted."""
+    if split is None:
+        return [f"*AMPLITUDE, NAME={name}", *_amplitude(list(points))]
+    return [f"*AMPLITUDE, NAME={name}, TIME=TOTAL TIME", *_amplitude(split.points(points))]
+
+
 def _amplitude(points: list[tuple[float, float]]) -> list[str]:
     """Amplitude data lines: at most four (time, value) pairs a line (ccx reads no more
     from one line: a fifth pair is silently dropped), each time once (the first of
@@ -401,9 +457,13 @@ def continuation_step_lines(settings: SolverSettings) -> list[str]:
             f"{_num(first)}, 1, {_num(settings.min_increment)}, {_num(first)}"]
 
 
-def time_points_lines(time_points: Sequence[float]) -> list[str]:
-    """The output times (model definition, referenced as ``OUT`` by the step's output)."""
-    return ["*TIME POINTS, NAME=OUT", *(_num(t) for t in time_points)]
+def time_points_lines(time_points: Sequence[float], split: Split | None = None) -> list[str]:
+    """The output times (model definition, referenced as ``OUT`` by the step's output);
+    with a ``split``, total times past its hold."""
+    if split is None:
+        return ["*TIME POINTS, NAME=OUT", *(_num(t) for t in time_points)]
+    return ["*TIME POINTS, NAME=OUT, TIME=TOTAL TIME",
+            *(_num(split.time(t)) for t in time_points)]
 
 
 def written_sets(mesh: TyreMesh) -> tuple[str, ...]:

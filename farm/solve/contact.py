@@ -136,10 +136,12 @@ def path_deck(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: SolverS
     return deck, times, z_road
 
 
-def stage(spec: ModelSpec, path: LoadPath, time: float) -> str:
-    """What a path's deck does at step ``time`` (:func:`path_deck`'s time layout): the
-    inflation, a tilted road's turn, the rise (at which deflection: first touch is 0),
-    or the slide (how far along it)."""
+def stage(spec: ModelSpec, path: LoadPath, time: float,
+          split: D.Split | None = None) -> str:
+    """What a path's deck does at total ``time`` (:func:`path_deck`'s time layout, cut by
+    ``split`` when it was, :func:`rise_split`): the inflation, a tilted road's turn, the
+    rise (at which deflection: first touch is 0), or the slide (how far along it)."""
+    time = split.layout(time) if split is not None else time
     t0 = 1.0 if spec.inflated else 0.0
     if time < t0:
         return f"in the inflation, {100 * time:.0f} % of the pressure"
@@ -211,28 +213,47 @@ def _combined_deck(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: So
     gap = _combined_gap(spec, path)
     travel = gap + path.deflections[-1]
     t0 = 1.0 if spec.inflated else 0.0
+    split = rise_split(spec, path, settings)
     times = _combined_times(spec, path)
     z_road = touch_z - gap
     road = _road(spec, mesh, z_road)
     amplitudes, boundary = D.road_motion_lines(
         road, travel, (motion.shift_x, motion.shift_y), motion.tilt, t0,
-        TILT_TIME if motion.tilt else 0.0, motion.rise)
+        TILT_TIME if motion.tilt else 0.0, motion.rise, split)
     pressure: list[str] = []
     if spec.inflated:
-        amplitudes += ["*AMPLITUDE, NAME=INFLATE", "0, 0, 1, 1, 2, 1"]
+        amplitudes += D.amplitude_lines("INFLATE", [(0.0, 0.0), (1.0, 1.0), (2.0, 1.0)], split)
         pressure = D.cavity_pressure_lines(mesh, path.pressure, "INFLATE")
     lam = motion.stick_slope if motion.stick_slope is not None else D.stick_slope(spec.contact)
     out_times = ([1.0] if spec.inflated else []) + times
+    period = t0 + (2.0 if motion.moves else 1.0)
+    controls = D.friction_controls_lines() if motion.friction > 0 else []
+    outputs = D.output_lines(time_points=True, contact=True)
+    rest: list[str] = []
+    if split is not None:  # loads, boundaries and amplitudes carry over into the new step
+        rest = [*D.static_step_lines(period - split.at + split.hold, settings,
+                                     first=split.hold), *controls, *outputs, "*END STEP"]
     deck = D.assemble(
         D.mesh_lines(mesh), D.material_lines(spec.materials), D.cord_lines(spec, mesh), road.lines,
         D.contact_lines(mesh, spec.contact, (motion.friction, lam)), amplitudes,
-        D.time_points_lines(out_times), D.measured_set_lines((*D.written_sets(mesh), "ROAD")),
-        model, D.static_step_lines(t0 + (2.0 if motion.moves else 1.0), settings),
-        D.friction_controls_lines() if motion.friction > 0 else [],
-        D.support_lines(spec), boundary, pressure,
-        D.output_lines(time_points=True, contact=True), ["*END STEP"], then,
+        D.time_points_lines(out_times, split),
+        D.measured_set_lines((*D.written_sets(mesh), "ROAD")), model,
+        D.static_step_lines(period if split is None else split.at, settings), controls,
+        D.support_lines(spec), boundary, pressure, outputs, ["*END STEP"], rest, then,
     )
-    return deck, times, z_road
+    return deck, [split.time(t) for t in times] if split else times, z_road
+
+
+def rise_split(spec: ModelSpec, path: LoadPath, settings: SolverSettings) -> D.Split | None:
+    """Where a combined path's one-run deck is cut in two (``settings.split_rise``): at
+    the start of the rise, after the inflation and the tilted road's turn, with the road
+    still clear of the tyre by at least :func:`road_gap` (so nothing touches yet and the
+    cut changes no physics). None when the path is not cut (no split asked, no motion, or
+    nothing before the rise)."""
+    if not settings.split_rise or path.motion is None:
+        return None
+    at = (1.0 if spec.inflated else 0.0) + (TILT_TIME if path.motion.tilt else 0.0)
+    return D.Split(at) if at > 0 else None
 
 
 def slave_faces(mesh: TyreMesh) -> np.ndarray:
@@ -392,7 +413,9 @@ def solve_contact_path(spec: ModelSpec, mesh: TyreMesh, path: LoadPath,
     try:
         run, frd = _solve(deck, settings, should_stop, "path")
     except SolverError as e:  # say where along the path it stopped (issue 29: failures are data)
-        raise (e.located(stage(spec, path, e.reached)) if e.reached is not None else e) from e
+        where = stage(spec, path, e.reached, rise_split(spec, path, settings)) \
+            if e.reached is not None else None
+        raise (e.located(where) if where is not None else e) from e
     runs.append(run)
     faces = slave_faces(mesh)
     gap = road_gap(spec)

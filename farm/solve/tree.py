@@ -150,7 +150,10 @@ def trunk_deck(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: Solver
                   "*END STEP"]
     model = [*D.restart_lines(read=False, write=True), "*TIME POINTS, NAME=STEP_END", "1",
              "*TIME POINTS, NAME=SLIDE", *(D._num(_slide_time(f)) for f in fractions)]
-    deck, _, z = path_deck(spec, mesh, first, settings, touch_z, model=model, then=steps)
+    # no cut before the rise (SolverSettings.split_rise): a trunk's layout is one step per
+    # level with a restart block at each step's end, and its trunks have not failed there
+    one_step = dataclasses.replace(settings, split_rise=False)
+    deck, _, z = path_deck(spec, mesh, first, one_step, touch_z, model=model, then=steps)
     assert abs(z - z_start) < 1e-9, "the trunk's road starts where the one-run path's does"
     return deck, z_start
 

@@ -20,7 +20,7 @@ from jobs.validate.limits import MESH_NODES
 from jobs.validate.scalars import boolean, integer, number, table
 
 SOLVER_KEYS = {"timeout_s", "threads", "initial_increment", "min_increment", "max_increment",
-               "max_increments", "max_path_length", "retry_smaller_increments"}
+               "max_increments", "max_path_length", "retry_smaller_increments", "split_rise"}
 
 
 def model(data: Any, where: str = "model") -> ModelSpec:
@@ -75,6 +75,8 @@ def solver(data: Any, where: str = "solver") -> SolverTable:
     for k in ("initial_increment", "min_increment", "max_increment"):
         if k in t:
             kwargs[k] = number(t[k], f"{where}.{k}", low=0, strict=True)
+    if "split_rise" in t:
+        kwargs["split_rise"] = boolean(t["split_rise"], f"{where}.split_rise")
     try:
         settings = SolverSettings(**kwargs)
     except SpecError as e:

@@ -27,6 +27,7 @@ def test_one_failure_is_retried_with_smaller_increments(outcome):
     solve, calls = _solver(outcome)
     assert isinstance(guarded(solve, SolverSettings()), Solved)
     assert calls[1].initial_increment == calls[0].initial_increment / 4
+    assert calls[1].split_rise and not calls[0].split_rise  # a combined path's rise: own step
 
 
 @pytest.mark.parametrize("outcome", ["too_many_cutbacks", "crash"])

@@ -225,6 +225,9 @@ def test_the_solver_table():
     assert (s.settings.timeout, s.settings.threads, s.max_path_length,
             s.retry_smaller_increments) == (60.0, 2, 3, False)
     assert spec_tables.solver({}) == spec_tables.SolverTable(SolverSettings())
+    assert spec_tables.solver({"split_rise": True}).settings.split_rise
+    with pytest.raises(StudyError, match=r"solver\.split_rise"):
+        spec_tables.solver({"split_rise": "yes"})
     with pytest.raises(StudyError, match=r"solver\.threads: must be an integer >= 1, got 0"):
         spec_tables.solver({"threads": 0})
 
