@@ -16,8 +16,11 @@ the slip ratio (``--kappas``, empty: none) and Fy, Mz against the slip angle
 (``--alphas``), one roll each at the given radius (``--radius free``: found first), the
 values at the end of the roll; printed as tables with the slip stiffness dFx/dkappa and
 the cornering stiffness dFy/dalpha fitted through the origin over the points with
-|kappa| <= 0.005 and |alpha| <= 1 degree, and the pneumatic trail -Mz/Fy. ``--figure
-PATH`` also draws them (PNG). ``--wall`` sets the elements through the wall.
+|kappa| <= 0.005 and |alpha| <= 1 degree. Fy and Mz are means over the roll's last
+element pitch (:mod:`farm.solve.trail`: on a polygon of a tyre Mz swings with where the
+tread columns sit within the pitch), with the pneumatic trail -Mz/Fy of those means and
+the trail about the centre of pressure. ``--figure PATH`` also draws them (PNG).
+``--wall`` sets the elements through the wall.
 """
 
 from __future__ import annotations
@@ -35,6 +38,7 @@ from farm.mesh import mesh_for
 from farm.presets import default_model
 from farm.solve.contact import touch_height
 from farm.solve.rolling import free_rolling_radius, solve_roll
+from farm.solve.trail import last_pitch, pitch_mean
 from farm.specs import LoadPath, MeshDensity, RoadMotion, Roll, SolverSettings
 
 PRESSURE, DEFLECTION, MU = 0.2, 15.0, 0.6
@@ -75,10 +79,12 @@ def curves(spec, mesh, settings, args) -> None:
     alphas = [float(a) for a in args.alphas.split(",") if a.strip()]
 
     def end(**kw):
-        """The state at the end of one roll, or None when ccx failed (printed: data)."""
+        """The states over the last pitch of one roll, or None when ccx failed (printed:
+        data)."""
         roll = dataclasses.replace(base, **kw)
         try:
-            return solve_roll(spec, mesh, DEFLECTION, PRESSURE, roll, settings)[-1]
+            return solve_roll(spec, mesh, DEFLECTION, PRESSURE, roll, settings,
+                              fractions=last_pitch(spec, roll))
         except SolverError as e:
             print(f"  {kw}: failed, {e.outcome} ({e.where})", flush=True)
             return None
@@ -86,17 +92,21 @@ def curves(spec, mesh, settings, args) -> None:
     print(f"{'kappa':>8} {'Fx N':>9}", flush=True)
     fx = []
     for k in kappas:
-        state = end(slip_ratio=k)
-        fx.append(np.nan if state is None else state.force[0])
+        states = end(slip_ratio=k)
+        fx.append(np.nan if states is None else float(np.mean([s.force[0] for s in states])))
         print(f"{k:8.4f} {fx[-1]:9.1f}", flush=True)
-    print(f"{'alpha deg':>9} {'Fy N':>9} {'Mz N m':>9} {'trail mm':>9}", flush=True)
+    print(f"{'alpha deg':>9} {'Fy N':>9} {'Mz N m':>9} {'Mz range':>15} {'trail mm':>9} "
+          f"{'cp trail':>9}", flush=True)
     fy, mz = [], []
     for a in alphas:
-        state = end(slip_angle=a)
-        fy.append(np.nan if state is None else state.force[1])
-        mz.append(np.nan if state is None else state.moment[2] / 1e3)
-        trail = -1e3 * mz[-1] / fy[-1] if abs(fy[-1]) > 1e-9 else float("nan")
-        print(f"{a:9.2f} {fy[-1]:9.1f} {mz[-1]:9.2f} {trail:9.1f}", flush=True)
+        states = end(slip_angle=a)
+        mean = None if states is None else pitch_mean(states, mesh)
+        fy.append(np.nan if mean is None else mean.fy)
+        mz.append(np.nan if mean is None else mean.mz / 1e3)
+        if mean is not None:
+            low, high = (v / 1e3 for v in mean.mz_range)
+            print(f"{a:9.2f} {mean.fy:9.1f} {mean.mz / 1e3:9.2f} {low:7.2f}..{high:<6.2f} "
+                  f"{mean.trail:9.1f} {mean.pressure_trail:9.1f}", flush=True)
     k, f = np.array(kappas), np.array(fx)
     small = (np.abs(k) <= 0.005) & np.isfinite(f)
     if small.any() and np.any(k[small]):

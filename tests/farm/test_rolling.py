@@ -30,6 +30,7 @@ from farm.solve.rolling import (
     turned,
 )
 from farm.solve.states import PathSolution
+from farm.solve.trail import force_centres, last_pitch, pitch_mean
 from farm.specs import LoadPath, MeshDensity, RoadMotion, Roll, SolverSettings
 
 PRESSURE, DEFLECTION, MU = 0.2, 15.0, 0.6
@@ -252,3 +253,48 @@ def test_a_free_rolling_path_finds_its_radius_first(coarse):
     [m] = result.measurements
     assert result.ccx_runs >= 3  # two secant starts at least, then the roll
     assert abs(m.road_reaction[0]) <= 0.005 * m.road_reaction[2]
+
+
+@pytest.mark.slow
+@pytest.mark.ccx
+def test_the_aligning_moment_over_a_tread_pitch_is_that_of_a_positive_trail():
+    """The issue's check "Mz of the sign a positive pneumatic trail gives": on the thesis
+    wall at 32 elements round (docs/rolling.md, "The sign of Mz"), a 2-degree roll past its
+    first two pitches, Mz averaged over its last pitch opposes Fy (the lateral force acts
+    behind the contact centre), mirrored for -2 degrees; about the centre of pressure the
+    lateral force is never ahead (the columns carrying the patch swing Mz itself)."""
+    spec = default_model("full", mesh=MeshDensity(tread=8, sidewall=5, bead=2,
+                                                   circumferential=32))
+    mesh = mesh_for(spec)
+    means = []
+    for alpha in (2.0, -2.0):
+        roll = Roll(friction=MU, slip_angle=alpha, distance=240.0, rolling_radius=404.86)
+        states = solve_roll(spec, mesh, DEFLECTION, PRESSURE, roll, SolverSettings(),
+                            fractions=last_pitch(spec, roll))
+        means.append(pitch_mean(states, mesh))
+        for state in states:
+            z, y = force_centres(state, mesh)
+            assert z - y > -1.0  # mm: 0 when one column carries the patch
+    left, right = means
+    assert left.fy < 0 < left.mz and left.trail > 5.0  # measured 18 mm
+    assert right.fy == pytest.approx(-left.fy, rel=1e-3)
+    assert right.mz == pytest.approx(-left.mz, rel=1e-2)
+
+
+@pytest.mark.slow
+@pytest.mark.ccx
+def test_fy_saturates_at_mu_fz_once_the_whole_patch_slides():
+    """The issue's "saturating at mu Fz": at 4 degrees and mu 0.3 the patch slides
+    whole after about 110 mm of travel (docs/rolling.md); from then on |Fy| is mu Fz
+    (measured to 0.05 %) and the trail vanishes with the stick zone."""
+    spec = default_model("full", mesh=MeshDensity(tread=8, sidewall=5, bead=2,
+                                                   circumferential=32))
+    mesh = mesh_for(spec)
+    roll = Roll(friction=0.3, slip_angle=4.0, distance=200.0, rolling_radius=404.86)
+    states = solve_roll(spec, mesh, DEFLECTION, PRESSURE, roll, SolverSettings(),
+                        fractions=last_pitch(spec, roll, samples=4))
+    for state in states:
+        fy, fz = state.force[1], state.force[2]
+        assert -fy == pytest.approx(0.3 * fz, rel=0.01)
+        assert np.hypot(state.force[0], fy) <= 0.3 * fz * 1.001  # Coulomb bounds the shear
+    assert abs(pitch_mean(states, mesh).pressure_trail) < 1.0  # mm: no stick zone left
