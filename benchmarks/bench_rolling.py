@@ -91,21 +91,21 @@ def curves(spec, mesh, settings, args) -> None:
 
     print(f"{'kappa':>8} {'Fx N':>9}", flush=True)
     fx = []
-    for k in kappas:
-        states = end(slip_ratio=k)
+    for kappa in kappas:
+        states = end(slip_ratio=kappa)
         fx.append(np.nan if states is None else float(np.mean([s.force[0] for s in states])))
-        print(f"{k:8.4f} {fx[-1]:9.1f}", flush=True)
+        print(f"{kappa:8.4f} {fx[-1]:9.1f}", flush=True)
     print(f"{'alpha deg':>9} {'Fy N':>9} {'Mz N m':>9} {'Mz range':>15} {'trail mm':>9} "
           f"{'cp trail':>9}", flush=True)
     fy, mz = [], []
-    for a in alphas:
-        states = end(slip_angle=a)
+    for alpha in alphas:
+        states = end(slip_angle=alpha)
         mean = None if states is None else pitch_mean(states, mesh)
         fy.append(np.nan if mean is None else mean.fy)
         mz.append(np.nan if mean is None else mean.mz / 1e3)
         if mean is not None:
             low, high = (v / 1e3 for v in mean.mz_range)
-            print(f"{a:9.2f} {mean.fy:9.1f} {mean.mz / 1e3:9.2f} {low:7.2f}..{high:<6.2f} "
+            print(f"{alpha:9.2f} {mean.fy:9.1f} {mean.mz / 1e3:9.2f} {low:7.2f}..{high:<6.2f} "
                   f"{mean.trail:9.1f} {mean.pressure_trail:9.1f}", flush=True)
     k, f = np.array(kappas), np.array(fx)
     small = (np.abs(k) <= 0.005) & np.isfinite(f)
