@@ -220,6 +220,13 @@ PATCH_VARIABLES = (
     _v("inflation_growth", "experiment", "float64", "mm",
        "radial growth of the tread under inflation (the path's inflated reference)",
        "worker"),
+    # issue 30: newer than the rest; groups made before them lack them (optional too)
+    _v("loaded_radius", "experiment", "float64", "mm",
+       "distance from the wheel centre down to the road under it (the contact centre)",
+       "worker"),
+    _v("rolling_radius", "experiment", "float64", "mm",
+       "effective rolling radius r_e the roll turned the rim with (NaN: no roll)",
+       "worker"),
 )
 
 ERROR = _v("error", "experiment", "str", "-", "failure reason (empty unless failed)", "worker")

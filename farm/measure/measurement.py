@@ -70,6 +70,15 @@ class Measurement:
         Radial growth of the tread in the path's inflated reference state, mm; the same
         for every state of the path; NaN for a model without inflation (None: not
         measured, e.g. a cached evaluation of an older farm).
+
+    Radii (issue 30; None: not measured, e.g. a cached evaluation of an older farm):
+
+    loaded_radius : float or None
+        Distance from the wheel centre down to the road under it (the contact centre),
+        mm: the loaded radius of a standing or rolling tyre.
+    rolling_radius : float or None
+        The effective rolling radius r_e a roll turned the rim with, mm (given, or found
+        for free rolling); NaN for a tyre that does not roll.
     """
 
     deflection: float
@@ -89,6 +98,8 @@ class Measurement:
     road_moment: np.ndarray | None = None
     patch: np.ndarray | None = None
     inflation_growth: float | None = None
+    loaded_radius: float | None = None
+    rolling_radius: float | None = None
 
     # units of the arrays of combined_arrays() (the store's `units` attributes)
     COMBINED_UNITS: ClassVar[dict[str, str]] = {
@@ -128,17 +139,19 @@ class Measurement:
     PATCH_UNITS: ClassVar[dict[str, str]] = {
         "patch_area": "mm2", "patch_length": "mm", "patch_width": "mm",
         "peak_pressure": "MPa", "mean_pressure": "MPa", "nodal_force_mean": "N",
-        "nodal_force_std": "N", "inflation_growth": "mm",
+        "nodal_force_std": "N", "inflation_growth": "mm", "loaded_radius": "mm",
+        "rolling_radius": "mm",
     }
 
     def patch_values(self) -> dict[str, float]:
-        """The contact patch and the inflation growth by the store's names (units in
-        :attr:`PATCH_UNITS`), NaN where not measured."""
+        """The contact patch, the inflation growth and the radii by the store's names
+        (units in :attr:`PATCH_UNITS`), NaN where not measured."""
         values = (np.full(len(self.PATCH_FIELDS), np.nan) if self.patch is None
                   else np.asarray(self.patch, dtype=np.float64))
         out = {name: float(v) for name, v in zip(self.PATCH_FIELDS, values, strict=True)}
-        out["inflation_growth"] = (math.nan if self.inflation_growth is None
-                                   else float(self.inflation_growth))
+        for name in ("inflation_growth", "loaded_radius", "rolling_radius"):
+            value = getattr(self, name)
+            out[name] = math.nan if value is None else float(value)
         return out
 
 
@@ -189,6 +202,7 @@ def measure(mesh: TyreMesh, solution: PathSolution, pressure: float, *,
             solve_seconds=state.solve_seconds, motion=state.motion,
             contact_status=state.contact_status, tread_slip=state.tread_slip,
             road_moment=state.road_moment, patch=patch_array(patch_metrics(mesh, state, areas)),
-            inflation_growth=growth,
+            inflation_growth=growth, loaded_radius=-float(state.road_z),
+            rolling_radius=float(state.rolling_radius),
         ))
     return out

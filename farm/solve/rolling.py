@@ -257,7 +257,8 @@ def roll_to_end(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: Solve
     A free rolling radius (``motion.rolling_radius`` None) is found first
     (:func:`free_rolling_radius`, a few rolls at kappa = 0); the seconds and runs count
     those rolls too. (At kappa = 0 the last of them is the experiment's own roll, solved
-    once more: kept simple, at the cost of one roll.) The camera's view of the state is
+    once more: kept simple, at the cost of one roll.) The radius rolled with is the
+    state's ``solved.rolling_radius``. The camera's view of the state is
     :func:`farm.measure.camera.rolling_solution`'s.
     """
     motion = path.motion
@@ -276,7 +277,9 @@ def roll_to_end(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: Solve
         increments = sum(t.increments for t in tried)
     run, [end] = _roll_run(spec, mesh, deflection, path.pressure, motion.as_roll(radius),
                            settings, (1.0,), should_stop)
-    return end, spent + run.seconds, runs + 1, increments + run.increments
+    solved = dataclasses.replace(end.solved, rolling_radius=float(radius))
+    return (dataclasses.replace(end, solved=solved), spent + run.seconds, runs + 1,
+            increments + run.increments)
 
 
 def _stage(time: float, deflection: float, roll: Roll) -> str:

@@ -54,6 +54,12 @@ class SolvedState:
     road_moment : ndarray, shape (3,)
         Moment of the road's reactions about the contact centre (0, 0, ``road_z``),
         N mm: an independent check of the tread forces' moment.
+
+    Rolling only (issue 30):
+
+    rolling_radius : float
+        The effective rolling radius r_e the roll turned the rim with, mm (given, or
+        found for free rolling; NaN: not a roll).
     """
 
     deflection: float
@@ -67,6 +73,7 @@ class SolvedState:
     contact_status: np.ndarray | None = None
     tread_slip: np.ndarray | None = None
     road_moment: np.ndarray | None = None
+    rolling_radius: float = float("nan")
 
     def positions(self, mesh: TyreMesh, ids: np.ndarray) -> np.ndarray:
         """Current coordinates of nodes ``ids``, shape (len(ids), 3)."""

@@ -168,10 +168,17 @@ def test_contact_patch_and_growth_of_every_state(full_200):
         assert v["inflation_growth"] == growth  # one reference per path
     areas = [m.patch_values()["patch_area"] for m in full_200.measurements]
     assert areas == sorted(areas)  # the patch grows with the deflection
+    # issue 30's radii: the road comes up by the deflection; no roll, no rolling radius
+    loaded = np.array([m.loaded_radius for m in full_200.measurements])
+    deflections = np.array([m.deflection for m in full_200.measurements])
+    np.testing.assert_allclose(loaded + deflections, loaded[0] + deflections[0], atol=1e-9)
+    assert 350.0 < loaded[0] < 420.0  # mm: the TM700's outer radius is about 400
+    assert all(np.isnan(m.patch_values()["rolling_radius"]) for m in full_200.measurements)
 
 
 def test_growth_is_not_recorded_without_inflation(reduced):
     for m in reduced.measurements:
         v = m.patch_values()
-        assert np.isnan(v["inflation_growth"])
-        assert v["patch_area"] > 0 and np.isfinite(list(v.values())[:-1]).all()
+        assert np.isnan(v["inflation_growth"]) and np.isnan(v["rolling_radius"])
+        measured = [x for k, x in v.items() if k not in ("inflation_growth", "rolling_radius")]
+        assert v["patch_area"] > 0 and np.isfinite(measured).all()

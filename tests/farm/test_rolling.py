@@ -240,6 +240,12 @@ def test_a_rolling_load_path_is_measured_in_the_camera_frame(coarse):
     np.testing.assert_allclose(m.total_force, m.road_reaction, atol=0.02 * fz)
     assert m.contact_nodes > 0 and set(np.unique(m.contact_status)) <= {0, 1, 2}
     assert np.abs(m.displacement).max() > 1.0  # mm: the camera sees the road's dent
+    # the radii: r_e rolled with; loaded = the inflated radius less the deflection
+    assert m.rolling_radius == R_E
+    r = inflated_radius(spec, mesh_for(spec), PRESSURE, SolverSettings())
+    assert m.loaded_radius == pytest.approx(r - DEFLECTION, abs=1e-9)
+    values = m.patch_values()
+    assert (values["rolling_radius"], values["loaded_radius"]) == (R_E, m.loaded_radius)
 
 
 @pytest.mark.slow
@@ -290,7 +296,9 @@ def test_fy_saturates_at_mu_fz_once_the_whole_patch_slides():
     spec = default_model("full", mesh=MeshDensity(tread=8, sidewall=5, bead=2,
                                                    circumferential=32))
     mesh = mesh_for(spec)
-    roll = Roll(friction=0.3, slip_angle=4.0, distance=200.0, rolling_radius=404.86)
+    # 320 mm, as measured: a 200 mm roll (its increments capped at 5 mm: 2.5 % of the
+    # step, rise included) stopped 0.1 mm into the roll, "increment below minimum"
+    roll = Roll(friction=0.3, slip_angle=4.0, distance=320.0, rolling_radius=404.86)
     states = solve_roll(spec, mesh, DEFLECTION, PRESSURE, roll, SolverSettings(),
                         fractions=last_pitch(spec, roll, samples=4))
     for state in states:

@@ -115,6 +115,10 @@ def _check_store(path: Path) -> None:
     assert done.sizes["experiment"] == ds.sizes["experiment"]  # none failed
     total, road = done["total_force"].values, done["road_reaction"].values
     angle = done["slip_angle"].values
+    # the radii (issue 30): every roll turned with the study's r_e, on a road 15 mm up
+    np.testing.assert_array_equal(done["rolling_radius"].values, 402.9)
+    loaded = done["loaded_radius"].values
+    assert np.ptp(loaded) < 1e-9 and 380.0 < loaded[0] < 400.0
     for k in range(done.sizes["experiment"]):
         fz = road[k][2]
         assert fz > 1000.0

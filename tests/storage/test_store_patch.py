@@ -49,13 +49,15 @@ def test_patch_variables_are_optional_worker_variables():
     assert not set(PATCH_NAMES) & set(CHECKED_NAMES)  # only where a group has them
     units = {"patch_area": "mm2", "patch_length": "mm", "patch_width": "mm",
              "peak_pressure": "MPa", "mean_pressure": "MPa", "nodal_force_mean": "N",
-             "nodal_force_std": "N", "inflation_growth": "mm"}
+             "nodal_force_std": "N", "inflation_growth": "mm", "loaded_radius": "mm",
+             "rolling_radius": "mm"}
     assert {n: FIXED_VARIABLES[n].units for n in PATCH_NAMES} == units
 
 
 def test_farm_measurement_names_are_the_schema_s():
     from farm.measure.measurement import Measurement
-    assert (*Measurement.PATCH_FIELDS, "inflation_growth") == PATCH_NAMES
+    assert (*Measurement.PATCH_FIELDS, "inflation_growth", "loaded_radius",
+            "rolling_radius") == PATCH_NAMES
     assert {n: FIXED_VARIABLES[n].units for n in PATCH_NAMES} == Measurement.PATCH_UNITS
 
 
