@@ -552,7 +552,7 @@ class RoadMotion:
 # Rolling (issue 30, farm.solve.rolling): bounds of a roll
 SLIP_RATIO = (-1.0, 1.0)  # kappa: full lock to twice the free-rolling spin
 SLIP_ANGLE_DEG = (-20.0, 20.0)
-ROLL_MM = (1.0, 1000.0)  # road travel of one roll
+ROLL_MM = (1.0, 2000.0)  # road travel of one roll (under a revolution: about 2540 mm)
 ROLLING_RADIUS_MM = (100.0, 1000.0)
 
 

@@ -98,12 +98,14 @@ def guarded(solve: Callable[[SolverSettings], T], settings: SolverSettings, *,
     ``solve`` returns a :class:`Solved` for sweeps and loops, anything for other jobs
     (a :class:`farm.experiment.PathResult` for the convergence study)."""
     try:
+        start = time.perf_counter()
         try:
             return solve(settings)
         except SolverError as e:
             if not (retry and Outcome(e.outcome).retry_smaller):
                 raise
-            return solve(smaller_increments(settings))
+            failed = time.perf_counter() - start
+            return _counting_the_failed_try(solve(smaller_increments(settings)), failed)
     except SolverError as e:
         outcome = Outcome(e.outcome)
         if outcome is Outcome.CANCELLED:
@@ -111,6 +113,16 @@ def guarded(solve: Callable[[SolverSettings], T], settings: SolverSettings, *,
         return Failed(str(e), outcome.value, outcome.transient)
     except FarmError as e:
         return Failed(f"{type(e).__name__}: {e}", type(e).__name__)
+
+
+def _counting_the_failed_try(result: T, seconds: float) -> T:
+    """A retry's result with the failed first try counted in: one more ccx run and its
+    wall time in the path's solver seconds (what the experiment cost; a state's own
+    ``solve_seconds`` stays the retry's). Results other than :class:`Solved` as they are."""
+    if isinstance(result, Solved):
+        return dataclasses.replace(result, solve_seconds=result.solve_seconds + seconds,
+                                   ccx_runs=result.ccx_runs + 1)
+    return result
 
 
 def cancellation_check() -> Callable[[], bool] | None:

@@ -178,7 +178,8 @@ def stick_slope(law: ContactLaw) -> float:
 
 def road_motion_lines(road: Road, travel: float, shift: tuple[float, float], tilt: float,
                       t0: float, tilt_time: float, rise: str = "vertical",
-                      split: Split | None = None) -> tuple[list[str], list[str]]:
+                      split: Split | None = None,
+                      move_time: float = 1.0) -> tuple[list[str], list[str]]:
     """Road boundary conditions of a combined load: tilt, rise, then shift.
 
     Every road node is prescribed (the slab stays rigid and its reactions sum to the
@@ -193,7 +194,8 @@ def road_motion_lines(road: Road, travel: float, shift: tuple[float, float], til
     (linear ramps of the end displacements keep the top plane flat, an affine map).
 
     ``split``: the deck is cut into two steps (:class:`Split`), every amplitude in total
-    time with the hold inserted.
+    time with the hold inserted. ``move_time``: the shift's ramp lasts this long instead
+    of one unit (a long roll, :func:`farm.solve.rolling.roll_time`).
 
     Returns the amplitude lines (model definition) and the boundary lines (the step).
     """
@@ -202,14 +204,15 @@ def road_motion_lines(road: Road, travel: float, shift: tuple[float, float], til
     rot = _tilt_displacement(road, tilt)
     groups, index = np.unique(rot, axis=0, return_inverse=True)
     index = np.ravel(index)
-    lines = amplitude_lines("ROAD_MOVE", [(0.0, 0.0), (t0 + 1, 0.0), (t0 + 2, 1.0)], split)
+    end = t0 + 1 + move_time
+    lines = amplitude_lines("ROAD_MOVE", [(0.0, 0.0), (t0 + 1, 0.0), (end, 1.0)], split)
     bcs = ["*BOUNDARY, AMPLITUDE=ROAD_MOVE", f"ROAD, 1, 1, {_num(shift[0])}"]
     t1 = t0 + tilt_time
     sy, sz = shift[1] * math.cos(angle), shift[1] * math.sin(angle)  # in the road plane
     ry, rz = _rise(travel, tilt, rise)
     for k, (uy, uz) in enumerate(groups):
-        for dof, points in ((2, [(t1, uy), (t0 + 1, uy + ry), (t0 + 2, uy + ry + sy)]),
-                            (3, [(t1, uz), (t0 + 1, uz + rz), (t0 + 2, uz + rz + sz)])):
+        for dof, points in ((2, [(t1, uy), (t0 + 1, uy + ry), (end, uy + ry + sy)]),
+                            (3, [(t1, uz), (t0 + 1, uz + rz), (end, uz + rz + sz)])):
             name = f"ROAD_{k + 1}_{dof}"
             lines += amplitude_lines(name, [(0.0, 0.0), (t0, 0.0), *points], split)
             bcs.append(f"*BOUNDARY, AMPLITUDE={name}")

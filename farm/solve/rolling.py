@@ -83,13 +83,16 @@ class RolledState:
 
 #: Straight pieces of each bead node's circular path over a roll: the chord of a piece
 #: strays from the arc by r (1 - cos(dphi / 2)), 0.004 mm for the 203 mm bead seat
-#: turning 0.25 rad in 20 pieces.
+#: turning 0.25 rad in 20 pieces. At least this many; a longer roll gets pieces of at
+#: most RIM_PIECE_RAD (0.04 mm from the arc, as a 320 mm roll's 20 pieces were).
 RIM_PIECES = 20
+RIM_PIECE_RAD = 0.04
 
 
-def rim_lines(mesh: TyreMesh, spin: float, start: float) -> tuple[list[str], list[str]]:
-    """The bead seat turned by ``spin`` radians about +y over step time [start, start + 1]
-    and held before: (amplitude lines, boundary lines).
+def rim_lines(mesh: TyreMesh, spin: float, start: float,
+              duration: float = 1.0) -> tuple[list[str], list[str]]:
+    """The bead seat turned by ``spin`` radians about +y over step time [start, start +
+    ``duration``] and held before: (amplitude lines, boundary lines).
 
     Every bead seat node gets its displacement on the circle about the spin axis at
     RIM_PIECES + 1 times (one amplitude per node and dof, linear between): a rim clamped
@@ -99,9 +102,10 @@ def rim_lines(mesh: TyreMesh, spin: float, start: float) -> tuple[list[str], lis
     """
     seat = np.asarray(mesh.node_sets["BEAD_SEAT"])
     xyz = mesh.nodes[seat - 1]
-    times = start + np.linspace(0.0, 1.0, RIM_PIECES + 1)
+    pieces = max(RIM_PIECES, math.ceil(abs(spin) / RIM_PIECE_RAD))
+    times = start + np.linspace(0.0, duration, pieces + 1)
     # (n_seat, pieces + 1, 3): each seat node's displacement at each time
-    u = np.stack([turned(xyz, phi) - xyz for phi in np.linspace(0.0, spin, RIM_PIECES + 1)],
+    u = np.stack([turned(xyz, phi) - xyz for phi in np.linspace(0.0, spin, pieces + 1)],
                  axis=1)
     amplitudes, boundary = [], ["*BOUNDARY", *(f"{n}, 2, 2, 0" for n in seat)]
     for k, n in enumerate(seat):
@@ -127,15 +131,17 @@ def roll_deck(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: floa
     road = D.road_slab(mesh, z_start, half_length=0.8 * radius + roll.distance,
                        half_width=0.6 * spec.geometry.section_width, divisions=(16, 4))
     # camber as a rig gives it: the road pushed along its own normal (no side slide)
+    duration = roll_time(roll)
     amplitudes, boundary = D.road_motion_lines(road, travel, roll.travel, roll.tilt, 1.0,
-                                               TILT_TIME if roll.tilt else 0.0, "normal")
+                                               TILT_TIME if roll.tilt else 0.0, "normal",
+                                               move_time=duration)
     amplitudes += ["*AMPLITUDE, NAME=INFLATE", "0, 0, 1, 1, 2, 1"]
-    rim_amplitudes, rim = rim_lines(mesh, roll.spin, 2.0)
+    rim_amplitudes, rim = rim_lines(mesh, roll.spin, 2.0, duration)
     if not fractions or any(not 0.0 <= f <= 1.0 for f in fractions) or any(
             b <= a for a, b in itertools.pairwise(fractions)):
         raise SpecError(f"roll fractions must increase within [0, 1] (0: the standing "
                         f"tyre before the roll), got {list(fractions)}")
-    times = [2.0 + f for f in fractions]
+    times = [2.0 + f * duration for f in fractions]
     deck = D.assemble(
         D.mesh_lines(mesh), D.material_lines(spec.materials), D.cord_lines(spec, mesh),
         road.lines,
@@ -143,7 +149,7 @@ def roll_deck(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: floa
                         if roll.friction > 0 else None),
         amplitudes, rim_amplitudes, D.time_points_lines(sorted({1.0, 2.0, *times})),
         D.measured_set_lines((*D.written_sets(mesh), "ROAD")),
-        D.static_step_lines(3.0, _capped(settings, roll)),
+        D.static_step_lines(2.0 + duration, _capped(settings, roll)),
         D.friction_controls_lines() if roll.friction > 0 else [],
         rim, boundary, D.cavity_pressure_lines(mesh, pressure, "INFLATE"),
         D.output_lines(time_points=True, contact=True), ["*END STEP"],
@@ -158,11 +164,23 @@ def roll_deck(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: floa
 #: iterations); capped at 5 mm it went through.
 MAX_TRAVEL_MM = 5.0
 
+#: The longest roll that lasts one unit of step time. The increment cap is a fraction
+#: of step time for the whole run, the rise's included: a 1000 mm roll capped its rise at
+#: 0.005 of the ramp, and the rise stopped at first touch ("increment below minimum";
+#: 320 and 640 mm rolls went through). A longer roll lasts distance / ROLL_UNIT_MM units
+#: instead, so its rise keeps the cap of a roll of this length (docs/rolling.md).
+ROLL_UNIT_MM = 320.0
+
+
+def roll_time(roll: Roll) -> float:
+    """Step time the roll lasts (:data:`ROLL_UNIT_MM`): 1 up to that distance."""
+    return max(1.0, roll.distance / ROLL_UNIT_MM)
+
 
 def _capped(settings: SolverSettings, roll: Roll) -> SolverSettings:
     """``settings`` with the increments capped to :data:`MAX_TRAVEL_MM` of road travel
-    (an increment is a fraction of the roll's unit of step time)."""
-    cap = min(settings.max_increment, MAX_TRAVEL_MM / roll.distance)
+    (an increment is a fraction of step time; the roll lasts :func:`roll_time`)."""
+    cap = min(settings.max_increment, MAX_TRAVEL_MM * roll_time(roll) / roll.distance)
     return dataclasses.replace(settings, max_increment=cap,
                                initial_increment=min(settings.initial_increment, cap),
                                min_increment=min(settings.min_increment, cap))
@@ -288,7 +306,8 @@ def _stage(time: float, deflection: float, roll: Roll) -> str:
         return f"in the inflation, {100 * time:.0f} % of the pressure"
     if time < 2.0:
         return f"in the rise to {deflection:g} mm, {100 * (time - 1.0):.0f} % of it"
-    return f"in the roll at {deflection:g} mm, after {(time - 2.0) * roll.distance:.1f} mm"
+    travelled = (time - 2.0) / roll_time(roll) * roll.distance
+    return f"in the roll at {deflection:g} mm, after {travelled:.1f} mm"
 
 
 @dataclass(frozen=True)

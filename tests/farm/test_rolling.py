@@ -26,6 +26,8 @@ from farm.solve.rolling import (
     free_rolling_radius,
     inflated_radius,
     on_grid,
+    roll_deck,
+    roll_time,
     solve_roll,
     turned,
 )
@@ -163,6 +165,28 @@ def test_on_grid_reads_the_material_now_at_each_column(coarse):
     np.testing.assert_allclose(on_grid(field, mesh, pitch)[..., 0],
                                np.broadcast_to(np.sin(mesh.angles + pitch), seen.shape),
                                atol=1e-9)
+
+
+def test_a_long_roll_lasts_longer_so_that_its_rise_keeps_a_short_roll_s_increments(coarse):
+    """Increments are capped to 5 mm of travel as a fraction of step time, the rise's
+    too: a roll longer than 320 mm lasts distance / 320 units of step time, so its deck
+    caps every increment as the 320 mm roll's does (a 1000 mm roll in one unit capped its
+    rise at 0.005 of the ramp and stopped there: docs/rolling.md)."""
+    spec, mesh = coarse
+
+    def deck(distance):
+        roll = Roll(friction=MU, distance=distance, rolling_radius=R_E, slip_angle=1.0)
+        text, times, _, _ = roll_deck(spec, mesh, DEFLECTION, PRESSURE, roll,
+                                      SolverSettings(), -400.0, (0.5, 1.0))
+        static = text.split("*STATIC\n")[1].split("\n")[0].split(", ")
+        return roll, times, [float(v) for v in static]
+
+    (short, short_times, a), (long, long_times, b) = deck(320.0), deck(960.0)
+    assert (roll_time(short), roll_time(long), roll_time(Roll(friction=0.5, distance=60.0))
+            ) == (1.0, 3.0, 1.0)
+    assert short_times == [2.5, 3.0] and long_times == [3.5, 5.0]
+    assert (a[1], b[1]) == (3.0, 5.0)  # the step: inflate, rise, roll
+    assert a[3] == b[3] == pytest.approx(5.0 / 320.0)  # the same cap, 5 mm of travel
 
 
 @pytest.mark.ccx

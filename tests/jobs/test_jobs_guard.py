@@ -25,7 +25,9 @@ def _solver(*outcomes):
 @pytest.mark.parametrize("outcome", [o for o in Outcome if o.retry_smaller])
 def test_one_failure_is_retried_with_smaller_increments(outcome):
     solve, calls = _solver(outcome)
-    assert isinstance(guarded(solve, SolverSettings()), Solved)
+    result = guarded(solve, SolverSettings())
+    assert isinstance(result, Solved)
+    assert result.ccx_runs == 2 and result.solve_seconds >= 1.0  # the failed try counts
     assert calls[1].initial_increment == calls[0].initial_increment / 4
     assert calls[1].split_rise and not calls[0].split_rise  # a combined path's rise: own step
 
