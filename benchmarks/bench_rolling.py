@@ -21,6 +21,14 @@ element pitch (:mod:`farm.solve.trail`: on a polygon of a tyre Mz swings with wh
 tread columns sit within the pitch), with the pneumatic trail -Mz/Fy of those means and
 the trail about the centre of pressure. ``--figure PATH`` also draws them (PNG).
 ``--wall`` sets the elements through the wall.
+
+``--relaxation``: how far Fy needs to roll (issue 30's roll-in), one roll of
+``--distance`` mm per slip angle of ``--alphas`` at ``--radius``, results every eighth of
+an element pitch; prints the pitch means of Fy, Mz and the trails along the roll, and
+fits Fy(s) = F (1 - exp(-(s - s0) / sigma)) to them (scipy): the steady lateral force F,
+the relaxation length sigma, and the secant cornering stiffness F / alpha. The fit is an
+extrapolation where the roll is shorter than a few sigma (it says how much of F the roll
+reached).
 """
 
 from __future__ import annotations
@@ -38,7 +46,7 @@ from farm.mesh import mesh_for
 from farm.presets import default_model
 from farm.solve.contact import touch_height
 from farm.solve.rolling import free_rolling_radius, solve_roll
-from farm.solve.trail import last_pitch, pitch_mean
+from farm.solve.trail import element_pitch, last_pitch, pitch_mean
 from farm.specs import LoadPath, MeshDensity, RoadMotion, Roll, SolverSettings
 
 PRESSURE, DEFLECTION, MU = 0.2, 15.0, 0.6
@@ -141,6 +149,51 @@ def curves(spec, mesh, settings, args) -> None:
         print(f"figure: {args.figure}")
 
 
+def relaxation(spec, mesh, settings, args) -> None:
+    """Fy along long rolls, its relaxation fitted (see the module)."""
+    from scipy.optimize import curve_fit
+
+    for alpha in (float(a) for a in args.alphas.split(",") if a.strip()):
+        roll = Roll(friction=MU, slip_angle=alpha, distance=args.distance,
+                    rolling_radius=float(args.radius))
+        per_pitch = 8
+        pitches = int(args.distance // element_pitch(spec, roll))
+        n = per_pitch * pitches
+        fractions = [k / n * pitches * element_pitch(spec, roll) / args.distance
+                     for k in range(1, n + 1)]
+        states, wall, _ = _timed(lambda roll=roll, f=fractions: solve_roll(
+            spec, mesh, DEFLECTION, PRESSURE, roll, settings, f))
+        print(f"alpha {alpha:g} deg, {args.distance:g} mm roll, {wall:.0f} s; pitch means:")
+        print(f"{'travel mm':>12} {'Fy N':>9} {'Mz N m':>8} {'trail mm':>9} {'cp trail':>9} "
+              f"{'Fy/muFz':>8}", flush=True)
+        travel, fy = [], []
+        for k in range(pitches):
+            part = states[k * per_pitch:(k + 1) * per_pitch]
+            mean = pitch_mean(part, mesh)
+            fz = float(np.mean([x.force[2] for x in part]))
+            travel.append(float(np.mean([x.travelled for x in part])))
+            fy.append(mean.fy)
+            print(f"{part[0].travelled:5.0f}-{part[-1].travelled:<6.0f} {mean.fy:9.1f} "
+                  f"{mean.mz / 1e3:8.2f} {mean.trail:9.1f} {mean.pressure_trail:9.1f} "
+                  f"{mean.fy / (MU * fz):8.3f}", flush=True)
+        s, f = np.array(travel), np.array(fy)
+        if len(s) < 4:
+            print("  too few pitches to fit a relaxation (roll at least 4 pitches)")
+            continue
+        try:
+            (steady, sigma, s0), _ = curve_fit(
+                lambda x, a, b, c: a * (1 - np.exp(-(x - c) / b)), s, f,
+                p0=(2 * f[-1], 0.5 * s[-1], 0.0))
+        except RuntimeError as e:  # no convergence: printed, the table stands
+            print(f"  relaxation fit failed: {e}")
+            continue
+        worst = float(np.abs(steady * (1 - np.exp(-(s - s0) / sigma)) - f).max())
+        print(f"  fit: steady Fy {steady:.0f} N, relaxation length {sigma:.0f} mm "
+              f"(s0 {s0:.0f} mm, worst residual {worst:.2f} N); the roll reached "
+              f"{100 * f[-1] / steady:.0f} % of it; secant cornering stiffness "
+              f"{abs(steady / alpha):.0f} N/deg ({abs(steady / np.radians(alpha)):.0f} N/rad)")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--circumferential", type=int, default=32)
@@ -154,6 +207,8 @@ def main() -> None:
                              "tests' coarse wall) or 8,5,2 (the thesis', `farm roll`'s)")
     parser.add_argument("--curves", action="store_true",
                         help="Fx(kappa), Fy(alpha), Mz(alpha) instead of the cost")
+    parser.add_argument("--relaxation", action="store_true",
+                        help="Fy along long rolls and its fitted relaxation instead")
     parser.add_argument("--kappas", default="-0.01,-0.005,-0.002,0,0.002,0.005,0.01")
     parser.add_argument("--alphas", default="-2,-1,-0.5,0.5,1,2,4")
     parser.add_argument("--figure", default=None)
@@ -168,6 +223,9 @@ def main() -> None:
     touch_height(spec, mesh, PRESSURE, settings)  # cached before timing
     if args.curves:
         curves(spec, mesh, settings, args)
+        return
+    if args.relaxation:
+        relaxation(spec, mesh, settings, args)
         return
     _, slide_wall, slide_cpu = _timed(lambda: run_load_path(
         spec, LoadPath((DEFLECTION,), PRESSURE, RoadMotion(friction=MU, shift_x=10.0)),
