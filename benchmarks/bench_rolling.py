@@ -28,7 +28,8 @@ an element pitch; prints the pitch means of Fy, Mz and the trails along the roll
 fits Fy(s) = F (1 - exp(-(s - s0) / sigma)) to them (scipy): the steady lateral force F,
 the relaxation length sigma, and the secant cornering stiffness F / alpha. The fit is an
 extrapolation where the roll is shorter than a few sigma (it says how much of F the roll
-reached).
+reached), and meaningless where Fy approaches mu Fz (the Fy/muFz column): a saturating
+patch is not a first-order lag.
 """
 
 from __future__ import annotations
