@@ -381,6 +381,11 @@ def amplitude_lines(name: str, points: Sequence[tuple[float, float]],
     return [f"*AMPLITUDE, NAME={name}, TIME=TOTAL TIME", *_amplitude(split.points(points))]
 
 
+def inflate_amplitude_lines(split: Split | None = None) -> list[str]:
+    """``INFLATE``: the cavity pressure ramped over step time [0, 1], then held."""
+    return amplitude_lines("INFLATE", [(0.0, 0.0), (1.0, 1.0), (2.0, 1.0)], split)
+
+
 def _amplitude(points: list[tuple[float, float]]) -> list[str]:
     """Amplitude data lines: at most four (time, value) pairs a line (ccx reads no more
     from one line: a fifth pair is silently dropped), each time once (the first of

@@ -222,7 +222,7 @@ def _combined_deck(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: So
         TILT_TIME if motion.tilt else 0.0, motion.rise, split)
     pressure: list[str] = []
     if spec.inflated:
-        amplitudes += D.amplitude_lines("INFLATE", [(0.0, 0.0), (1.0, 1.0), (2.0, 1.0)], split)
+        amplitudes += D.inflate_amplitude_lines(split)
         pressure = D.cavity_pressure_lines(mesh, path.pressure, "INFLATE")
     lam = motion.stick_slope if motion.stick_slope is not None else D.stick_slope(spec.contact)
     out_times = ([1.0] if spec.inflated else []) + times

@@ -111,9 +111,8 @@ def rim_lines(mesh: TyreMesh, spin: float, start: float,
     for k, n in enumerate(seat):
         for dof in (1, 3):
             name = f"RIM_{n}_{dof}"
-            amplitudes += [f"*AMPLITUDE, NAME={name}",
-                           *D._amplitude([(0.0, 0.0), *zip(times, u[k, :, dof - 1],
-                                                           strict=True)])]
+            amplitudes += D.amplitude_lines(
+                name, [(0.0, 0.0), *zip(times, u[k, :, dof - 1], strict=True)])
             boundary += [f"*BOUNDARY, AMPLITUDE={name}", f"{n}, {dof}, {dof}, 1"]
     return amplitudes, boundary
 
@@ -135,7 +134,7 @@ def roll_deck(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: floa
     amplitudes, boundary = D.road_motion_lines(road, travel, roll.travel, roll.tilt, 1.0,
                                                TILT_TIME if roll.tilt else 0.0, "normal",
                                                move_time=duration)
-    amplitudes += ["*AMPLITUDE, NAME=INFLATE", "0, 0, 1, 1, 2, 1"]
+    amplitudes += D.inflate_amplitude_lines()
     rim_amplitudes, rim = rim_lines(mesh, roll.spin, 2.0, duration)
     if not fractions or any(not 0.0 <= f <= 1.0 for f in fractions) or any(
             b <= a for a, b in itertools.pairwise(fractions)):
@@ -223,7 +222,9 @@ def on_grid(values: np.ndarray, mesh: TyreMesh, spin: float,
 def _rolled(state: SolvedState, reference: SolvedState, mesh: TyreMesh, roll: Roll,
             fraction: float) -> RolledState:
     """A roll's state from the combined-load state at its time (the road's reaction and
-    moment, tread forces, stick/slip) and the inflated tyre's node positions."""
+    moment, tread forces, stick/slip) and the inflated tyre's node positions; its
+    ``solved`` state carries the radius the rim turned with."""
+    state = dataclasses.replace(state, rolling_radius=float(roll.rolling_radius))
     spin = fraction * roll.spin
     assert state.road_moment is not None and state.contact_status is not None
     camera = state.displacement - (turned(mesh.nodes + reference.displacement, spin)
@@ -275,8 +276,7 @@ def roll_to_end(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: Solve
     A free rolling radius (``motion.rolling_radius`` None) is found first
     (:func:`free_rolling_radius`, a few rolls at kappa = 0); the seconds and runs count
     those rolls too. (At kappa = 0 the last of them is the experiment's own roll, solved
-    once more: kept simple, at the cost of one roll.) The radius rolled with is the
-    state's ``solved.rolling_radius``. The camera's view of the state is
+    once more: kept simple, at the cost of one roll.) The camera's view of the state is
     :func:`farm.measure.camera.rolling_solution`'s.
     """
     motion = path.motion
@@ -295,9 +295,7 @@ def roll_to_end(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: Solve
         increments = sum(t.increments for t in tried)
     run, [end] = _roll_run(spec, mesh, deflection, path.pressure, motion.as_roll(radius),
                            settings, (1.0,), should_stop)
-    solved = dataclasses.replace(end.solved, rolling_radius=float(radius))
-    return (dataclasses.replace(end, solved=solved), spent + run.seconds, runs + 1,
-            increments + run.increments)
+    return end, spent + run.seconds, runs + 1, increments + run.increments
 
 
 def _stage(time: float, deflection: float, roll: Roll) -> str:
