@@ -46,8 +46,8 @@ from farm.experiment import run_load_path
 from farm.mesh import mesh_for
 from farm.presets import default_model
 from farm.solve.contact import touch_height
-from farm.solve.rolling import free_rolling_radius, solve_roll
-from farm.solve.trail import element_pitch, last_pitch, pitch_mean
+from farm.solve.rolling import element_pitch, free_rolling_radius, last_pitch, solve_roll
+from farm.solve.trail import pitch_mean
 from farm.specs import LoadPath, MeshDensity, RoadMotion, Roll, SolverSettings
 
 PRESSURE, DEFLECTION, MU = 0.2, 15.0, 0.6

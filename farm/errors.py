@@ -96,6 +96,12 @@ class SolverError(FarmError, RuntimeError):
         return SolverError(self.outcome, self.command, self.returncode, self.tail, self.hint,
                            self.reached, where)
 
+    def noting(self, note: str) -> SolverError:
+        """The same failure with ``note`` added to its hint (what the caller keeps)."""
+        hint = f"{self.hint}. {note}" if self.hint else note
+        return SolverError(self.outcome, self.command, self.returncode, self.tail, hint,
+                           self.reached, self.where)
+
     def __reduce__(self):  # keep the fields when the error crosses a process boundary
         return (type(self), (self.outcome, self.command, self.returncode, self.tail,
                              self.hint, self.reached, self.where))

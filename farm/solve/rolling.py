@@ -26,17 +26,21 @@ combined loads (:func:`farm.solve.contact._combined_state`).
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import itertools
+import json
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
+from farm.atomic import write_text
 from farm.ccx import deck as D
-from farm.ccx.runner import CcxRun
+from farm.ccx.runner import CcxRun, ccx_version
 from farm.errors import ResultsError, SolverError, SpecError
+from farm.mesh.cache import cache_dir
 from farm.mesh.tyremesh import TyreMesh
 from farm.solve.contact import (
     TILT_TIME,
@@ -47,7 +51,7 @@ from farm.solve.contact import (
     touch_height,
 )
 from farm.solve.states import SolvedState
-from farm.specs import LoadPath, ModelSpec, RoadMotion, Roll, SolverSettings
+from farm.specs import LoadPath, ModelSpec, RoadMotion, Roll, SolverSettings, content_hash
 
 
 @dataclass(frozen=True, eq=False)
@@ -288,14 +292,53 @@ def roll_to_end(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: Solve
     spent, runs, increments = 0.0, 0, 0
     radius = motion.rolling_radius
     if radius is None:
-        radius, tried = free_rolling_radius(spec, mesh, deflection, path.pressure,
-                                            motion.as_roll(400.0), settings,
-                                            should_stop=should_stop)
+        radius, tried = cached_free_radius(spec, mesh, deflection, path.pressure,
+                                           motion.as_roll(FREE_ROLL_MM), settings,
+                                           should_stop)
         spent, runs = sum(t.seconds for t in tried), len(tried)
         increments = sum(t.increments for t in tried)
-    run, [end] = _roll_run(spec, mesh, deflection, path.pressure, motion.as_roll(radius),
-                           settings, (1.0,), should_stop)
+    try:
+        run, [end] = _roll_run(spec, mesh, deflection, path.pressure, motion.as_roll(radius),
+                               settings, (1.0,), should_stop)
+    except SolverError as e:
+        if motion.rolling_radius is not None:
+            raise
+        # what the search found is kept (and cached: a retry rolls at once)
+        raise e.noting(f"The free-rolling radius found before the roll: {radius:.3f} mm "
+                       f"({runs} rolls, {spent:.0f} s; 0 rolls: cached)") from e
     return end, spent + run.seconds, runs + 1, increments + run.increments
+
+
+#: Road travel (mm) of the rolls that look for a free-rolling radius (roll_to_end): at
+#: least one element pitch of the coarse meshes (158 mm at 16 round) past their roll-in.
+FREE_ROLL_MM = 400.0
+
+
+def cached_free_radius(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: float,
+                       roll: Roll, settings: SolverSettings,
+                       should_stop: Callable[[], bool] | None = None,
+                       ) -> tuple[float, list[RadiusTry]]:
+    """:func:`free_rolling_radius`, cached per model, mesh, pressure, deflection, roll
+    (its slip ratio and radius aside) and solver, as the inflation is
+    (:func:`farm.solve.contact.touch_height`): a retried experiment, a resumed study or
+    the slip ratios of one slip angle search once. Returns (r_e, the rolls tried; none
+    when the cache answered)."""
+    key = content_hash({"model": spec.to_dict(), "mesh": mesh.mesh_key, "pressure": pressure,
+                        "deflection": deflection, "solver": ccx_version(),
+                        "roll": {k: v for k, v in dataclasses.asdict(roll).items()
+                                 if k not in ("slip_ratio", "rolling_radius")}})
+    path = cache_dir() / "free-radius" / f"{key[:32]}.json"
+    try:
+        return float(json.loads(path.read_text())["radius_mm"]), []
+    except (OSError, ValueError, KeyError):
+        pass
+    radius, tried = free_rolling_radius(spec, mesh, deflection, pressure, roll, settings,
+                                        should_stop=should_stop)
+    with contextlib.suppress(OSError):  # a read-only cache only costs a search
+        path.parent.mkdir(parents=True, exist_ok=True)
+        write_text(path, json.dumps({"radius_mm": radius,
+                                     "tried": [dataclasses.asdict(t) for t in tried]}))
+    return radius, tried
 
 
 def _stage(time: float, deflection: float, roll: Roll) -> str:
@@ -308,15 +351,34 @@ def _stage(time: float, deflection: float, roll: Roll) -> str:
     return f"in the roll at {deflection:g} mm, after {travelled:.1f} mm"
 
 
+def element_pitch(spec: ModelSpec, roll: Roll) -> float:
+    """Road travel (mm) over which the rolling tyre advances by one element round:
+    2 pi r_e / n, r_e the roll's rolling radius, n the mesh's elements round."""
+    return 2.0 * math.pi * roll.rolling_radius / spec.mesh.circumferential
+
+
+def last_pitch(spec: ModelSpec, roll: Roll, samples: int = 8) -> list[float]:
+    """``samples`` fractions of ``roll`` spread evenly over its last element pitch,
+    increasing, the last 1.0 (the roll's end)."""
+    pitch = element_pitch(spec, roll)
+    if samples < 1 or pitch >= roll.distance:
+        raise ValueError(f"a roll of {roll.distance:g} mm is shorter than its element pitch "
+                         f"({pitch:.1f} mm): roll further to average over a pitch")
+    step = pitch / samples / roll.distance
+    return [1.0 - step * k for k in range(samples - 1, -1, -1)]
+
+
 @dataclass(frozen=True)
 class RadiusTry:
-    """One roll of :func:`free_rolling_radius`: its radius (mm), Fx at its end (N), and
+    """One roll of :func:`free_rolling_radius`: its radius (mm), Fx and Fz (N) averaged
+    over its last element pitch (at its end when the roll is shorter than a pitch), and
     what its ccx run cost."""
 
     radius: float
     fx: float
     seconds: float
     increments: int
+    fz: float = float("nan")
 
 
 def free_rolling_radius(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: float,
@@ -329,6 +391,12 @@ def free_rolling_radius(spec: ModelSpec, mesh: TyreMesh, deflection: float, pres
     travel, in which Fx is nearly linear near free rolling), starting from
     R - deflection / 3 and R, R the inflated tyre's outer radius (:func:`inflated_radius`).
 
+    Fx and Fz are means over the roll's last element pitch (:func:`last_pitch`, 8
+    states): a meshed tyre is a polygon, and its Fx swings with where the tread columns
+    are within the pitch (25-65 N on 32 elements round, docs/rolling.md), so Fx at one
+    state would put that phase into r_e (a radius found so left Fx at -27 N, 1 % of Fz,
+    on a roll 50 mm longer). A roll shorter than a pitch is read at its end.
+
     Returns (r_e, every roll tried).
     """
     r0 = inflated_radius(spec, mesh, pressure, settings)
@@ -336,11 +404,16 @@ def free_rolling_radius(spec: ModelSpec, mesh: TyreMesh, deflection: float, pres
     tried: list[RadiusTry] = []
     radius = r0 - deflection / 3.0
     while len(tried) < max_rolls:
-        run, [end] = _roll_run(spec, mesh, deflection, pressure,
-                               dataclasses.replace(free, rolling_radius=radius), settings,
-                               (1.0,), should_stop)
-        tried.append(RadiusTry(radius, float(end.force[0]), run.seconds, run.increments))
-        if abs(end.force[0]) <= tolerance * abs(end.force[2]):
+        trial = dataclasses.replace(free, rolling_radius=radius)
+        try:
+            fractions = last_pitch(spec, trial)
+        except ValueError:
+            fractions = [1.0]
+        run, states = _roll_run(spec, mesh, deflection, pressure, trial, settings,
+                                fractions, should_stop)
+        fx, fz = (float(np.mean([s.force[k] for s in states])) for k in (0, 2))
+        tried.append(RadiusTry(radius, fx, run.seconds, run.increments, fz))
+        if abs(fx) <= tolerance * abs(fz):
             return radius, tried
         if len(tried) == 1:
             radius = r0

@@ -8,7 +8,8 @@ columns are within the pitch: measured on the thesis wall at 32 elements round (
 rolling.md, "The sign of Mz"), -Mz/Fy went from -4 to +33 mm within each 80 mm pitch
 of a 2-degree roll, and the 150 mm roll of the first curves had ended at a column
 position where it was -4.5 mm. A tyre's trail is the mean over the pitch: this module
-samples a roll's last pitch and averages there, and locates the forces on the tread.
+averages over states of a roll's last pitch (:func:`farm.solve.rolling.last_pitch`) and
+locates the forces on the tread.
 
 Sign: the wheel travels along +x relative to the road (:mod:`farm.solve.rolling`), so
 "behind" the contact centre is -x, and a lateral force Fy acting at x = -t gives
@@ -17,7 +18,6 @@ Mz = -t Fy: a positive trail t = -Mz / Fy is a force behind the centre.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -25,24 +25,6 @@ import numpy as np
 
 from farm.mesh.tyremesh import TyreMesh
 from farm.solve.rolling import RolledState
-from farm.specs import ModelSpec, Roll
-
-
-def element_pitch(spec: ModelSpec, roll: Roll) -> float:
-    """Road travel (mm) over which the rolling tyre advances by one element round:
-    2 pi r_e / n, r_e the roll's rolling radius, n the mesh's elements round."""
-    return 2.0 * math.pi * roll.rolling_radius / spec.mesh.circumferential
-
-
-def last_pitch(spec: ModelSpec, roll: Roll, samples: int = 8) -> list[float]:
-    """``samples`` fractions of ``roll`` spread evenly over its last element pitch,
-    increasing, the last 1.0 (the roll's end)."""
-    pitch = element_pitch(spec, roll)
-    if samples < 1 or pitch >= roll.distance:
-        raise ValueError(f"a roll of {roll.distance:g} mm is shorter than its element pitch "
-                         f"({pitch:.1f} mm): roll further to average over a pitch")
-    step = pitch / samples / roll.distance
-    return [1.0 - step * k for k in range(samples - 1, -1, -1)]
 
 
 def force_centres(state: RolledState, mesh: TyreMesh) -> tuple[float, float]:
@@ -75,7 +57,8 @@ class PitchMean:
 
 
 def pitch_mean(states: Sequence[RolledState], mesh: TyreMesh) -> PitchMean:
-    """:class:`PitchMean` of ``states`` (those of :func:`last_pitch`'s fractions)."""
+    """:class:`PitchMean` of ``states`` (those of :func:`farm.solve.rolling.last_pitch`'s
+    fractions)."""
     fy = float(np.mean([s.force[1] for s in states]))
     mz = [float(s.moment[2]) for s in states]
     centres = [force_centres(s, mesh) for s in states]

@@ -12,19 +12,22 @@ the stiffnesses need a finer mesh (the slow test below, docs/rolling.md).
 from __future__ import annotations
 
 import dataclasses
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
-from farm.errors import SpecError
+from farm.errors import SolverError, SpecError
 from farm.experiment import run_load_path
 from farm.measure.camera import camera_state
 from farm.measure.measurement import measure
 from farm.mesh import mesh_for
 from farm.presets import default_model
+from farm.solve import rolling
 from farm.solve.rolling import (
     free_rolling_radius,
     inflated_radius,
+    last_pitch,
     on_grid,
     roll_deck,
     roll_time,
@@ -32,11 +35,13 @@ from farm.solve.rolling import (
     turned,
 )
 from farm.solve.states import PathSolution
-from farm.solve.trail import force_centres, last_pitch, pitch_mean
+from farm.solve.trail import force_centres, pitch_mean
 from farm.specs import LoadPath, MeshDensity, RoadMotion, Roll, SolverSettings
 
 PRESSURE, DEFLECTION, MU = 0.2, 15.0, 0.6
-R_E = 402.9  # the coarse model's free-rolling radius at 200 kPa, 15 mm (measured, 100 mm)
+# the coarse model's free-rolling radius at 200 kPa, 15 mm, mu 0.6: free_rolling_radius over
+# 400 mm rolls, Fx averaged over the last element pitch (403.80 mm, docs/rolling.md)
+R_E = 403.8
 
 
 def _model(circumferential: int):
@@ -207,6 +212,68 @@ def test_fx_grows_with_the_slip_ratio(coarse):
     assert fx[0] < 0 < fx[2] and fx[0] < fx[1] < fx[2]
 
 
+def test_the_free_rolling_radius_is_where_fx_over_a_pitch_vanishes(monkeypatch):
+    """A meshed tyre is a polygon: Fx swings with the tread columns' place within the
+    element pitch. The search reads Fx over the roll's last pitch, so that swing does not
+    move r_e. Here a synthetic roll (the search's logic, not the solver: the slow test
+    below rolls ccx) has Fx = K (r - r_true) plus a swing of 200 N that peaks at the roll's
+    end: read at the end, r_e would be off by up to 200 / K = 1.6 mm."""
+    spec = default_model("full", mesh=MeshDensity(tread=4, sidewall=2, bead=1,
+                                                  circumferential=16))
+    r_true, k, swing, fz, distance = 403.0, 127.0, 200.0, 3000.0, 400.0
+
+    def phase(radius, fraction):  # the swing's phase: 0 at the roll's end at r_true
+        pitch = 2 * np.pi * radius / 16
+        return 2 * np.pi * (fraction * distance / pitch - distance / (2 * np.pi * r_true / 16))
+
+    def fake_roll(spec_, mesh, deflection, pressure, roll, settings, fractions, stop):
+        states = [SimpleNamespace(force=np.array([
+            k * (roll.rolling_radius - r_true) + swing * np.cos(phase(roll.rolling_radius, f)),
+            0.0, fz])) for f in fractions]
+        return SimpleNamespace(seconds=1.0, increments=10), states
+
+    monkeypatch.setattr(rolling, "_roll_run", fake_roll)
+    monkeypatch.setattr(rolling, "inflated_radius", lambda *a: 411.0)
+    r_e, tried = free_rolling_radius(spec, None, DEFLECTION, PRESSURE,
+                                     Roll(friction=MU, distance=distance), SolverSettings())
+    assert abs(r_e - r_true) <= 0.005 * fz / k + 1e-9  # the search's own tolerance
+    assert abs(tried[-1].fx) <= 0.005 * fz and tried[-1].fz == fz
+    assert len(last_pitch(spec, Roll(friction=MU, distance=distance, rolling_radius=r_e))) == 8
+
+
+def test_a_failed_roll_keeps_its_free_rolling_radius(monkeypatch, tmp_path, coarse):
+    """A free roll searches r_e first (several rolls), then rolls. When that roll fails,
+    its reason names the r_e found, and the search is cached: the guard's retry (or a
+    resumed study) rolls at once. Synthetic rolls (the logic, not the solver)."""
+    spec, mesh = coarse
+    monkeypatch.setenv("FARM_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(rolling, "ccx_version", lambda: "test")
+    searches = []
+
+    def search(*args, **kw):
+        searches.append(args)
+        return 403.5, [rolling.RadiusTry(403.5, 1.0, 30.0, 40, 2700.0)] * 3
+
+    def failing_roll(*args):
+        raise SolverError("increment_below_minimum", ["ccx", "roll"], 201, "too small",
+                          reached=2.3)
+
+    monkeypatch.setattr(rolling, "free_rolling_radius", search)
+    monkeypatch.setattr(rolling, "_roll_run", failing_roll)
+    path = LoadPath((DEFLECTION,), PRESSURE, RoadMotion(friction=MU, roll=200.0,
+                                                        slip_ratio=0.01))
+    for tries, note in ((1, "403.500 mm (3 rolls, 90 s"), (1, "403.500 mm (0 rolls")):
+        with pytest.raises(SolverError, match="increment_below_minimum") as failed:
+            rolling.roll_to_end(spec, mesh, path, SolverSettings())
+        assert note in str(failed.value) and len(searches) == tries
+    # another slip ratio at the same slip angle shares the search; another angle does not
+    other = LoadPath((DEFLECTION,), PRESSURE, RoadMotion(friction=MU, roll=200.0,
+                                                         slip_angle=1.0))
+    with pytest.raises(SolverError):
+        rolling.roll_to_end(spec, mesh, other, SolverSettings())
+    assert len(searches) == 2
+
+
 @pytest.mark.slow
 @pytest.mark.ccx
 def test_the_free_rolling_radius_lies_between_the_loaded_and_the_inflated_radius():
@@ -274,9 +341,11 @@ def test_a_rolling_load_path_is_measured_in_the_camera_frame(coarse):
 
 @pytest.mark.slow
 @pytest.mark.ccx
-def test_a_free_rolling_path_finds_its_radius_first(coarse):
-    """rolling_radius None: the path finds r_e (rolls at kappa = 0 until Fx is 0.5 % of
-    Fz) and then rolls; its ccx runs count the search, and at kappa = 0 it ends free."""
+def test_a_free_rolling_path_finds_its_radius_first(coarse, monkeypatch, tmp_path):
+    """rolling_radius None: the path finds r_e (rolls at kappa = 0 until Fx over a pitch
+    is 0.5 % of Fz) and then rolls; its ccx runs count the search (an empty cache: a
+    cached r_e is not searched again), and at kappa = 0 it ends free."""
+    monkeypatch.setenv("FARM_CACHE_DIR", str(tmp_path))
     spec, _ = coarse
     result = run_load_path(spec, LoadPath((DEFLECTION,), PRESSURE,
                                           RoadMotion(friction=MU, roll=60.0)))
