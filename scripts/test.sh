@@ -18,4 +18,5 @@ if [ "${1:-}" = "--e2e" ]; then
     shift
     exec python -m pytest -m e2e "$@"
 fi
-exec python -m pytest "$@"
+# the 25 slowest tests are listed at the end: the default run aims at about 15 min
+exec python -m pytest --durations=25 "$@"
