@@ -80,8 +80,8 @@ def curves(spec, mesh, settings, args) -> None:
         found, tried = free_rolling_radius(spec, mesh, DEFLECTION, PRESSURE,
                                            Roll(friction=MU, distance=args.distance),
                                            settings)
-        print(f"free-rolling radius: {found:.2f} mm ({len(tried)} rolls; Fx at the last "
-              f"{tried[-1].fx:.1f} N)", flush=True)
+        print(f"free-rolling radius: {found:.2f} mm ({len(tried)} rolls; Fx over the last "
+              f"pitch of the last {tried[-1].fx:.1f} N)", flush=True)
         args.radius = found
     base = Roll(friction=MU, distance=args.distance, rolling_radius=float(args.radius))
     kappas = [float(k) for k in args.kappas.split(",") if k.strip()]

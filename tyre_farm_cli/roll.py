@@ -71,7 +71,9 @@ def roll(
         lines.log("roll: finding the free-rolling radius (rolls at kappa = 0)")
         radius, tried = free_rolling_radius(spec, m, deflection, mpa, motion, settings)
         found = {"radius_mm": radius,
-                 "tried": [{"radius_mm": t.radius, "fx_n": t.fx} for t in tried]}
+                 # Fx and Fz of each roll: means over its last element pitch (its end
+                 # state for a roll shorter than a pitch)
+                 "tried": [{"radius_mm": t.radius, "fx_n": t.fx, "fz_n": t.fz} for t in tried]}
         motion = dataclasses.replace(motion, rolling_radius=radius)
     lines.log(f"roll: rolling {distance:g} mm at r_e {motion.rolling_radius:.2f} mm")
     fractions = tuple(float(f) for f in np.round(np.linspace(0, 1, samples + 1), 9))
