@@ -51,6 +51,7 @@ from farm.solve.contact import (
     touch_height,
 )
 from farm.solve.states import SolvedState
+from farm.spacing import column_angles
 from farm.specs import LoadPath, ModelSpec, RoadMotion, Roll, SolverSettings, content_hash
 
 
@@ -352,9 +353,20 @@ def _stage(time: float, deflection: float, roll: Roll) -> str:
 
 
 def element_pitch(spec: ModelSpec, roll: Roll) -> float:
-    """Road travel (mm) over which the rolling tyre advances by one element round:
-    2 pi r_e / n, r_e the roll's rolling radius, n the mesh's elements round."""
-    return 2.0 * math.pi * roll.rolling_radius / spec.mesh.circumferential
+    """Road travel (mm) over which the rolling tyre advances by the element that is under
+    the contact centre at the roll's end: r_e times its angle, r_e the roll's rolling
+    radius. On a uniform mesh every element is 2 pi / n round; on a windowed one
+    (:mod:`farm.spacing`) the element is the one the roll's spin has carried there (the
+    material at angle ``spin`` ends under the centre, :func:`on_grid`)."""
+    m = spec.mesh
+    if not m.windowed:
+        return 2.0 * math.pi * roll.rolling_radius / m.circumferential
+    edges = column_angles(spec.sector_angle, m.circumferential, spec.is_full, m.window,
+                          m.window_elements)
+    edges = np.append(edges, edges[0] + 2.0 * math.pi)  # the full tyre's columns wrap
+    at = (roll.spin - edges[0]) % (2.0 * math.pi) + edges[0]
+    k = min(int(np.searchsorted(edges, at, side="right")) - 1, len(edges) - 2)
+    return float(edges[k + 1] - edges[k]) * roll.rolling_radius
 
 
 def last_pitch(spec: ModelSpec, roll: Roll, samples: int = 8) -> list[float]:
@@ -393,9 +405,9 @@ def free_rolling_radius(spec: ModelSpec, mesh: TyreMesh, deflection: float, pres
 
     Fx and Fz are means over the roll's last element pitch (:func:`last_pitch`, 8
     states): a meshed tyre is a polygon, and its Fx swings with where the tread columns
-    are within the pitch (25-65 N on 32 elements round, docs/rolling.md), so Fx at one
-    state would put that phase into r_e (a radius found so left Fx at -27 N, 1 % of Fz,
-    on a roll 50 mm longer). A roll shorter than a pitch is read at its end.
+    are within the pitch (-86 to +116 N on 16 elements round, 25-65 N on 32;
+    docs/rolling.md), so Fx at one state would put that phase into r_e (0.6 mm on 16
+    round). A roll shorter than a pitch is read at its end.
 
     Returns (r_e, every roll tried).
     """

@@ -212,6 +212,32 @@ def test_fx_grows_with_the_slip_ratio(coarse):
     assert fx[0] < 0 < fx[2] and fx[0] < fx[1] < fx[2]
 
 
+@pytest.mark.parametrize(("distance", "degrees"), [
+    (50.0, 2.0),     # spin 7 degrees: still inside the +-32 degree window of 2-degree elements
+    (400.0, None),   # spin 57 degrees: out in the graded rest, a larger element
+])
+def test_the_element_pitch_is_that_of_the_element_the_roll_ends_on(distance, degrees):
+    """A windowed mesh's elements differ in size: the pitch of a roll's last states is
+    the element the spin has carried under the contact centre, not 2 pi r_e / n."""
+    from farm.spacing import column_angles
+
+    spec = default_model("full", mesh="patch")
+    roll = Roll(friction=MU, distance=distance, rolling_radius=400.0)
+    pitch = rolling.element_pitch(spec, roll)
+    m = spec.mesh
+    edges = np.degrees(column_angles(360.0, m.circumferential, True, m.window,
+                                     m.window_elements))
+    spin = np.degrees(roll.spin)
+    if degrees is None:  # the graded element holding the spin
+        k = np.searchsorted(edges, spin) - 1
+        degrees = edges[k + 1] - edges[k]
+        assert degrees > 2.5
+    assert pitch == pytest.approx(np.radians(degrees) * 400.0)
+    uniform = default_model("full", mesh=MeshDensity(tread=4, sidewall=2, bead=1,
+                                                     circumferential=16))
+    assert rolling.element_pitch(uniform, roll) == pytest.approx(2 * np.pi * 400.0 / 16)
+
+
 def test_the_free_rolling_radius_is_where_fx_over_a_pitch_vanishes(monkeypatch):
     """A meshed tyre is a polygon: Fx swings with the tread columns' place within the
     element pitch. The search reads Fx over the roll's last pitch, so that swing does not
