@@ -21,20 +21,17 @@ CSHEAR in ccx's contact frame), with a stick/slip state per node.
 
 from __future__ import annotations
 
-import contextlib
-import json
 import math
 from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from farm.atomic import write_text
 from farm.ccx import deck as D
 from farm.ccx.frd import FrdFile, read_frd
 from farm.ccx.runner import CcxRun, ccx_version, run_ccx, scratch_dir
 from farm.errors import ResultsError, SolverError
-from farm.mesh.cache import cache_dir
 from farm.mesh.tyremesh import HEX_FACES, REGIONS, TyreMesh
+from farm.solve.entries import read_entry, write_entry
 from farm.solve.states import (
     OPEN,
     SLIP,
@@ -44,7 +41,7 @@ from farm.solve.states import (
     inner_strain,
     node_field,
 )
-from farm.specs import LoadPath, ModelSpec, RoadMotion, SolverSettings, content_hash
+from farm.specs import LoadPath, ModelSpec, RoadMotion, SolverSettings
 
 TIME_RTOL = 1e-5  # the .frd prints times below 1 with 6 digits only
 
@@ -86,18 +83,13 @@ def touch_height(spec: ModelSpec, mesh: TyreMesh, pressure: float, settings: Sol
     paths (or re-runs one) reads it from the cache instead. Returns the height and the
     run, or ``None`` when the cache answered.
     """
-    key = content_hash({"model": spec.to_dict(), "mesh": mesh.mesh_key, "pressure": pressure,
-                        "solver": ccx_version()})
-    path = cache_dir() / "inflation" / f"{key[:32]}.json"
-    try:
-        return float(json.loads(path.read_text())["touch_z"]), None
-    except (OSError, ValueError, KeyError):
-        pass
+    key = {"model": spec.to_dict(), "mesh": mesh.mesh_key, "pressure": pressure,
+           "solver": ccx_version()}
+    entry = read_entry("inflation", key)
+    if entry is not None and isinstance(entry.get("touch_z"), float):
+        return entry["touch_z"], None
     run, z = inflate(spec, mesh, pressure, settings, should_stop)
-    with contextlib.suppress(OSError):  # a read-only cache only costs a re-run
-        path.parent.mkdir(parents=True, exist_ok=True)
-        # a unique temporary name: threads of one worker may write the same entry
-        write_text(path, json.dumps({"touch_z": z}))
+    write_entry("inflation", key, {"touch_z": z})
     return z, run
 
 

@@ -26,21 +26,17 @@ combined loads (:func:`farm.solve.contact._combined_state`).
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import itertools
-import json
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-from farm.atomic import write_text
 from farm.ccx import deck as D
 from farm.ccx.runner import CcxRun, ccx_version
 from farm.errors import ResultsError, SolverError, SpecError
-from farm.mesh.cache import cache_dir
 from farm.mesh.tyremesh import TyreMesh
 from farm.solve.contact import (
     TILT_TIME,
@@ -50,9 +46,10 @@ from farm.solve.contact import (
     tilted_gap,
     touch_height,
 )
+from farm.solve.entries import read_entry, write_entry
 from farm.solve.states import SolvedState
 from farm.spacing import column_angles
-from farm.specs import LoadPath, ModelSpec, RoadMotion, Roll, SolverSettings, content_hash
+from farm.specs import LoadPath, ModelSpec, RoadMotion, Roll, SolverSettings
 
 
 @dataclass(frozen=True, eq=False)
@@ -321,24 +318,19 @@ def cached_free_radius(spec: ModelSpec, mesh: TyreMesh, deflection: float, press
                        ) -> tuple[float, list[RadiusTry]]:
     """:func:`free_rolling_radius`, cached per model, mesh, pressure, deflection, roll
     (its slip ratio and radius aside) and solver, as the inflation is
-    (:func:`farm.solve.contact.touch_height`): a retried experiment, a resumed study or
-    the slip ratios of one slip angle search once. Returns (r_e, the rolls tried; none
-    when the cache answered)."""
-    key = content_hash({"model": spec.to_dict(), "mesh": mesh.mesh_key, "pressure": pressure,
-                        "deflection": deflection, "solver": ccx_version(),
-                        "roll": {k: v for k, v in dataclasses.asdict(roll).items()
-                                 if k not in ("slip_ratio", "rolling_radius")}})
-    path = cache_dir() / "free-radius" / f"{key[:32]}.json"
-    try:
-        return float(json.loads(path.read_text())["radius_mm"]), []
-    except (OSError, ValueError, KeyError):
-        pass
+    (:mod:`farm.solve.entries`): a retried experiment, a resumed study or the slip ratios
+    of one slip angle search once. Returns (r_e, the rolls tried; none when the cache
+    answered)."""
+    key = {"model": spec.to_dict(), "mesh": mesh.mesh_key, "pressure": pressure,
+           "deflection": deflection, "solver": ccx_version(),
+           "roll": {k: v for k, v in dataclasses.asdict(roll).items()
+                    if k not in ("slip_ratio", "rolling_radius")}}
+    entry = read_entry("free-radius", key)
+    if entry is not None and isinstance(entry.get("radius_mm"), float):
+        return entry["radius_mm"], []
     radius, tried = free_rolling_radius(spec, mesh, deflection, pressure, roll, settings,
                                         should_stop=should_stop)
-    with contextlib.suppress(OSError):  # a read-only cache only costs a search
-        path.parent.mkdir(parents=True, exist_ok=True)
-        write_text(path, json.dumps({"radius_mm": radius,
-                                     "tried": [dataclasses.asdict(t) for t in tried]}))
+    write_entry("free-radius", key, {"radius_mm": radius})
     return radius, tried
 
 
