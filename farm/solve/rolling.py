@@ -276,9 +276,10 @@ def roll_to_end(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: Solve
     solver seconds, ccx runs and increments it took.
 
     A free rolling radius (``motion.rolling_radius`` None) is found first
-    (:func:`free_rolling_radius`, a few rolls at kappa = 0); the seconds and runs count
-    those rolls too. (At kappa = 0 the last of them is the experiment's own roll, solved
-    once more: kept simple, at the cost of one roll.) The camera's view of the state is
+    (:func:`cached_free_radius`: a few rolls of :data:`FREE_ROLL_MM` at kappa = 0, or
+    none when another experiment found it); the seconds and runs count those rolls too.
+    The experiment's own roll is always a run of its own, even where a search roll had
+    the same distance and slip. The camera's view of the state is
     :func:`farm.measure.camera.rolling_solution`'s.
     """
     motion = path.motion
@@ -351,6 +352,8 @@ def element_pitch(spec: ModelSpec, roll: Roll) -> float:
     (:mod:`farm.spacing`) the element is the one the roll's spin has carried there (the
     material at angle ``spin`` ends under the centre, :func:`on_grid`)."""
     m = spec.mesh
+    if not spec.is_full:  # a sector's elements do not go round: it cannot roll
+        raise SpecError("rolling needs the full model (its elements go all round)")
     if not m.windowed:
         return 2.0 * math.pi * roll.rolling_radius / m.circumferential
     edges = column_angles(spec.sector_angle, m.circumferential, spec.is_full, m.window,
@@ -380,9 +383,9 @@ class RadiusTry:
 
     radius: float
     fx: float
+    fz: float
     seconds: float
     increments: int
-    fz: float = float("nan")
 
 
 def free_rolling_radius(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: float,
@@ -409,14 +412,12 @@ def free_rolling_radius(spec: ModelSpec, mesh: TyreMesh, deflection: float, pres
     radius = r0 - deflection / 3.0
     while len(tried) < max_rolls:
         trial = dataclasses.replace(free, rolling_radius=radius)
-        try:
-            fractions = last_pitch(spec, trial)
-        except ValueError:
-            fractions = [1.0]
+        fractions = (last_pitch(spec, trial) if element_pitch(spec, trial) < trial.distance
+                     else [1.0])
         run, states = _roll_run(spec, mesh, deflection, pressure, trial, settings,
                                 fractions, should_stop)
         fx, fz = (float(np.mean([s.force[k] for s in states])) for k in (0, 2))
-        tried.append(RadiusTry(radius, fx, run.seconds, run.increments, fz))
+        tried.append(RadiusTry(radius, fx, fz, run.seconds, run.increments))
         if abs(fx) <= tolerance * abs(fz):
             return radius, tried
         if len(tried) == 1:

@@ -36,6 +36,7 @@ from farm.solve.rolling import (
 )
 from farm.solve.states import PathSolution
 from farm.solve.trail import force_centres, pitch_mean
+from farm.spacing import column_angles
 from farm.specs import LoadPath, MeshDensity, RoadMotion, Roll, SolverSettings
 
 PRESSURE, DEFLECTION, MU = 0.2, 15.0, 0.6
@@ -219,8 +220,6 @@ def test_fx_grows_with_the_slip_ratio(coarse):
 def test_the_element_pitch_is_that_of_the_element_the_roll_ends_on(distance, degrees):
     """A windowed mesh's elements differ in size: the pitch of a roll's last states is
     the element the spin has carried under the contact centre, not 2 pi r_e / n."""
-    from farm.spacing import column_angles
-
     spec = default_model("full", mesh="patch")
     roll = Roll(friction=MU, distance=distance, rolling_radius=400.0)
     pitch = rolling.element_pitch(spec, roll)
@@ -236,6 +235,8 @@ def test_the_element_pitch_is_that_of_the_element_the_roll_ends_on(distance, deg
     uniform = default_model("full", mesh=MeshDensity(tread=4, sidewall=2, bead=1,
                                                      circumferential=16))
     assert rolling.element_pitch(uniform, roll) == pytest.approx(2 * np.pi * 400.0 / 16)
+    with pytest.raises(SpecError, match="full model"):
+        rolling.element_pitch(default_model("reduced"), roll)
 
 
 def test_the_free_rolling_radius_is_where_fx_over_a_pitch_vanishes(monkeypatch):
@@ -278,7 +279,7 @@ def test_a_failed_roll_keeps_its_free_rolling_radius(monkeypatch, tmp_path, coar
 
     def search(*args, **kw):
         searches.append(args)
-        return 403.5, [rolling.RadiusTry(403.5, 1.0, 30.0, 40, 2700.0)] * 3
+        return 403.5, [rolling.RadiusTry(403.5, 1.0, 2700.0, 30.0, 40)] * 3
 
     def failing_roll(*args):
         raise SolverError("increment_below_minimum", ["ccx", "roll"], 201, "too small",
