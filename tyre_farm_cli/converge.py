@@ -27,6 +27,9 @@ def converge(
                                "(minutes: for the pipeline, not for conclusions)."),
     replay: bool = typer.Option(False, "--replay", help="Solve nothing: redraw the tables "
                                 "from OUT/convergence.json of an earlier run."),
+    cases: list[str] = typer.Option(
+        [], "--case", help="Solve only this load case (repeatable): one of the study's "
+        "cases, or roll-150mm (a rolling tyre, issue 30). Default: the study's cases."),
     out: Path = typer.Option(Path("convergence"), "--out", help="Output folder."),
     materials: str = typer.Option("table-3.1", "--materials", help="Material preset."),
     scheduler: str = SCHEDULER,
@@ -43,6 +46,7 @@ def converge(
     with usage():
         check_materials(materials)
         output_folder(out, "--out")
+        chosen = lv.chosen_cases(cases, quick)
         if replay:
             saved = reading.read_text(out / "convergence.json", "convergence records")
     if replay:
@@ -50,7 +54,7 @@ def converge(
         _write(out, doc["records"], doc["sequence"], doc["materials"], doc["quick"])
         return
     find_ccx()
-    levels, cases = (lv.QUICK_LEVELS, lv.QUICK_CASES) if quick else (lv.LEVELS, lv.CASES)
+    levels = lv.QUICK_LEVELS if quick else lv.LEVELS
     log = LogLines()
 
     def note(record: dict) -> None:
@@ -60,7 +64,7 @@ def converge(
                 f"{record['wall_s']:.0f} s")
 
     with cluster.client() as client:
-        records = run_study(levels, cases, client, materials, on_record=note)
+        records = run_study(levels, chosen, client, materials, on_record=note)
     _write(out, records, [level.name for level in levels if level.ratio], materials, quick)
 
 

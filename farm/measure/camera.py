@@ -60,7 +60,7 @@ def camera_state(rolled: RolledState, mesh: TyreMesh) -> SolvedState:
     Between the columns of a grid that is not uniform, the re-read forces sum to the road's reaction
     only approximately (``road_reaction`` stays exact; ``total_force`` is their sum).
     """
-    state, spin = rolled.solved, rolled.spin
+    state, spin = rolled.solved, rolled.turn  # the start (a windowed mesh) included
     first, stop = mesh.tread_rows
     tread_grid = mesh.outer_grid[first:stop]
     n_tread = tread_grid.size

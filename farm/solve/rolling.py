@@ -68,6 +68,11 @@ class RolledState:
     ``solved`` is the state as the solver left it (material node order, strains in the
     reference axes), ``reference`` the inflated, unloaded tyre before the road touched:
     :func:`farm.measure.camera.camera_state` re-reads ``solved`` at the grid's fixed places.
+
+    ``start`` (rad) is the turn the tyre was given before the roll (:func:`start_spin`:
+    a windowed mesh starts with its window ahead of the road), so the material at each
+    node's place of the stored mesh is the one ``start + spin`` carried there; the
+    arrays are those of the stored mesh (``displacement`` includes the start's turn).
     """
 
     fraction: float
@@ -81,6 +86,12 @@ class RolledState:
     camera: np.ndarray
     solved: SolvedState
     reference: SolvedState
+    start: float = 0.0
+
+    @property
+    def turn(self) -> float:
+        """The tyre's turn from the stored mesh, rad: ``start + spin``."""
+        return self.start + self.spin
 
 
 #: Straight pieces of each bead node's circular path over a roll: the chord of a piece
@@ -221,19 +232,65 @@ def on_grid(values: np.ndarray, mesh: TyreMesh, spin: float,
     return out
 
 
+def start_spin(spec: ModelSpec, roll: Roll) -> float:
+    """The turn (rad, about +y as :func:`turned`) given to the tyre before ``roll``.
+
+    A windowed mesh (:mod:`farm.spacing`) is refined in the material, so a roll carries
+    its window away from the road (issue 30). It starts turned back by the roll's own
+    spin: the window is ahead of the road, rolls in, and ends centred under the contact,
+    where a standing tyre has it, so the rolled state is read at the stored mesh's own
+    nodes. A uniform mesh starts as meshed (0): its elements are alike all round.
+    """
+    return -roll.spin if spec.mesh.windowed else 0.0
+
+
+def turned_mesh(mesh: TyreMesh, start: float) -> TyreMesh:
+    """``mesh`` with its nodes turned by ``start`` (its sets, grids and angles as they
+    were: they name material, not places)."""
+    if start == 0.0:
+        return mesh
+    return dataclasses.replace(mesh, nodes=turned(mesh.nodes, start))
+
+
+def _unturned(state: SolvedState, start: float, mesh: TyreMesh, *,
+              whole: bool) -> SolvedState:
+    """A state solved on ``turned_mesh(mesh, start)``, referred to ``mesh``.
+
+    Strains are Lagrange strains of the material, so only their axes change: E' = Q^T E Q,
+    Q the start's turn. ``whole``: the solution turned back as a whole (the inflated tyre,
+    which no road touches: displacement Q^T u); otherwise the start's turn joins the
+    displacement (the rolled tyre stays where the road has it) and the road's forces stay.
+    """
+    if start == 0.0:
+        return state
+    c, s = math.cos(start), math.sin(start)
+    q = np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])  # turned(p) == p @ q.T
+    # ccx's components xx, yy, zz, xy, yz, zx (SolvedState.strain) as tensors and back
+    e = q.T @ state.strain[:, [[0, 3, 5], [3, 1, 4], [5, 4, 2]]] @ q
+    strain = e[:, [0, 1, 2, 0, 1, 2], [0, 1, 2, 1, 2, 0]]
+    if whole:
+        return dataclasses.replace(state, displacement=state.displacement @ q,
+                                   strain=strain, tread_force=state.tread_force @ q)
+    moved = turned(mesh.nodes, start) - mesh.nodes
+    return dataclasses.replace(state, displacement=state.displacement + moved, strain=strain)
+
+
 def _rolled(state: SolvedState, reference: SolvedState, mesh: TyreMesh, roll: Roll,
-            fraction: float) -> RolledState:
+            fraction: float, start: float = 0.0) -> RolledState:
     """A roll's state from the combined-load state at its time (the road's reaction and
-    moment, tread forces, stick/slip) and the inflated tyre's node positions; its
-    ``solved`` state carries the radius the rim turned with."""
-    state = dataclasses.replace(state, rolling_radius=float(roll.rolling_radius))
+    moment, tread forces, stick/slip) and the inflated tyre's, both referred to the
+    stored ``mesh`` (:func:`_unturned`); its ``solved`` state carries the radius the rim
+    turned with."""
+    state = dataclasses.replace(_unturned(state, start, mesh, whole=False),
+                                rolling_radius=float(roll.rolling_radius))
+    reference = _unturned(reference, start, mesh, whole=True)
     spin = fraction * roll.spin
     assert state.road_moment is not None and state.contact_status is not None
-    camera = state.displacement - (turned(mesh.nodes + reference.displacement, spin)
-                                   - mesh.nodes)
+    camera = state.displacement - (turned(mesh.nodes + reference.displacement,
+                                          start + spin) - mesh.nodes)
     return RolledState(fraction, fraction * roll.distance, spin, state.road_reaction,
                        state.road_moment, state.tread_force, state.contact_status,
-                       state.displacement, camera, state, reference)
+                       state.displacement, camera, state, reference, start)
 
 
 def solve_roll(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: float,
@@ -250,9 +307,12 @@ def _roll_run(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: floa
     if not spec.inflated or spec.road != "contact":
         raise SpecError("rolling needs the inflated full model with the contact road "
                         "(model kind 'full', road 'contact')")
+    # the deflection is from the stored mesh's first touch: where the roll ends
     touch_z, _ = touch_height(spec, mesh, pressure, settings, should_stop)
-    deck, times, road, z_start = roll_deck(spec, mesh, deflection, pressure, roll, settings,
-                                           touch_z, fractions)
+    start = start_spin(spec, roll)
+    solved = turned_mesh(mesh, start)
+    deck, times, road, z_start = roll_deck(spec, solved, deflection, pressure, roll,
+                                           settings, touch_z, fractions)
     try:
         run, frd = _solve(deck, settings, should_stop, "roll")
     except SolverError as e:
@@ -263,9 +323,10 @@ def _roll_run(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: floa
     faces = slave_faces(mesh)
     motion = RoadMotion(friction=roll.friction, tilt=roll.tilt, rise="normal")
     still = RoadMotion(friction=roll.friction)
-    reference = _combined_state(frd, mesh, faces, road, 1.0, 0.0, np.nan, still)
-    return run, [_rolled(_combined_state(frd, mesh, faces, road, t, deflection, centre_z,
-                                         motion, run.seconds_to(t)), reference, mesh, roll, f)
+    reference = _combined_state(frd, solved, faces, road, 1.0, 0.0, np.nan, still)
+    return run, [_rolled(_combined_state(frd, solved, faces, road, t, deflection, centre_z,
+                                         motion, run.seconds_to(t)), reference, mesh, roll,
+                         f, start)
                  for t, f in zip(times, fractions, strict=True)]
 
 
@@ -276,7 +337,7 @@ def roll_to_end(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: Solve
     solver seconds, ccx runs and increments it took.
 
     A free rolling radius (``motion.rolling_radius`` None) is found first
-    (:func:`cached_free_radius`: a few rolls of :data:`FREE_ROLL_MM` at kappa = 0, or
+    (:func:`cached_free_radius`: a few rolls of :func:`free_roll_mm` at kappa = 0, or
     none when another experiment found it); the seconds and runs count those rolls too.
     The experiment's own roll is always a run of its own, even where a search roll had
     the same distance and slip. The camera's view of the state is
@@ -292,7 +353,7 @@ def roll_to_end(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: Solve
     radius = motion.rolling_radius
     if radius is None:
         radius, tried = cached_free_radius(spec, mesh, deflection, path.pressure,
-                                           motion.as_roll(FREE_ROLL_MM), settings,
+                                           motion.as_roll(free_roll_mm(spec)), settings,
                                            should_stop)
         spent, runs = sum(t.seconds for t in tried), len(tried)
         increments = sum(t.increments for t in tried)
@@ -312,6 +373,17 @@ def roll_to_end(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: Solve
 #: least one element pitch of the coarse meshes (158 mm at 16 round) past their roll-in.
 FREE_ROLL_MM = 400.0
 
+#: The same on a windowed mesh, whose element under the road at the roll's end is the
+#: window's (2 degrees, 14 mm on ``patch``): the longest roll whose start stays within
+#: the window (``patch``: 150 mm turn 21 of its +-32 degrees) and past Fx's roll-in (within
+#: 1 % after 135 mm on 32 elements round, docs/rolling.md).
+FREE_ROLL_WINDOWED_MM = 150.0
+
+
+def free_roll_mm(spec: ModelSpec) -> float:
+    """Road travel (mm) of a free-rolling radius search's rolls on ``spec``'s mesh."""
+    return FREE_ROLL_WINDOWED_MM if spec.mesh.windowed else FREE_ROLL_MM
+
 
 def cached_free_radius(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: float,
                        roll: Roll, settings: SolverSettings,
@@ -326,6 +398,8 @@ def cached_free_radius(spec: ModelSpec, mesh: TyreMesh, deflection: float, press
            "deflection": deflection, "solver": ccx_version(),
            "roll": {k: v for k, v in dataclasses.asdict(roll).items()
                     if k not in ("slip_ratio", "rolling_radius")}}
+    if spec.mesh.windowed:  # searched with the window ahead (start_spin) since issue 30
+        key["start"] = "window ahead"
     entry = read_entry("free-radius", key)
     if entry is not None and isinstance(entry.get("radius_mm"), float):
         return entry["radius_mm"], []
@@ -349,8 +423,9 @@ def element_pitch(spec: ModelSpec, roll: Roll) -> float:
     """Road travel (mm) over which the rolling tyre advances by the element that is under
     the contact centre at the roll's end: r_e times its angle, r_e the roll's rolling
     radius. On a uniform mesh every element is 2 pi / n round; on a windowed one
-    (:mod:`farm.spacing`) the element is the one the roll's spin has carried there (the
-    material at angle ``spin`` ends under the centre, :func:`on_grid`)."""
+    (:mod:`farm.spacing`) the element is the one the roll's turn has carried there (the
+    material at angle ``start + spin`` ends under the centre, :func:`on_grid`): the
+    window's, as the roll starts with it ahead (:func:`start_spin`)."""
     m = spec.mesh
     if not spec.is_full:  # a sector's elements do not go round: it cannot roll
         raise SpecError("rolling needs the full model (its elements go all round)")
@@ -359,7 +434,7 @@ def element_pitch(spec: ModelSpec, roll: Roll) -> float:
     edges = column_angles(spec.sector_angle, m.circumferential, spec.is_full, m.window,
                           m.window_elements)
     edges = np.append(edges, edges[0] + 2.0 * math.pi)  # the full tyre's columns wrap
-    at = (roll.spin - edges[0]) % (2.0 * math.pi) + edges[0]
+    at = (start_spin(spec, roll) + roll.spin - edges[0]) % (2.0 * math.pi) + edges[0]
     k = min(int(np.searchsorted(edges, at, side="right")) - 1, len(edges) - 2)
     return float(edges[k + 1] - edges[k]) * roll.rolling_radius
 

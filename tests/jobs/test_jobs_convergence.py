@@ -6,7 +6,15 @@ import math
 import pytest
 
 from jobs.cluster import connect
-from jobs.convergence.levels import CASES, LEVELS, QUICK_CASES, QUICK_LEVELS, Case
+from jobs.convergence.levels import (
+    CASES,
+    LEVELS,
+    QUICK_CASES,
+    QUICK_LEVELS,
+    ROLL_CASES,
+    Case,
+    chosen_cases,
+)
 from jobs.convergence.run import model_of, run_study, solve_case
 from jobs.convergence.table import markdown, richardson, rows, verdict
 
@@ -71,6 +79,15 @@ def test_levels_are_valid_models_refined_by_two_in_the_window_and_tread():
     assert {c.pressure_kpa for c in CASES} == {80.0, 200.0}
     assert any(c.motion and c.motion.friction and c.motion.shift_y for c in CASES)
     assert any(c.motion and c.motion.tilt for c in CASES)
+
+
+def test_cases_are_chosen_by_name_from_the_study_s_and_the_rolling_ones():
+    assert chosen_cases([]) == CASES and chosen_cases([], quick=True) == QUICK_CASES
+    [roll] = chosen_cases(["roll-150mm"])
+    assert roll in ROLL_CASES and roll.motion.rolls and roll.motion.rolling_radius
+    # a name the quick study shares means the quick case there
+    assert chosen_cases(["slide-y-3mm"], quick=True) == (QUICK_CASES[1],)
+    assert chosen_cases(["slide-y-3mm", "roll-150mm", "slide-y-3mm"]) == (CASES[2], roll)
 
 
 @pytest.mark.ccx

@@ -18,6 +18,7 @@ def _run(argv, capsys):
     (["compare", "--set", "mesh.window=30"], "go together"),
     (["run", "--model", "reduced", "--mesh", "patch"], "choose one of thesis"),
     (["converge", "--materials", "steel"], "unknown material preset 'steel'"),
+    (["converge", "--case", "roll-1m"], "--case 'roll-1m' is not a load case"),
 ])
 def test_bad_input_is_one_line_and_nothing_is_solved(argv, needle, capsys, monkeypatch):
     import jobs.calibrate.compare
