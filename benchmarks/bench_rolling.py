@@ -98,12 +98,13 @@ def curves(spec, mesh, settings, args) -> None:
             print(f"  {kw}: failed, {e.outcome} ({e.where})", flush=True)
             return None
 
-    print(f"{'kappa':>8} {'Fx N':>9}", flush=True)
-    fx = []
+    print(f"{'kappa':>8} {'Fx N':>9} {'Fx/muFz':>8}", flush=True)
+    fx, fz = [], []
     for kappa in kappas:
         states = end(slip_ratio=kappa)
         fx.append(np.nan if states is None else float(np.mean([s.force[0] for s in states])))
-        print(f"{kappa:8.4f} {fx[-1]:9.1f}", flush=True)
+        fz.append(np.nan if states is None else float(np.mean([s.force[2] for s in states])))
+        print(f"{kappa:8.4f} {fx[-1]:9.1f} {fx[-1] / (MU * fz[-1]):8.3f}", flush=True)
     print(f"{'alpha deg':>9} {'Fy N':>9} {'Mz N m':>9} {'Mz range':>15} {'trail mm':>9} "
           f"{'cp trail':>9}", flush=True)
     fy, mz = [], []
@@ -111,6 +112,7 @@ def curves(spec, mesh, settings, args) -> None:
         states = end(slip_angle=alpha)
         mean = None if states is None else pitch_mean(states, mesh)
         fy.append(np.nan if mean is None else mean.fy)
+        fz.append(np.nan if states is None else float(np.mean([s.force[2] for s in states])))
         mz.append(np.nan if mean is None else mean.mz / 1e3)
         if mean is not None:
             low, high = (v / 1e3 for v in mean.mz_range)
@@ -137,14 +139,20 @@ def curves(spec, mesh, settings, args) -> None:
              (alphas, mz, "slip angle (deg)", "Mz (N m)")] if alphas else [])
         fig, ax = plt.subplots(1, len(panels), figsize=(4 * len(panels), 3.6), squeeze=False)
         ax = ax[0]
+        limit = MU * float(np.nanmean(fz)) if np.isfinite(fz).any() else np.nan
         for axis, (x, y, xlabel, ylabel) in zip(ax, panels, strict=True):
             axis.plot(x, y, "o-")
             axis.set(xlabel=xlabel, ylabel=ylabel)
+            if ylabel != "Mz (N m)" and np.isfinite(limit):  # where sliding caps it
+                for sign in (1, -1):
+                    axis.axhline(sign * limit, ls="--", c="grey", lw=0.8)
+                axis.text(x[0], 0.9 * limit, "mu Fz", color="grey", fontsize=8)
         for axis in ax:
             axis.grid(alpha=0.3)
         fig.suptitle(f"rolling, {mesh.n_nodes} nodes, {PRESSURE * 1000:g} kPa, "
-                     f"{DEFLECTION:g} mm, mu {MU:g}, {args.distance:g} mm rolls, "
-                     f"r_e {args.radius:g} mm")
+                     f"{DEFLECTION:g} mm, mu {MU:g}, means over the last pitch of "
+                     f"{args.distance:g} mm rolls, r_e {float(args.radius):.2f} mm",
+                     fontsize=9)
         fig.tight_layout()
         fig.savefig(args.figure, dpi=110)
         print(f"figure: {args.figure}")
