@@ -150,7 +150,7 @@ def curves(spec, mesh, settings, args) -> None:
         for axis in ax:
             axis.grid(alpha=0.3)
         fig.suptitle(f"rolling, {mesh.n_nodes} nodes, {PRESSURE * 1000:g} kPa, "
-                     f"{DEFLECTION:g} mm, mu {MU:g}, means over the last pitch of "
+                     f"{DEFLECTION:g} mm, mu {MU:g},\nmeans over the last pitch of "
                      f"{args.distance:g} mm rolls, r_e {float(args.radius):.2f} mm",
                      fontsize=9)
         fig.tight_layout()
