@@ -43,8 +43,9 @@ def solve_case(model: ModelSpec, case: Case, settings: SolverSettings | None = N
     mesh = mesh_for(model)
     states = []
     for m, patch in zip(result.measurements, result.patches(mesh), strict=True):
-        label = (f"{m.deflection:g} mm" if m.motion is None or not m.motion.moves
-                 else "rolled" if m.motion.rolls else "slid")
+        label = ("rolled" if m.motion is not None and m.motion.rolls
+                 else f"{m.deflection:g} mm" if m.motion is None or not m.motion.moves
+                 else "slid")
         states.append({
             "state": label, "Fx": float(m.total_force[0]), "Fy": float(m.total_force[1]),
             "Fz": float(m.total_force[2]), "Mz": float(m.moment[2]) / 1000.0,
