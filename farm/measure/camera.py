@@ -13,7 +13,6 @@ standing tyre's :class:`~farm.solve.states.SolvedState`, so that
 from __future__ import annotations
 
 import dataclasses
-import math
 from collections.abc import Callable
 
 import numpy as np
@@ -21,15 +20,9 @@ import numpy as np
 from farm.measure.patch import tread_areas
 from farm.measure.surface import VOIGT, tensor_from_voigt
 from farm.mesh.tyremesh import TyreMesh
-from farm.solve.rolling import RolledState, on_grid, roll_to_end
+from farm.solve.rolling import RolledState, on_grid, roll_to_end, turn_matrix
 from farm.solve.states import PathSolution, SolvedState
 from farm.specs import LoadPath, ModelSpec, SolverSettings
-
-
-def _turn_matrix(spin: float) -> np.ndarray:
-    """The matrix of :func:`turned`: ``turned(p, spin) == p @ R.T``."""
-    c, s = math.cos(spin), math.sin(spin)
-    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
 
 
 def _nearest_column(values: np.ndarray, mesh: TyreMesh, spin: float,
@@ -75,7 +68,7 @@ def camera_state(rolled: RolledState, mesh: TyreMesh) -> SolvedState:
         displacement[grid.ravel() - 1] += on_grid(rolled.camera, mesh, spin,
                                                   grid).reshape(-1, 3)
     # R E R^T: the strain in the axes the spin turned the material's into
-    turn = _turn_matrix(spin)
+    turn = turn_matrix(spin)
     tensors = turn @ tensor_from_voigt(state.strain) @ turn.T
     voigt = np.stack([tensors[:, i, j] for i, j in VOIGT], axis=1)
     full = np.zeros((mesh.n_nodes, 6))

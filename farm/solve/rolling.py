@@ -232,6 +232,12 @@ def on_grid(values: np.ndarray, mesh: TyreMesh, spin: float,
     return out
 
 
+def turn_matrix(spin: float) -> np.ndarray:
+    """The matrix of :func:`turned`: ``turned(p, spin) == p @ turn_matrix(spin).T``."""
+    c, s = math.cos(spin), math.sin(spin)
+    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+
+
 def start_spin(spec: ModelSpec, roll: Roll) -> float:
     """The turn (rad, about +y as :func:`turned`) given to the tyre before ``roll``.
 
@@ -263,8 +269,7 @@ def _unturned(state: SolvedState, start: float, mesh: TyreMesh, *,
     """
     if start == 0.0:
         return state
-    c, s = math.cos(start), math.sin(start)
-    q = np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])  # turned(p) == p @ q.T
+    q = turn_matrix(start)
     # ccx's components xx, yy, zz, xy, yz, zx (SolvedState.strain) as tensors and back
     e = q.T @ state.strain[:, [[0, 3, 5], [3, 1, 4], [5, 4, 2]]] @ q
     strain = e[:, [0, 1, 2, 0, 1, 2], [0, 1, 2, 1, 2, 0]]
