@@ -18,9 +18,14 @@ from collections.abc import Callable
 import numpy as np
 
 from farm.measure.patch import tread_areas
-from farm.measure.surface import VOIGT, tensor_from_voigt
 from farm.mesh.tyremesh import TyreMesh
-from farm.solve.rolling import RolledState, on_grid, roll_to_end, turn_matrix
+from farm.solve.rolling import (
+    RolledState,
+    on_grid,
+    roll_to_end,
+    turn_matrix,
+    turned_strain,
+)
 from farm.solve.states import PathSolution, SolvedState
 from farm.specs import LoadPath, ModelSpec, SolverSettings
 
@@ -68,9 +73,7 @@ def camera_state(rolled: RolledState, mesh: TyreMesh) -> SolvedState:
         displacement[grid.ravel() - 1] += on_grid(rolled.camera, mesh, spin,
                                                   grid).reshape(-1, 3)
     # R E R^T: the strain in the axes the spin turned the material's into
-    turn = turn_matrix(spin)
-    tensors = turn @ tensor_from_voigt(state.strain) @ turn.T
-    voigt = np.stack([tensors[:, i, j] for i, j in VOIGT], axis=1)
+    voigt = turned_strain(state.strain, turn_matrix(spin))
     full = np.zeros((mesh.n_nodes, 6))
     full[mesh.inner_grid.ravel() - 1] = voigt
     strain = on_grid(full, mesh, spin).reshape(-1, 6)

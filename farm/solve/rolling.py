@@ -238,6 +238,13 @@ def turn_matrix(spin: float) -> np.ndarray:
     return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
 
 
+def turned_strain(strain: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """Strains (n, 6) in ccx's components xx, yy, zz, xy, yz, zx
+    (:attr:`SolvedState.strain`) with their axes turned: R E R^T for each."""
+    e = r @ strain[:, [[0, 3, 5], [3, 1, 4], [5, 4, 2]]] @ r.T
+    return e[:, [0, 1, 2, 0, 1, 2], [0, 1, 2, 1, 2, 0]]
+
+
 def start_spin(spec: ModelSpec, roll: Roll) -> float:
     """The turn (rad, about +y as :func:`turned`) given to the tyre before ``roll``.
 
@@ -270,9 +277,7 @@ def _unturned(state: SolvedState, start: float, mesh: TyreMesh, *,
     if start == 0.0:
         return state
     q = turn_matrix(start)
-    # ccx's components xx, yy, zz, xy, yz, zx (SolvedState.strain) as tensors and back
-    e = q.T @ state.strain[:, [[0, 3, 5], [3, 1, 4], [5, 4, 2]]] @ q
-    strain = e[:, [0, 1, 2, 0, 1, 2], [0, 1, 2, 1, 2, 0]]
+    strain = turned_strain(state.strain, q.T)
     if whole:
         return dataclasses.replace(state, displacement=state.displacement @ q,
                                    strain=strain, tread_force=state.tread_force @ q)
