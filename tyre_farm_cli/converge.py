@@ -4,6 +4,8 @@ Solves every refinement level x load case of :mod:`jobs.convergence.levels` on t
 cluster, then writes ``OUT/convergence.json`` (every record) and
 ``OUT/convergence.md`` (the level-by-level table with Richardson estimates, and the
 cost table); docs/mesh-convergence.md holds a measured run and what it decided.
+``--direction`` (issue 44) refines a base mesh preset (``--mesh``, default ``patch``)
+in one direction at a time instead, and writes one table per direction.
 """
 
 from __future__ import annotations
@@ -30,6 +32,13 @@ def converge(
     cases: list[str] = typer.Option(
         [], "--case", help="Solve only this load case (repeatable): one of the study's "
         "cases, or roll-150mm (a rolling tyre, issue 30). Default: the study's cases."),
+    directions: list[str] = typer.Option(
+        [], "--direction", help="Refine the --mesh preset in this direction alone, 2 and "
+        "4 x (repeatable): circumferential, tread, sidewall, bead, through, together "
+        "(2 x in every one at once), or all. Cases: the calibration's vertical points "
+        "(point-80kPa at 25 mm, point-200kPa at 30 mm) unless --case names others."),
+    mesh: str = typer.Option("patch", "--mesh", help="With --direction: the mesh preset "
+                             "refined (the full model's)."),
     out: Path = typer.Option(Path("convergence"), "--out", help="Output folder."),
     materials: str = typer.Option("table-3.1", "--materials", help="Material preset."),
     scheduler: str = SCHEDULER,
@@ -46,15 +55,22 @@ def converge(
     with usage():
         check_materials(materials)
         output_folder(out, "--out")
-        chosen = lv.chosen_cases(cases, quick)
+        if directions:
+            levels, sequences = lv.direction_study(lv.chosen_directions(directions), mesh,
+                                                   quick)
+            chosen = lv.chosen_cases(cases, quick, default=lv.POINT_CASES)
+        else:
+            levels = lv.QUICK_LEVELS if quick else lv.LEVELS
+            sequences = {"levels": [level.name for level in levels if level.ratio]}
+            chosen = lv.chosen_cases(cases, quick)
         if replay:
             saved = reading.read_text(out / "convergence.json", "convergence records")
     if replay:
         doc = json.loads(saved)
-        _write(out, doc["records"], doc["sequence"], doc["materials"], doc["quick"])
+        sequences = doc.get("sequences") or {"levels": doc["sequence"]}
+        _write(out, doc["records"], sequences, doc["materials"], doc["quick"])
         return
     find_ccx()
-    levels = lv.QUICK_LEVELS if quick else lv.LEVELS
     log = LogLines()
 
     def note(record: dict) -> None:
@@ -65,26 +81,27 @@ def converge(
 
     with cluster.client() as client:
         records = run_study(levels, chosen, client, materials, on_record=note)
-    _write(out, records, [level.name for level in levels if level.ratio], materials, quick)
+    _write(out, records, sequences, materials, quick)
 
 
-def _write(out: Path, records: list[dict], sequence: list[str], materials: str,
+def _write(out: Path, records: list[dict], sequences: dict[str, list[str]], materials: str,
            quick: bool) -> None:
-    """OUT/convergence.json and OUT/convergence.md, and the verdict on stdout."""
-    from jobs.convergence.table import markdown, rows, verdict
+    """OUT/convergence.json and OUT/convergence.md, and the verdict on stdout.
 
-    table = rows(records, sequence)
+    ``sequences``: the extrapolated levels of each direction, coarse to fine (one,
+    ``levels``, for the study of :data:`jobs.convergence.levels.LEVELS`).
+    """
+    from jobs.convergence.table import direction_markdown
+
+    text, summary, tables = direction_markdown(records, sequences)
     out.mkdir(parents=True, exist_ok=True)
+    doc = ({"sequence": sequences["levels"], "rows": tables["levels"]}
+           if list(sequences) == ["levels"] else {"sequences": sequences, "rows": tables})
     (out / "convergence.json").write_text(json.dumps(
-        {"materials": materials, "quick": quick, "sequence": sequence,
-         "records": records, "rows": table}, indent=1, default=float))
-    decided = verdict(table)
-    summary = (f"finest step: {decided['judged'] - len(decided['failing'])} of "
-               f"{decided['judged']} judged rows within issue 24's limits (totals 2 %, "
-               "window fields 5 %)")
+        {"materials": materials, "quick": quick, **doc, "records": records}, indent=1,
+        default=float))
     (out / "convergence.md").write_text(
-        f"# Mesh convergence, full model, {materials}\n\n{summary}\n\n"
-        + markdown(table, records, sequence))
+        f"# Mesh convergence, full model, {materials}\n\n{text}")
     failed = sum(r["status"] != "done" for r in records)
     Console().print(f"{out / 'convergence.md'}: {summary}"
                     + (f"; {failed} of {plural(len(records), 'solve')} failed" if failed

@@ -142,3 +142,37 @@ def markdown(table: Sequence[dict[str, Any]], records: Sequence[dict[str, Any]],
             lines.append(f"| {r['level']} | {r['case']} | failed: {r['reason'][:120]} | "
                          "- | - | - | - |")
     return "\n".join(lines) + "\n"
+
+
+def direction_markdown(records: Sequence[dict[str, Any]], sequences: dict[str, list[str]]
+                       ) -> tuple[str, str, dict[str, list[dict[str, Any]]]]:
+    """``(Markdown, one-line verdict, rows per sequence)`` of a study's records.
+
+    ``sequences`` maps a name to its extrapolated levels, coarse to fine: one,
+    ``levels``, for the study of :data:`jobs.convergence.levels.LEVELS` (its table as
+    before), or one per refined direction, each then a section of its own over the
+    records of its levels only.
+    """
+    tables, parts, passed, judged = {}, [], 0, 0
+    for name, seq in sequences.items():
+        # the study of LEVELS also reports levels outside its sequence (uniform-40)
+        own = records if name == "levels" else [r for r in records if r["level"] in seq]
+        table = tables[name] = rows(own, seq)  # every sequence the farm builds doubles
+        decided = verdict(table)
+        judged += decided["judged"]
+        passed += decided["judged"] - len(decided["failing"])
+        head = ("" if name == "levels" else
+                f"## {name}: {' -> '.join(seq)}\n\n{_verdict_line(decided)}\n\n")
+        parts.append(head + markdown(table, own, seq))
+    summary = (f"finest step: {passed} of {judged} judged rows within issue 24's limits "
+               "(totals 2 %, window fields 5 %)")
+    if list(sequences) == ["levels"]:
+        return summary + "\n\n" + parts[0], summary, tables
+    return summary + "\n\n" + "\n".join(parts), summary, tables
+
+
+def _verdict_line(decided: dict[str, Any]) -> str:
+    failing = ", ".join(sorted({f"{r['case']} {r['quantity']} {r['last_change_pct']:.2f} %"
+                                for r in decided["failing"]}))
+    return (f"{decided['judged'] - len(decided['failing'])} of {decided['judged']} judged "
+            "rows within the limits" + (f"; not met: {failing}" if failing else ""))
