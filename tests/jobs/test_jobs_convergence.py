@@ -117,3 +117,110 @@ def test_two_levels_solve_on_a_dask_cluster_and_balance():
     # refining the window adds contact nodes
     assert records[1]["states"][0]["patch"]["nodes"] > records[0]["states"][0]["patch"]["nodes"]
     assert QUICK_CASES  # the CLI's quick study is a superset (tests/tyre_farm_cli)
+
+
+# --- one direction at a time (issue 44) ------------------------------------------------
+
+from farm.presets import MESH_PRESETS  # noqa: E402
+from farm.spacing import MAX_GROWTH, half_steps  # noqa: E402
+from farm.errors import SpecError  # noqa: E402
+from jobs.convergence.levels import (  # noqa: E402
+    DIRECTIONS,
+    POINT_CASES,
+    chosen_directions,
+    direction_levels,
+    direction_study,
+    refined,
+)
+from jobs.convergence.table import direction_markdown  # noqa: E402
+
+PATCH = MESH_PRESETS["patch"]["full"]
+
+
+@pytest.mark.parametrize(("direction", "field"), [
+    ("tread", "tread"), ("sidewall", "sidewall"), ("bead", "bead"), ("through", "through")])
+def test_a_direction_doubles_its_own_count_and_leaves_the_others(direction, field):
+    for factor in (2, 4):
+        mesh = refined(PATCH, direction, factor)
+        assert getattr(mesh, field) == factor * getattr(PATCH, field)
+        others = {f: getattr(PATCH, f) for f in ("tread", "sidewall", "bead", "through",
+                                                  "circumferential", "window_elements")
+                  if f != field}
+        assert {f: getattr(mesh, f) for f in others} == others
+
+
+@pytest.mark.parametrize("factor", [2, 4])
+def test_the_circumferential_direction_halves_the_window_s_elements_within_the_grading(factor):
+    mesh = refined(PATCH, "circumferential", factor)
+    assert mesh.window == PATCH.window
+    assert mesh.window_elements == factor * PATCH.window_elements
+    steps = half_steps(180.0, mesh.circumferential // 2, mesh.window, mesh.window_elements)
+    assert steps[:mesh.window_elements] == pytest.approx(PATCH.window / mesh.window_elements)
+    assert steps.sum() == pytest.approx(180.0)
+    assert max(steps[1:] / steps[:-1]) <= MAX_GROWTH * (1 + 1e-9)
+    # the outside keeps its elements, plus only what the grading limit needs
+    outside = mesh.circumferential - 2 * mesh.window_elements
+    base_outside = PATCH.circumferential - 2 * PATCH.window_elements
+    assert outside >= base_outside
+    if outside > base_outside:
+        with pytest.raises(SpecError, match="grow"):
+            half_steps(180.0, mesh.circumferential // 2 - 1, mesh.window, mesh.window_elements)
+
+
+def test_together_refines_every_direction_and_sequences_double():
+    both = refined(PATCH, "together", 2)
+    assert both == refined(refined(refined(refined(refined(
+        PATCH, "circumferential", 2), "tread", 2), "sidewall", 2), "bead", 2), "through", 2)
+    levels = direction_levels("sidewall", PATCH)
+    assert [lv.name for lv in levels] == ["patch", "sidewall-x2", "sidewall-x4"]
+    assert [lv.mesh.sidewall for lv in levels] == [5, 10, 20]
+    assert [lv.ratio for lv in levels[1:]] == [2.0, 2.0]
+
+
+def test_the_direction_study_solves_the_base_once_and_names_each_sequence():
+    levels, sequences = direction_study(chosen_directions(["all"]))
+    names = [lv.name for lv in levels]
+    assert names.count("patch") == 1 and len(names) == len(set(names))
+    assert list(sequences) == list(DIRECTIONS)
+    assert all(seq[0] == "patch" for seq in sequences.values())
+    assert sequences["together"] == ["patch", "together-x2"]  # 4 x: ~87,000 nodes
+    assert chosen_directions(["bead", "all", "bead"])[0] == "bead"
+
+
+@pytest.mark.parametrize(("call", "needle"), [
+    (lambda: chosen_directions(["radial"]), "'radial' is not a direction"),
+    (lambda: refined(PATCH, "through", 8), "at most 4"),
+    (lambda: refined(MESH_PRESETS["thesis"]["full"], "circumferential", 2), "has none"),
+    (lambda: direction_study(["bead"], mesh="fine"), "unknown mesh preset 'fine'"),
+])
+def test_directions_that_cannot_be_built_are_refused_with_the_fix(call, needle):
+    with pytest.raises(SpecError, match=needle):
+        call()
+
+
+def test_point_cases_are_the_calibration_s_points():
+    assert [(c.pressure_kpa, c.deflections) for c in POINT_CASES] == [
+        (80.0, (25.0,)), (200.0, (30.0,))]
+    assert chosen_cases([], default=POINT_CASES) == POINT_CASES
+    assert chosen_cases(["point-80kPa"]) == POINT_CASES[:1]
+
+
+def test_each_direction_is_judged_on_its_own_levels():
+    def rec(level, fz):
+        r = _record(level, fz)
+        r["case"] = "point"
+        return r
+
+    records = [rec("patch", 1000.0), rec("sidewall-x2", 950.0), rec("sidewall-x4", 930.0),
+               rec("bead-x2", 999.0), rec("bead-x4", 998.5)]
+    text, summary, tables = direction_markdown(
+        records, {"sidewall": ["patch", "sidewall-x2", "sidewall-x4"],
+                  "bead": ["patch", "bead-x2", "bead-x4"]})
+    fz = {name: next(r for r in t if r["quantity"] == "Fz N") for name, t in tables.items()}
+    assert fz["sidewall"]["last_change_pct"] == pytest.approx(100 * 20 / 930)
+    assert not fz["sidewall"]["converged"] and fz["bead"]["converged"]
+    assert fz["sidewall"]["order"] == pytest.approx(math.log2(50 / 20))
+    assert set(fz["bead"]["values"]) == {"patch", "bead-x2", "bead-x4"}  # no sidewall
+    assert "## sidewall: patch -> sidewall-x2 -> sidewall-x4" in text
+    assert "not met: point Fz N 2.15 %" in text
+    assert summary.startswith("finest step: 7 of 8 judged rows")

@@ -19,6 +19,9 @@ def _run(argv, capsys):
     (["run", "--model", "reduced", "--mesh", "patch"], "choose one of thesis"),
     (["converge", "--materials", "steel"], "unknown material preset 'steel'"),
     (["converge", "--case", "roll-1m"], "--case 'roll-1m' is not a load case"),
+    (["converge", "--direction", "radial"], "--direction 'radial' is not a direction"),
+    (["converge", "--direction", "bead", "--mesh", "fine"], "unknown mesh preset 'fine'"),
+    (["converge", "--direction", "circumferential", "--mesh", "thesis"], "has none"),
 ])
 def test_bad_input_is_one_line_and_nothing_is_solved(argv, needle, capsys, monkeypatch):
     import jobs.calibrate.compare
@@ -61,3 +64,30 @@ def test_converge_quick_writes_the_table(tmp_path, capsys, monkeypatch):
     assert "| vertical-200kPa | 10 mm | Fz N |" in text and "judged rows" in out
     doc = json.loads((tmp_path / "conv" / "convergence.json").read_text())
     assert {r["status"] for r in doc["records"]} == {"done"}
+
+
+@pytest.mark.ccx
+def test_converge_refines_one_direction_and_judges_it_on_its_own(tmp_path, capsys,
+                                                                 monkeypatch):
+    """Issue 44: ``--direction`` solves the base and its refinement at the calibration's
+    points and writes one section per direction; --replay redraws it unchanged."""
+    monkeypatch.setenv("FARM_CACHE_DIR", str(tmp_path / "cache"))
+    out = tmp_path / "conv"
+    code, stdout, err = _run(["converge", "--quick", "--direction", "sidewall", "--workers",
+                              "2", "--out", str(out)], capsys)
+    assert code == 0, err
+    text = (out / "convergence.md").read_text()
+    assert "## sidewall: window-8deg -> sidewall-x2" in text
+    doc = json.loads((out / "convergence.json").read_text())
+    assert doc["sequences"] == {"sidewall": ["window-8deg", "sidewall-x2"]}
+    assert {(r["level"], r["case"]) for r in doc["records"]} == {
+        (lv, c) for lv in ("window-8deg", "sidewall-x2") for c in ("point-80kPa", "point-200kPa")}
+    assert {r["status"] for r in doc["records"]} == {"done"}
+    fz = {(r["level"], r["case"]): r["states"][0]["Fz"] for r in doc["records"]}
+    for case in ("point-80kPa", "point-200kPa"):
+        # a finer sidewall bends more easily: the same deflection carries less load
+        assert 0 < fz[("sidewall-x2", case)] < fz[("window-8deg", case)]
+    assert fz[("window-8deg", "point-200kPa")] > fz[("window-8deg", "point-80kPa")]
+    code, _, err = _run(["converge", "--replay", "--out", str(out)], capsys)
+    assert code == 0, err
+    assert (out / "convergence.md").read_text() == text
