@@ -77,7 +77,16 @@ def test_a_surrogate_of_another_mesh_is_refused_before_anything_runs(study):
         Inverse(study, surrogate=OtherMesh())
 
 
-def test_the_surrogate_start_is_near_the_truth_and_saves_solver_runs(study):
+def test_the_surrogate_start_is_as_accurate_as_the_loops_answers(study):
+    """What the surrogate start buys, on any BLAS kernel (issue 50).
+
+    Its start is already at the noise floor, so a loop from it only fits noise in a
+    flat valley (objective 1.93 -> 1.66, error 1.8 % -> 7.5 % of the largest force),
+    and how many solves it takes to its tolerance there is round-off's: 9 with
+    OpenBLAS's SkylakeX kernel, 17 with its Haswell kernel (the guess's load differs in
+    the 9th digit), against the uniform loop's 10 on both. So solves to termination are
+    not asserted; the start's accuracy is (docs/inverse.md, "The surrogate-first start").
+    """
     guess = from_group(study.distribution.store, study.distribution.group,
                        exclude={"deflection": study.deflection}, within=0.5, restarts=1)
     assert 30.0 not in guess.loads_[:, 0]  # the reference load is not looked up
@@ -93,5 +102,7 @@ def test_the_surrogate_start_is_near_the_truth_and_saves_solver_runs(study):
     assert guess.p_[0] == pytest.approx(30.0, abs=1.0)
     assert rms(by["surrogate"].x0) < 0.1 * truth.max() < rms(by["uniform"].x0)
     assert all(r.status == "converged" for r in report.results)
-    assert by["surrogate"].stats.solved < by["uniform"].stats.solved
-    assert rms(by["surrogate"].x) < 0.1 * truth.max()
+    # the start alone is nearer the truth than where the uniform loop ends: the solves a
+    # loop spends to reach that accuracy are the start's one against the uniform's many
+    assert rms(by["surrogate"].x0) < rms(by["uniform"].x)
+    assert max(rms(by["surrogate"].x), rms(by["uniform"].x)) < 0.1 * truth.max()
