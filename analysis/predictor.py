@@ -105,6 +105,10 @@ def fit(ds: xr.Dataset, sensor: SensorSpec, *, learner: str = "plsr", draws: int
         raise TooFewExperimentsError(f"fitting a force model needs at least {2 * folds} "
                                      f"done experiments ({folds} CV folds), the selection "
                                      f"has {K}")
+    if round(K * test_fraction) < 1:
+        raise ParameterError(f"test fraction {test_fraction:g} holds out none of the {K} "
+                             f"experiments, and the model's check needs one: give at "
+                             f"least {1 / K:.3g}")
     surface = InnerSurface.from_dataset(ds)
     virtual = VirtualSensor(sensor, surface)
     train, test = split(K, test_fraction, seed)
@@ -175,17 +179,23 @@ def save(model: ForceModel, path, *, store: str, group: str, ids: list[str],
 
 
 def load(path) -> tuple[ForceModel, dict]:
-    """Read a model written by :func:`save` (checksum and types verified on the way)."""
+    """Read a model written by :func:`save`: checksum and types verified on the way, then
+    the manifest and the payload checked as a whole (:mod:`analysis.predict.validate`)
+    before any part is used; a refusal is one :class:`ModelFileError` line."""
+    from analysis.predict import validate as v
     from analysis.predict.persist import load_model
 
     payload, manifest = load_model(path)
-    s = payload["surface"]
-    surface = InnerSurface(xyz=np.asarray(s["xyz"]), theta=np.asarray(s["theta"]),
-                           s=np.asarray(s["s"]), periodic=bool(s["periodic"]),
-                           node_index=np.asarray(s["node_index"]))
-    extra = manifest.get("extra", {})
-    info = {**extra.get("info", {}), "check": extra.get("check", [])}
-    model = ForceModel(SensorSpec.from_dict(manifest["sensor"]), surface,
-                       payload["learner"], payload["intervals"],
-                       tuple(manifest["inputs"]), tuple(manifest["targets"]), info)
+    where = f"model {path}"
+    targets_ = v.names(manifest, "targets", TARGETS, where)
+    inputs = v.names(manifest, "inputs", INPUTS, where)
+    sensor = v.built(SensorSpec.from_dict, v.sensor_dict(manifest, where), "sensor", where)
+    learner, intervals, s = v.payload_parts(payload, len(targets_), where)
+    surface = v.built(lambda s: InnerSurface(
+        xyz=np.asarray(s["xyz"], dtype=float), theta=np.asarray(s["theta"], dtype=float),
+        s=np.asarray(s["s"], dtype=float), periodic=bool(s["periodic"]),
+        node_index=np.asarray(s["node_index"])), s, "reference surface", where)
+    extra = manifest.get("extra") or {}
+    info = {**(extra.get("info") or {}), "check": extra.get("check") or []}
+    model = ForceModel(sensor, surface, learner, intervals, inputs, targets_, info)
     return model, manifest

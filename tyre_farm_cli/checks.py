@@ -45,6 +45,29 @@ def output_folder(path: Path, where: str) -> Path:
     return path
 
 
+NAME_MAX = 255  # bytes in one path component on the file systems the farm writes to
+
+
+def model_folder(path: Path, where: str) -> Path:
+    """A folder of its own for a model (``farm fit --out``): a new folder, an empty one,
+    or an earlier model's (whose two files are replaced) - never the current folder, a
+    symbolic link, or a folder of other files, which a model would be mixed into."""
+    path = Path(path).expanduser()
+    if path == Path("."):
+        raise fail(where, "the current folder was given (or an empty path): give a folder "
+                   "of its own for the model, e.g. --out model")
+    long = [part for part in path.parts if len(os.fsencode(part)) > NAME_MAX]
+    if long:  # before any look at the path: the system refuses to (ENAMETOOLONG)
+        raise fail(where, f"the name {long[0][:40]}... is {len(os.fsencode(long[0]))} bytes, "
+                   f"over the {NAME_MAX} a file system allows: give a shorter name")
+    if path.is_symlink():
+        raise fail(where, f"{path} is a symbolic link: give the folder's own path")
+    if path.is_dir() and any(path.iterdir()) and not (path / "manifest.json").is_file():
+        raise fail(where, f"{path} holds other files, not a model: give a new folder or an "
+                   "earlier model's to replace it")
+    return output_folder(path, where)
+
+
 def worker_count(value: int | None, where: str = "--workers") -> int | None:
     """A worker count in [1, :data:`MAX_WORKERS`]; ``None`` (one per core) passes."""
     return None if value is None else integer(value, where, low=1, high=MAX_WORKERS)

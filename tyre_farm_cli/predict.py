@@ -22,6 +22,8 @@ from typing import Annotated
 import numpy as np
 import typer
 
+from jobs.validate.messages import fail
+from jobs.validate.scalars import integer
 from tyre_farm_cli.analyse import (
     Group,
     Json,
@@ -31,7 +33,7 @@ from tyre_farm_cli.analyse import (
     Store,
     _load,
 )
-from tyre_farm_cli.checks import output_folder
+from tyre_farm_cli.checks import model_folder, output_folder
 from tyre_farm_cli.errors import usage
 
 ModelDir = Annotated[Path, typer.Argument(help="Model folder written by `farm fit`.")]
@@ -62,7 +64,12 @@ def fit(
     with usage():
         spec = sensor_spec(sensor)
         check_learner(learner)
-        output_folder(out, "--out")
+        model_folder(out, "--out")
+        integer(draws, "--draws", low=1)
+        integer(folds, "--folds", low=2)  # grouped CV needs a train and a test fold
+        for value, name in ((alpha, "--alpha"), (test_fraction, "--test-fraction")):
+            if not 0.0 < value < 1.0:
+                raise fail(name, f"must be in (0, 1), got {value:g}")
     ds = _load(store, storage_option, group, pressure, None)
     model, check = predictor.fit(ds, spec, learner=learner, draws=draws, alpha=alpha,
                                  test_fraction=test_fraction, folds=folds, seed=seed)

@@ -5,18 +5,27 @@ import math
 
 import pytest
 
+from farm.errors import SpecError
+from farm.presets import MESH_PRESETS
+from farm.spacing import MAX_GROWTH, half_steps
 from jobs.cluster import connect
 from jobs.convergence.levels import (
     CASES,
+    DIRECTIONS,
     LEVELS,
+    POINT_CASES,
     QUICK_CASES,
     QUICK_LEVELS,
     ROLL_CASES,
     Case,
     chosen_cases,
+    chosen_directions,
+    direction_levels,
+    direction_study,
+    refined,
 )
 from jobs.convergence.run import model_of, run_study, solve_case
-from jobs.convergence.table import markdown, richardson, rows, verdict
+from jobs.convergence.table import direction_markdown, markdown, richardson, rows, verdict
 
 
 @pytest.mark.parametrize("p", [1.0, 2.0, 1.5])
@@ -120,19 +129,6 @@ def test_two_levels_solve_on_a_dask_cluster_and_balance():
 
 
 # --- one direction at a time (issue 44) ------------------------------------------------
-
-from farm.presets import MESH_PRESETS  # noqa: E402
-from farm.spacing import MAX_GROWTH, half_steps  # noqa: E402
-from farm.errors import SpecError  # noqa: E402
-from jobs.convergence.levels import (  # noqa: E402
-    DIRECTIONS,
-    POINT_CASES,
-    chosen_directions,
-    direction_levels,
-    direction_study,
-    refined,
-)
-from jobs.convergence.table import direction_markdown  # noqa: E402
 
 PATCH = MESH_PRESETS["patch"]["full"]
 

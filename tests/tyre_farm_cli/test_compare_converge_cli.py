@@ -73,8 +73,8 @@ def test_converge_refines_one_direction_and_judges_it_on_its_own(tmp_path, capsy
     points and writes one section per direction; --replay redraws it unchanged."""
     monkeypatch.setenv("FARM_CACHE_DIR", str(tmp_path / "cache"))
     out = tmp_path / "conv"
-    code, stdout, err = _run(["converge", "--quick", "--direction", "sidewall", "--workers",
-                              "2", "--out", str(out)], capsys)
+    code, _, err = _run(["converge", "--quick", "--direction", "sidewall", "--workers", "2",
+                         "--out", str(out)], capsys)
     assert code == 0, err
     text = (out / "convergence.md").read_text()
     assert "## sidewall: window-8deg -> sidewall-x2" in text

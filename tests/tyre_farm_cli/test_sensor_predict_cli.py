@@ -175,3 +175,131 @@ def test_a_gp_model_saves_loads_and_predicts(stores, tmp_path):
                               *[clouds / f"{e}.csv" for e in truth["experiment"]], "--json"])
     assert code in (0, None), err
     assert len(json.loads(stdout)["predictions"]) == 2
+
+
+def _edited_model(model, tmp_path, edit):
+    """A copy of the fitted model whose manifest ``edit`` changed (the model file and
+    its checksum untouched)."""
+    import shutil
+
+    path, _ = model
+    copy = tmp_path / "edited"
+    shutil.copytree(path, copy)
+    manifest = json.loads((copy / "manifest.json").read_text())
+    edit(manifest)
+    (copy / "manifest.json").write_text(json.dumps(manifest))
+    return copy
+
+
+def _set(key, value):
+    return lambda m: m.__setitem__(key, value)
+
+
+@pytest.mark.parametrize(("edit", "needle"), [
+    (_set("targets", ["Fz", "Fz"]), "repeated ['Fz']"),
+    (_set("targets", ["bogus"]), "unknown ['bogus']"),
+    (_set("targets", []), "non-empty list"),
+    (_set("targets", ["Fx", "Fy", "Fz"]), "names 3 target(s) but the model's intervals have 4"),
+    (_set("targets", ["Fy", "Fx", "Fz", "Mz"]), "not in the order"),
+    (_set("targets", None), "'targets' must be"),
+    (lambda m: m.pop("targets"), "'targets' must be"),
+    (lambda m: m.pop("inputs"), "'inputs' must be"),
+    (_set("inputs", ["strain"]), "unknown ['strain']"),
+    (lambda m: m.pop("sensor"), "'sensor' must be"),
+    (_set("sensor", None), "'sensor' must be"),
+    (_set("sensor", {"spacing_mm": -3}), "its sensor is not valid"),
+    (_set("extra", None), None),  # no info, no check: still a model
+])
+def test_an_edited_manifest_is_refused_in_one_line_before_anything_is_predicted(
+        model, stores, tmp_path, edit, needle):
+    copy = _edited_model(model, tmp_path, edit)
+    clouds = tmp_path / "clouds"
+    _cli(["measure", stores / "a.zarr", "--out", clouds, "--sensor", SENSOR, "--limit", 1])
+    truth = pd.read_csv(clouds / "truth.csv")
+    out = tmp_path / "p.csv"
+    code, stdout, err = _cli(["predict", copy, clouds / "reference.csv",
+                              clouds / f"{truth['experiment'][0]}.csv", "--out", out])
+    if needle is None:
+        assert code in (0, None), err
+        return
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert code not in (0, None) and stdout == "" and not out.exists()
+    assert len(lines) == 1 and needle in lines[0] and "farm fit" in lines[0], err
+
+
+@pytest.mark.parametrize(("payload", "needle"), [
+    ("linear", "not a force model"),
+    ({"learner": 1, "intervals": 2}, "not a force model"),
+    ("array", "not a force model"),
+    ({"learner": "plsr", "intervals": None, "surface": {}}, "cannot predict"),
+    ("no-surface", "reference surface lacks"),
+    ("bad-surface", "reference surface is not valid"),
+    ("unfitted", "not fitted conformal intervals"),
+])
+def test_a_model_file_of_trusted_types_but_the_wrong_structure_is_one_line(
+        model, tmp_path, payload, needle):
+    """Checksums valid (written by save_model), but not what farm fit writes."""
+    import numpy as np
+    from sklearn.linear_model import LinearRegression
+
+    from analysis.predict.intervals import ConformalIntervals
+    from analysis.predict.persist import load_model, save_model
+
+    fitted, manifest = load_model(model[0])
+    good = {"learner": fitted["learner"], "intervals": fitted["intervals"],
+            "surface": fitted["surface"]}
+    payload = {
+        "linear": LinearRegression(), "array": np.zeros(3),
+        "no-surface": {**good, "surface": {"xyz": np.zeros((2, 2, 3))}},
+        "bad-surface": {**good, "surface": {**good["surface"], "xyz": np.zeros((2, 3))}},
+        "unfitted": {**good, "intervals": ConformalIntervals()},
+    }.get(payload, payload) if isinstance(payload, str) else payload
+    keys = ("store", "group", "experiment_ids", "sensor", "inputs", "targets", "extra")
+    save_model(tmp_path / "m", payload, {k: manifest[k] for k in keys if k in manifest})
+    code, stdout, err = _cli(["predict", tmp_path / "m", tmp_path / "r.csv", tmp_path / "c.csv"])
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert code not in (0, None) and stdout == ""
+    assert len(lines) == 1 and needle in lines[0], err
+
+
+@pytest.mark.parametrize(("extra", "needle"), [
+    (["--draws", "-1"], "--draws: must be an integer >= 1"),
+    (["--draws", "0"], "--draws: must be an integer >= 1"),
+    (["--folds", "0"], "--folds: must be an integer >= 2"),
+    (["--folds", "1"], "--folds: must be an integer >= 2"),
+    (["--alpha", "1"], "--alpha: must be in (0, 1)"),
+    (["--test-fraction", "1e-308"], "holds out none of the 40 experiments"),
+    (["--test-fraction", "1"], "--test-fraction: must be in (0, 1)"),
+    (["--out", ""], "the current folder was given"),
+    (["--out", "{tmp}/dangling"], "is a symbolic link"),
+    (["--out", "{tmp}/" + "x" * 300], "over the 255"),
+    (["--out", "{tmp}/other"], "holds other files, not a model"),
+    (["--out", "/proc/self/mem"], "is a file, not a folder"),
+])
+def test_fit_arguments_are_refused_in_one_line_and_nothing_is_written(stores, tmp_path,
+                                                                      extra, needle):
+    import os
+
+    os.symlink(tmp_path / "nowhere", tmp_path / "dangling")
+    (tmp_path / "other").mkdir()
+    (tmp_path / "other" / "notes.txt").write_text("mine")
+    before = sorted(p.name for p in tmp_path.iterdir())
+    argv = ["fit", stores / "a.zarr", "--out", tmp_path / "m", "--sensor", SENSOR,
+            "--folds", 4, "--draws", 2, *[a.format(tmp=tmp_path) for a in extra]]
+    code, out, err = _cli(argv)
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert code not in (0, None) and out == ""
+    assert len(lines) == 1 and needle in lines[0], err
+    assert sorted(p.name for p in tmp_path.iterdir()) == before
+    assert (tmp_path / "other" / "notes.txt").read_text() == "mine"
+
+
+def test_fit_replaces_an_earlier_model_in_its_folder(model, stores, tmp_path):
+    import shutil
+
+    shutil.copytree(model[0], tmp_path / "m")
+    code, _out, err = _cli(["fit", stores / "a.zarr", "--out", tmp_path / "m", "--sensor",
+                            SENSOR, "--folds", 4, "--draws", 2, "--seed", 3])
+    assert code in (0, None), err
+    assert sorted(p.name for p in (tmp_path / "m").iterdir()) == ["manifest.json",
+                                                                  "model.skops"]
