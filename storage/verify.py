@@ -59,7 +59,7 @@ from zarr.storage import LocalStore
 
 from storage._zarr import dimension_names, get_bytes, list_dir, read, set_bytes
 from storage.checksum import Slots, check, label_digest, split
-from storage.errors import NotAStoreError, StoreError, verify_hint
+from storage.errors import GroupNotFoundError, NotAStoreError, StoreError, verify_hint
 from storage.group import unfinished_groups
 from storage.paths import LOCK_NAME, StoreLike, describe, names_the_store, open_store, publish
 from storage.schema import (
@@ -219,6 +219,8 @@ def verify(store: StoreLike, group: str | None = None, *, repair: bool = False) 
     if repair and lock:
         raise StoreError(f"cannot repair {where}: {lock[0].reason}")
     copies = _copies(root_doc)
+    if group is not None:
+        check_group(zs, group)
     with _lock(zs, repair):  # repairs write metadata: one client at a time
         names = [group] if group is not None else _experiment_groups(zs)
         checks = [_GroupCheck(zs, name, copies, repair) for name in names]
@@ -303,10 +305,26 @@ def _experiment_groups(zs: Store) -> list[str]:
             doc = json.loads(raw) if raw is not None else None
         except ValueError:
             doc = None
-        if doc is None or (doc.get("node_type") == "group"
-                           and "schema_version" in doc.get("attributes", {})):
+        if not isinstance(doc, dict):  # e.g. "[1, 2, 3]": too damaged to tell (issue 50)
+            doc = None
+        attributes = doc.get("attributes") if doc is not None else None
+        if doc is None or (doc.get("node_type") == "group" and isinstance(attributes, dict)
+                           and "schema_version" in attributes):
             names.append(name)
     return names
+
+
+def check_group(store: StoreLike, group: str) -> None:
+    """Raise :class:`GroupNotFoundError` naming the store's groups when ``group`` is not
+    one of them: no folder, no metadata and no consolidated copy (issue 50: verify of a
+    misspelt group called an intact store "DAMAGED, 26 problems")."""
+    zs = open_store(store, read_only=True)
+    if (get_bytes(zs, f"{group}/zarr.json") is not None or list_dir(zs, group)
+            or group in _copies(_root(zs)[0])):
+        return
+    names = ", ".join(_experiment_groups(zs)) or "none"
+    raise GroupNotFoundError(f"no group {group!r} in the store at {describe(zs)} (groups: "
+                             f"{names}): give one of them, or leave out --group")
 
 
 def _repair_root(zs: Store, root_damage: list[Damage], restored: bool) -> list[str]:

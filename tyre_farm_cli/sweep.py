@@ -21,6 +21,7 @@ from rich.progress import (
 from rich.table import Table
 
 from jobs.wording import plural
+from tyre_farm_cli.errors import usage
 from tyre_farm_cli.options import (
     APP_SETTINGS,
     SCHEDULER,
@@ -401,9 +402,14 @@ def verify(store: str = typer.Argument(..., help="The store: a directory or fssp
 
     Exit code 0 when nothing is damaged, 1 when something is (even if --repair fixed it).
     """
+    from storage.verify import check_group
     from storage.verify import verify as verify_store
 
-    report = verify_store(open_target(store, storage_option), group, repair=repair)
+    target = open_target(store, storage_option)
+    if group is not None:
+        with usage():  # a group that is not there is a wrong argument, not damage
+            check_group(target, group)
+    report = verify_store(target, group, repair=repair)
     if as_json:
         typer.echo(json.dumps(report.to_dict(), indent=2))
     else:

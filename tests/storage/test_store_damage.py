@@ -528,3 +528,59 @@ def test_a_single_wrong_id_proves_nothing_and_goes_pending(built, capsys):
     _cli("sweep", "verify", str(built), "--repair")
     capsys.readouterr()
     assert storage.statuses(built, GROUP, ["e9"]) == {"e9": storage.PENDING}
+
+
+# --- status counts only valid states (issue 50) ------------------------------------------
+
+
+def _status_byte(value: int) -> Callable[[Path], None]:
+    return lambda p: (p / GROUP / "status" / "c" / "3").write_bytes(bytes([value % 256]))
+
+
+def _repeat_id(p: Path) -> None:
+    import zarr
+
+    ids = zarr.open_array(p / GROUP / "experiment", mode="r+")
+    ids[2] = "e1"  # a hand's edit: the chunk still decodes
+
+
+@pytest.mark.parametrize(("damage", "needle"), [
+    (_status_byte(7), "status is none of pending, done, failed (experiment 'e3': 7)"),
+    (_status_byte(-1), "status is none of pending, done, failed (experiment 'e3': -1)"),
+    (_repeat_id, "experiment id 'e1' in more than one slot"),
+])
+def test_status_counts_only_valid_states_and_says_to_verify(built, capsys, damage, needle):
+    damage(built)
+    with pytest.raises(storage.StoreError, match="farm sweep verify") as err:
+        storage.status_counts(built, GROUP)
+    assert needle in _one_line(str(err.value))
+    code = _cli("sweep", "status", str(built))
+    out, err_text = capsys.readouterr()
+    assert code != 0 and "done" not in out
+    assert needle in _one_line(err_text)
+    assert _cli("sweep", "verify", str(built)) == 1  # verify names it too
+
+
+@pytest.mark.parametrize("repair", [False, True])
+def test_group_metadata_that_is_json_but_not_an_object_is_damage_not_a_crash(built, capsys,
+                                                                             repair):
+    (built / GROUP / "zarr.json").write_text("[1, 2, 3]")
+    code = _cli("sweep", "verify", str(built), *(["--repair"] if repair else []))
+    out, err = capsys.readouterr()
+    assert "Traceback" not in out + err and f"{GROUP}/zarr.json" in out + err
+    if repair:  # restored from the consolidated copy
+        assert verify(built).ok
+        assert storage.status_counts(built, GROUP) == {"pending": 1, "done": 4, "failed": 1}
+    else:
+        assert code == 1
+
+
+def test_verify_of_a_group_that_is_not_there_names_the_groups_and_touches_nothing(built,
+                                                                                  capsys):
+    before = {p: p.read_bytes() for p in built.rglob("*") if p.is_file()}
+    code = _cli("sweep", "verify", str(built), "--group", "nope")
+    out, err = capsys.readouterr()
+    assert code == 2 and "DAMAGED" not in out
+    line = _one_line(err)
+    assert "no group 'nope'" in line and GROUP in line
+    assert {p: p.read_bytes() for p in built.rglob("*") if p.is_file()} == before
