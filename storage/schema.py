@@ -210,7 +210,8 @@ PATCH_VARIABLES = (
     _v("patch_width", "experiment", "float64", "mm",
        "contact patch width: extent of the loaded tread nodes along y", "worker"),
     _v("peak_pressure", "experiment", "float64", "MPa",
-       "largest nodal contact pressure (normal force over tributary area)", "worker"),
+       "largest nodal contact pressure (normal force over tributary area); mesh-dependent: "
+       "it does not converge with refinement, compare it only on one mesh", "worker"),
     _v("mean_pressure", "experiment", "float64", "MPa",
        "road-normal force of the patch over its area", "worker"),
     _v("nodal_force_mean", "experiment", "float64", "N",

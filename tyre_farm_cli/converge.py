@@ -95,11 +95,11 @@ def _write(out: Path, records: list[dict], sequences: dict[str, list[str]], mate
 
     text, summary, tables = direction_markdown(records, sequences)
     out.mkdir(parents=True, exist_ok=True)
-    doc = ({"sequence": sequences["levels"], "rows": tables["levels"]}
-           if list(sequences) == ["levels"] else {"sequences": sequences, "rows": tables})
-    (out / "convergence.json").write_text(json.dumps(
-        {"materials": materials, "quick": quick, **doc, "records": records}, indent=1,
-        default=float))
+    single = list(sequences) == ["levels"]  # the study of LEVELS: its JSON as before
+    doc = {"materials": materials, "quick": quick,
+           **({"sequence": sequences["levels"]} if single else {"sequences": sequences}),
+           "records": records, "rows": tables["levels"] if single else tables}
+    (out / "convergence.json").write_text(json.dumps(doc, indent=1, default=float))
     (out / "convergence.md").write_text(
         f"# Mesh convergence, full model, {materials}\n\n{text}")
     failed = sum(r["status"] != "done" for r in records)

@@ -36,6 +36,9 @@ from tyre_farm_cli.jsondoc import dump
 from tyre_farm_cli.params import MATERIALS_HELP, MESH_HELP, build_model, parse_range
 from tyre_farm_cli.progress import LogLines
 
+PEAK_NOTE = ("* the largest nodal contact pressure: mesh-dependent, it does not converge "
+             "with refinement (docs/mesh-convergence.md); compare it only on one mesh")
+
 
 def run(
     model: str = typer.Option("full", "--model", "-m", help="Tyre model: full or reduced."),
@@ -205,12 +208,12 @@ def _print_table(result: PathResult, kpa: float,
     if motion is not None:
         title += (f"; mu {motion.friction:g}, tilt {motion.tilt:g} deg, shift "
                   f"({motion.shift_x:g}, {motion.shift_y:g}) mm after the last deflection")
-    table = Table(title=title)
+    table = Table(title=title, caption=PEAK_NOTE if patches else None)
     combined = motion is not None
     cols = ("deflection mm", *(("shift x mm", "shift y mm", "Fx N", "Fy N") if combined
                                else ()),
             "Fz N", "Mx N m", "My N m", "contact nodes",
-            *(("area cm²", "peak kPa") if patches else ()), "solve s")
+            *(("area cm²", "peak kPa*") if patches else ()), "solve s")
     rows = []
     for k, m in enumerate(result.measurements):
         patch = ((f"{patches[0][k].area / 100:.1f}", f"{patches[0][k].peak_pressure * 1e3:.0f}")

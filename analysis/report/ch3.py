@@ -35,7 +35,7 @@ CONTACT_PATCH = "contact patch and inflation growth"
 PATCH_COLUMNS = {
     "patch_area": ("patch area mm2", 1.0), "patch_length": ("length mm", 1.0),
     "patch_width": ("width mm", 1.0), "mean_pressure": ("mean pressure kPa", 1000.0),
-    "peak_pressure": ("peak pressure kPa", 1000.0),
+    "peak_pressure": ("peak nodal pressure kPa (mesh-dependent)", 1000.0),
     "inflation_growth": ("inflation growth mm", 1.0),
 }
 

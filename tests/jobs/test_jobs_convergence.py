@@ -220,3 +220,15 @@ def test_each_direction_is_judged_on_its_own_levels():
     assert "## sidewall: patch -> sidewall-x2 -> sidewall-x4" in text
     assert "not met: point Fz N 2.15 %" in text
     assert summary.startswith("finest step: 7 of 8 judged rows")
+
+
+def test_the_peak_nodal_pressure_is_labelled_mesh_dependent_and_never_judged():
+    """Issue 44: it moved 51 % between levels while Fz moved 0.5 %."""
+    table = rows([_record("a", 1000.0), _record("b", 1001.0), _record("c", 1001.5)],
+                 ["a", "b", "c"])
+    (peak,) = [r for r in table if "peak" in r["quantity"]]
+    assert "mesh-dependent" in peak["quantity"] and peak["limit_pct"] is None
+    from storage.schema import PATCH_VARIABLES
+
+    (stored,) = [v for v in PATCH_VARIABLES if v.name == "peak_pressure"]
+    assert "mesh-dependent" in stored.long_name
