@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 import zarr
 
+from storage import identity
 from storage._zarr import array, read
 from storage.errors import MeshMismatchError, SchemaError
 from storage.lock import client_lock
@@ -142,13 +143,16 @@ def _build(root: zarr.Group, group: str, mesh: MeshNodes, attrs: GroupAttrs) -> 
                        *WORKER_VARIABLES]
     for var in experiment_vars:
         create_array(g, var, tuple(sizes[d] for d in var.dims))
+    made = {"model_spec": attrs.model_spec, "mesh_key": attrs.mesh_key}
+    # what verify compares the group with later: digested as stored (dtypes included)
+    stored = {name: read(array(g, name)) for name in identity.MESH_ARRAYS}
     # Last: the attribute that marks the group complete.
     g.update_attributes({
         "schema_version": SCHEMA_VERSION,
-        "model_spec": attrs.model_spec,
-        "mesh_key": attrs.mesh_key,
+        **made,
         "solver": attrs.solver,
         "package_versions": json.dumps(dict(attrs.package_versions), sort_keys=True),
+        identity.IDENTITY: identity.digests(group, made, stored),
     })
 
 

@@ -17,6 +17,7 @@ import numpy as np
 import xarray as xr
 import zarr
 
+from storage import identity
 from storage._zarr import array, list_dir, read, read_coordinates
 from storage.checksum import Slots, check
 from storage.errors import DamagedStoreError, NotReservedError, SchemaError, reading, verify_hint
@@ -60,7 +61,7 @@ def open_dataset(store: StoreLike, group: str, *, chunks: Any = _DEFAULT_CHUNKS)
     zs = open_store(store, read_only=True)
     where = describe(zs)
     with reading(f"group {group!r}", where):
-        open_group(zs, group)  # clear errors for a missing store, group or schema
+        g = open_group(zs, group)  # clear errors for a missing store, group or schema
         arrays = _fresh_arrays(zs, group, where)
     chunks = dict(chunks) if isinstance(chunks, dict) else chunks  # never share the default
     with reading(f"group {group!r}", where):
@@ -74,6 +75,7 @@ def open_dataset(store: StoreLike, group: str, *, chunks: Any = _DEFAULT_CHUNKS)
             f"group {group!r} of {where} has lost array {gone[0]!r} (listed in the store's "
             f"metadata, absent from the group); {verify_hint(where)}"
         )
+    _check_identity(ds, group, dict(g.attrs), where)
     text = [name for name, var in ds.data_vars.items() if var.dtype.kind == "T"]
     with reading(f"the text arrays ({', '.join(text)}) of group {group!r}", where):
         # decoded here: one flipped byte in a checksum chunk was a 145-line
@@ -88,6 +90,21 @@ def open_dataset(store: StoreLike, group: str, *, chunks: Any = _DEFAULT_CHUNKS)
         ds = index_parameters(ds)
     ds.encoding.update(farm_store=where, farm_group=group)  # for the messages of done()
     return ds
+
+
+def _check_identity(ds: xr.Dataset, group: str, attrs: dict, where: str) -> None:
+    """Refuse a group that is no longer what it was made as (:mod:`storage.identity`):
+    edited coordinates or model attributes, a lost mesh chunk, a renamed or copied
+    folder would otherwise be analysed as if intact (issue 50)."""
+    if identity.IDENTITY not in attrs or not set(identity.MESH_ARRAYS) <= set(ds.variables):
+        return  # made before identities, or a lost array (named by the caller)
+    with reading(f"the mesh arrays of group {group!r}", where):
+        parts = identity.changed(group, attrs, {n: ds[n].values for n in identity.MESH_ARRAYS})
+    if parts:
+        raise DamagedStoreError(
+            f"group {group!r} of {where}: {identity.PARTS.get(parts[0], parts[0])} differs from "
+            f"what the group was made with (edited, a chunk lost, or the folder renamed or "
+            f"copied); {verify_hint(where)}")
 
 
 def index_parameters(ds: xr.Dataset) -> xr.Dataset:

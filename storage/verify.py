@@ -57,6 +57,7 @@ import zarr
 from zarr.abc.store import Store
 from zarr.storage import LocalStore
 
+from storage import identity
 from storage._zarr import dimension_names, get_bytes, list_dir, read, set_bytes
 from storage.checksum import Slots, check, label_digest, split
 from storage.errors import GroupNotFoundError, NotAStoreError, StoreError, verify_hint
@@ -83,6 +84,11 @@ from storage.schema import (
 #: only).
 REQUIRED_ARRAYS = tuple(sorted((set(FIXED_VARIABLES) | set(REQUIRED_PARAMETERS))
                                - {*OPTIONAL_NAMES, *COMBINED_NAMES}))
+_IDENTITY_ADVICE = {
+    "group": ("the group's folder name is not the one it was made under (renamed or copied "
+              "by hand): rename the folder back, or delete the copy"),
+    "identity": "the group's identity digests do not decode (edited by hand)",
+}
 _SHOWN = 20  # damage lines shown per group (the JSON report has all)
 _ORPHAN = ("is {state} but has no experiment id (the ids chunk of its slot is missing or "
            "damaged)")
@@ -676,6 +682,26 @@ class _GroupCheck:
                 a[...]
             except Exception as e:  # a chunk that does not decode
                 self.key_damage(f"{self.group}/{name}", f"a chunk does not decode ({_short(e)})")
+        self._identity()
+
+    def _identity(self) -> None:
+        """The group's name, model and mesh against the digests it was made with
+        (:mod:`storage.identity`): repair cannot tell which side is right, so it marks
+        nothing; the message says what to do."""
+        if any(name not in self.arrays for name in identity.MESH_ARRAYS):
+            return  # a lost mesh array is damage already
+        try:
+            attrs = dict(zarr.open_group(store=self.zs, path=self.group, mode="r",
+                                         use_consolidated=False).attrs)
+            arrays = {name: self.arrays[name][...] for name in identity.MESH_ARRAYS}
+        except Exception:  # a chunk or the metadata does not decode: named already
+            return
+        for part in identity.changed(self.group, attrs, arrays) or ():
+            self.key_damage(f"{self.group}/{part}", _IDENTITY_ADVICE.get(part, (
+                f"{identity.PARTS.get(part, part)} differs from what the group was made "
+                "with (edited, or a chunk lost): the group's experiments are not of what "
+                "it now says; restore it from a copy or submit the study again into a new "
+                "store")))
 
     # repair -------------------------------------------------------------------------------
 

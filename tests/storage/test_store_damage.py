@@ -584,3 +584,69 @@ def test_verify_of_a_group_that_is_not_there_names_the_groups_and_touches_nothin
     line = _one_line(err)
     assert "no group 'nope'" in line and GROUP in line
     assert {p: p.read_bytes() for p in built.rglob("*") if p.is_file()} == before
+
+
+# --- what a group was made as (issue 50: storage.identity) --------------------------------
+
+
+def _edit_attr(name: str, value: str) -> Callable[[Path], None]:
+    def do(p: Path) -> None:
+        doc = json.loads((p / GROUP / "zarr.json").read_text())
+        doc["attributes"][name] = value
+        (p / GROUP / "zarr.json").write_text(json.dumps(doc))
+    return do
+
+
+def _edit_xyz(p: Path) -> None:
+    import zarr
+
+    xyz = zarr.open_array(p / GROUP / "inner_xyz", mode="r+")
+    xyz[3, 1] = xyz[3, 1] + 1.0  # one coordinate, 1 mm
+
+
+def _delete_xyz_chunk(p: Path) -> None:
+    chunks = sorted((p / GROUP / "inner_xyz" / "c").rglob("*"))
+    next(c for c in chunks if c.is_file()).unlink()
+
+
+@pytest.mark.parametrize(("damage", "part"), [
+    (_edit_xyz, "mesh"),
+    (_delete_xyz_chunk, "mesh"),
+    (_edit_attr("model_spec", '{"kind": "full"}'), "model_spec"),
+    (_edit_attr("mesh_key", "mesh-0000"), "mesh_key"),
+])
+def test_a_group_that_is_not_what_it_was_made_as_is_named_and_not_read(built, capsys,
+                                                                        damage, part):
+    damage(built)
+    code = _cli("sweep", "verify", str(built))
+    out, err = capsys.readouterr()
+    assert code == 1 and f"{GROUP}/{part}" in out + err, out + err
+    with pytest.raises(storage.StoreError, match="farm sweep verify") as e:
+        storage.open_dataset(built, GROUP)
+    assert "differs from what the group was made with" in _one_line(str(e.value))
+    before = storage.statuses(built, GROUP)
+    _cli("sweep", "verify", str(built), "--repair")
+    assert storage.statuses(built, GROUP) == before  # no side is provably right: untouched
+
+
+@pytest.mark.parametrize("how", ["renamed", "copied"])
+def test_a_renamed_or_copied_group_folder_is_named(built, capsys, how):
+    (shutil.copytree if how == "copied" else shutil.move)(built / GROUP, built / "other")
+    publish(built)  # as a later client would
+    code = _cli("sweep", "verify", str(built))
+    out, err = capsys.readouterr()
+    assert code == 1 and "other/group" in out + err and "renamed or copied" in out + err
+    with pytest.raises(storage.StoreError, match="folder name"):
+        storage.open_dataset(built, "other")
+    if how == "copied":
+        assert storage.open_dataset(built, GROUP).sizes["experiment"] == len(IDS)
+
+
+def test_a_clean_group_carries_its_identity(built):
+    import zarr
+
+    from storage.identity import IDENTITY, PARTS
+
+    attrs = zarr.open_group(built / GROUP, mode="r").attrs
+    assert set(attrs[IDENTITY]) == set(PARTS)
+    assert verify(built).ok

@@ -1,0 +1,70 @@
+"""What a group was made as: digests of its name, model, mesh key and mesh (issue 50).
+
+A group's experiments carry checksums (:mod:`storage.checksum`), but what they are
+experiments *of* did not: a hand that edited ``inner_xyz`` or the ``model_spec``
+attribute, deleted a mesh chunk (it reads back as zeros), or renamed or copied the
+group's folder left a store that ``verify`` called intact and the analyses read, with
+wrong coordinates or under a name that no longer says what it holds. A group made
+since then carries ``identity``: one SHA-256 per part, written with the group, so that
+verify names the part that changed (the folder's name, an attribute, the mesh arrays).
+Groups made before lack it and stay readable; verify counts them unverifiable here.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+IDENTITY = "identity"
+"""The group attribute holding the digests (a dict: part -> hex SHA-256)."""
+
+MESH_ARRAYS = ("inner_node", "inner_xyz", "inner_row", "inner_col",
+               "tread_node", "tread_xyz", "tread_row", "tread_col")
+"""The mesh arrays digested, in this order (:meth:`storage.mesh.MeshNodes.arrays`)."""
+
+PARTS = {
+    "group": "the group's folder name",
+    "model_spec": "the group attribute model_spec",
+    "mesh_key": "the group attribute mesh_key",
+    "mesh": "the mesh arrays (node ids, coordinates, grid rows and columns)",
+}
+
+
+def _sha(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()
+
+
+def mesh_digest(arrays: Mapping[str, Any]) -> str:
+    """One digest of the mesh arrays: each one's name, dtype, shape and bytes."""
+    h = hashlib.sha256()
+    for name in MESH_ARRAYS:
+        a = np.ascontiguousarray(arrays[name])
+        h.update(f"{name}:{a.dtype.str}:{a.shape}".encode())
+        h.update(a.tobytes())
+    return h.hexdigest()
+
+
+def digests(group: str, attrs: Mapping[str, Any], arrays: Mapping[str, Any]) -> dict[str, str]:
+    """The digest of each part of :data:`PARTS` as the group stands."""
+    return {
+        "group": _sha(group.encode()),
+        "model_spec": _sha(json.dumps(attrs.get("model_spec")).encode()),
+        "mesh_key": _sha(json.dumps(attrs.get("mesh_key")).encode()),
+        "mesh": mesh_digest(arrays),
+    }
+
+
+def changed(group: str, attrs: Mapping[str, Any], arrays: Mapping[str, Any]) -> list[str] | None:
+    """The parts whose digest no longer matches; ``None`` for a group made before
+    identities (nothing to compare with)."""
+    stored = attrs.get(IDENTITY)
+    if stored is None:
+        return None
+    if not isinstance(stored, Mapping):
+        return ["identity"]
+    now = digests(group, attrs, arrays)
+    return [part for part in PARTS if stored.get(part) != now[part]]
