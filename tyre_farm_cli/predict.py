@@ -36,6 +36,8 @@ from tyre_farm_cli.analyse import (
 from tyre_farm_cli.checks import model_folder, output_folder
 from tyre_farm_cli.errors import usage
 
+MAX_DRAWS = 1000  # noisy measurements per experiment: each one is a feature row in memory
+
 ModelDir = Annotated[Path, typer.Argument(help="Model folder written by `farm fit`.")]
 
 
@@ -65,7 +67,7 @@ def fit(
         spec = sensor_spec(sensor)
         check_learner(learner)
         model_folder(out, "--out")
-        integer(draws, "--draws", low=1)
+        integer(draws, "--draws", low=1, high=MAX_DRAWS)
         integer(folds, "--folds", low=2)  # grouped CV needs a train and a test fold
         for value, name in ((alpha, "--alpha"), (test_fraction, "--test-fraction")):
             if not 0.0 < value < 1.0:
@@ -198,6 +200,8 @@ def mismatch(
     from analysis import predictor
     from analysis.mismatch import mismatch as run
 
+    with usage():
+        integer(draws, "--draws", low=1, high=MAX_DRAWS)
     fitted, manifest = predictor.load(model)
     ds = _load(store, storage_option, group, pressure, None)
     table, _, _ = run(fitted, ds, draws=draws, seed=seed)

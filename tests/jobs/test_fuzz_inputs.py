@@ -585,11 +585,54 @@ def analyse_cases(r: random.Random) -> Iterator[Case]:
     yield Case("status-missing-store", ("sweep", "status", "missing.zarr"), REJECT)
 
 
+MANIFEST = {"format": "tyre-farm-model", "format_version": 1, "model_sha256": "0" * 64,
+            "sensor": {}, "inputs": ["displacement"], "targets": ["Fz"]}
+
+
+def force_model_cases(r: random.Random) -> Iterator[Case]:
+    """`farm fit`, `farm predict`, `farm mismatch` (issue 50): numbers, paths, model files."""
+    fit = ("fit", "{store}", "--out", "m")
+    for option, bad in (("--draws", ["0", "-1", "1.5", "nan", "1001", str(2 ** 63)]),
+                        ("--folds", ["0", "1", "-3", "x"]),
+                        ("--alpha", ["0", "1", "-0.1", "nan", "inf", "2"]),
+                        ("--test-fraction", ["0", "1", "-1", "nan", "5"])):
+        for value in bad:
+            yield Case(f"fit{option}-{value}", (*fit, option, value), REJECT,
+                       needle=option.lstrip("-").split("-")[0])
+    for name, out, files in (
+            ("empty", "", {}), ("dot", ".", {}), ("file", "afile", {"afile": b"x"}),
+            ("link", "alink", {"target": ("dir",), "alink": ("link", "target")}),
+            ("dangling", "dangling", {"dangling": ("link", "nowhere")}),
+            ("long", "x" * r.randint(256, 400), {}),
+            ("other-files", "adir", {"adir": ("dir",), "adir/notes.txt": b"mine"}),
+            ("device", "/dev/null", {})):
+        yield Case(f"fit-out-{name}", ("fit", "{store}", "--out", out), REJECT, files, "out")
+    yield Case("mismatch-draws-0", ("mismatch", "m", "{store}", "--draws", "0"), REJECT,
+               needle="draws")
+    clouds = ("r.csv", "c.csv")
+    model_files = {
+        "no-folder": {},
+        "empty-folder": {"m": ("dir",)},
+        "junk-manifest": {"m": ("dir",), "m/manifest.json": b"\xff\xfe{"},
+        "list-manifest": {"m": ("dir",), "m/manifest.json": b"[1, 2, 3]"},
+        "no-model": {"m": ("dir",), "m/manifest.json": json.dumps(MANIFEST).encode()},
+        "bad-checksum": {"m": ("dir",), "m/manifest.json": json.dumps(MANIFEST).encode(),
+                         "m/model.skops": bytes(r.randrange(256) for _ in range(64))},
+        "model-a-folder": {"m": ("dir",), "m/manifest.json": json.dumps(MANIFEST).encode(),
+                           "m/model.skops": ("dir",)},
+        "a-file": {"m": b"not a model"},
+    }
+    for name, files in model_files.items():
+        for cmd, argv in (("predict", ("predict", "m", *clouds)),
+                          ("mismatch", ("mismatch", "m", "{store}"))):
+            yield Case(f"{cmd}-model-{name}", argv, REJECT, files, "model")
+
+
 def corpus(seed: int = SEED) -> list[Case]:
     r = random.Random(seed)
     cases = []
     for make in (key_cases, structure_cases, grid_cases, file_cases, cluster_option_cases,
-                 run_cases, calibrate_cases, analyse_cases):
+                 run_cases, calibrate_cases, analyse_cases, force_model_cases):
         cases += list(make(r))
     return cases
 

@@ -263,8 +263,8 @@ def test_a_model_file_of_trusted_types_but_the_wrong_structure_is_one_line(
 
 
 @pytest.mark.parametrize(("extra", "needle"), [
-    (["--draws", "-1"], "--draws: must be an integer >= 1"),
-    (["--draws", "0"], "--draws: must be an integer >= 1"),
+    (["--draws", "-1"], "--draws: must be an integer in [1, 1000]"),
+    (["--draws", "0"], "--draws: must be an integer in [1, 1000]"),
     (["--folds", "0"], "--folds: must be an integer >= 2"),
     (["--folds", "1"], "--folds: must be an integer >= 2"),
     (["--alpha", "1"], "--alpha: must be in (0, 1)"),
