@@ -339,6 +339,12 @@ class ModelSpec:
         if self.mesh.windowed:  # the window must fit and grade smoothly: refuse here
             half_steps(self.sector_angle / 2, self.mesh.circumferential // 2,
                        self.mesh.window, self.mesh.window_elements)
+        r = self.reinforcement
+        if r is not None and r.belt_layout == "cords" and self.mesh.through % 2 \
+                and self.mesh.through > 1:
+            # belts at depth lie at half the wall (farm.ccx.belt_cords): a node layer there
+            raise SpecError(f"mesh.through must be 1 or even with belts along their cords "
+                            f"(they lie at half the wall), got {self.mesh.through}")
 
     @property
     def is_full(self) -> bool:

@@ -156,9 +156,12 @@ def test_members_keep_the_mirror_symmetries(patch):
         assert {tuple(m) for m in mirrored} == key
 
 
-def test_belts_lie_on_the_first_interior_layer_of_a_layered_wall():
+@pytest.mark.parametrize("through", [2, 4])
+def test_belts_lie_at_half_the_wall_for_every_layered_wall(through):
+    """Issue 44: at one depth whatever the layers, so that refining through the wall
+    refines the mesh, not the model."""
     spec = default_model("full", materials="cord-reinforced",
-                         mesh=dataclasses.replace(COARSE, through=2))
+                         mesh=dataclasses.replace(COARSE, through=through))
     spec = _with(spec, belt_layout="cords")
     mesh = mesh_for(spec)
     grid = belt_grid(spec, mesh)
@@ -287,3 +290,10 @@ def test_cord_belts_solve_and_change_the_lateral_force():
         assert m.total_force[2] > 0
         fy[layout] = m.total_force[1]
     assert fy["cords"] > 1.5 * fy["edges"] > 0, fy  # stiffer in shear: more lateral force
+
+
+def test_an_odd_layered_wall_with_belts_at_depth_is_refused():
+    spec = default_model("full", materials="cord-reinforced",
+                         mesh=dataclasses.replace(COARSE, through=3))
+    with pytest.raises(SpecError, match="must be 1 or even"):
+        _with(spec, belt_layout="cords")
