@@ -39,6 +39,8 @@ def converge(
         "(point-80kPa at 25 mm, point-200kPa at 30 mm) unless --case names others."),
     mesh: str = typer.Option("patch", "--mesh", help="With --direction: the mesh preset "
                              "refined (the full model's)."),
+    factors: str = typer.Option("", "--factors", help="With --direction: the refinement "
+                                "factors, e.g. 2,4,8 [default: 2,4; together 2]."),
     out: Path = typer.Option(Path("convergence"), "--out", help="Output folder."),
     materials: str = typer.Option("table-3.1", "--materials", help="Material preset."),
     scheduler: str = SCHEDULER,
@@ -56,8 +58,8 @@ def converge(
         check_materials(materials)
         output_folder(out, "--out")
         if directions:
-            levels, sequences = lv.direction_study(lv.chosen_directions(directions), mesh,
-                                                   quick)
+            levels, sequences = lv.direction_study(
+                lv.chosen_directions(directions), mesh, quick, _factors(factors))
             chosen = lv.chosen_cases(cases, quick, default=lv.POINT_CASES)
         else:
             levels = lv.QUICK_LEVELS if quick else lv.LEVELS
@@ -106,3 +108,11 @@ def _write(out: Path, records: list[dict], sequences: dict[str, list[str]], mate
     Console().print(f"{out / 'convergence.md'}: {summary}"
                     + (f"; {failed} of {plural(len(records), 'solve')} failed" if failed
                        else ""))
+
+
+def _factors(text: str) -> tuple[int, ...]:
+    try:
+        return tuple(int(f) for f in text.split(",") if f.strip())
+    except ValueError:
+        raise typer.BadParameter(f"--factors takes whole numbers separated by commas, got "
+                                 f"{text!r}") from None

@@ -215,13 +215,19 @@ DIRECTION_FACTORS = {"together": (2,)}
 87,000 nodes on ``patch``, beyond a study on two cores."""
 
 
-def direction_study(directions: Sequence[str], mesh: str = "patch", quick: bool = False
-                    ) -> tuple[tuple[Level, ...], dict[str, list[str]]]:
+def direction_study(directions: Sequence[str], mesh: str = "patch", quick: bool = False,
+                    factors: Sequence[int] = ()) -> tuple[tuple[Level, ...],
+                                                          dict[str, list[str]]]:
     """The levels to solve (the base once) and each direction's sequence of level names.
 
     ``mesh`` names the full model's base mesh preset; ``quick``: the test-sized
-    ``QUICK_LEVELS[0]`` refined 2 x, for the pipeline, not for conclusions.
+    ``QUICK_LEVELS[0]`` refined 2 x, for the pipeline, not for conclusions. ``factors``
+    (powers of 2) replace :data:`DIRECTION_FACTORS`; a factor the mesher cannot build in
+    a direction (``through`` beyond :data:`farm.specs.MAX_THROUGH`) is left out of it.
     """
+    if any(f < 2 or f & (f - 1) for f in factors):
+        raise SpecError(f"--factors must be powers of 2 from 2 (each level twice the last), "
+                        f"got {', '.join(map(str, factors))}")
     from farm.presets import MESH_PRESETS, mesh_presets
 
     if quick:
@@ -234,8 +240,17 @@ def direction_study(directions: Sequence[str], mesh: str = "patch", quick: bool 
     levels: dict[str, Level] = {}
     sequences = {}
     for d in directions:
-        factors = (2,) if quick else DIRECTION_FACTORS.get(d, (2, 4))
-        seq = direction_levels(d, base, factors, name)
+        chosen = (2,) if quick else tuple(factors) or DIRECTION_FACTORS.get(d, (2, 4))
+        seq = direction_levels(d, base, [f for f in sorted(set(chosen))
+                                         if _buildable(base, d, f)], name)
         levels.update((lv.name, lv) for lv in seq)
         sequences[d] = [lv.name for lv in seq]
     return tuple(levels.values()), sequences
+
+
+def _buildable(base: MeshDensity, direction: str, factor: int) -> bool:
+    try:
+        refined(base, direction, factor)
+    except SpecError:
+        return False
+    return True
