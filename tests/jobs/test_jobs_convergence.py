@@ -232,3 +232,22 @@ def test_the_peak_nodal_pressure_is_labelled_mesh_dependent_and_never_judged():
 
     (stored,) = [v for v in PATCH_VARIABLES if v.name == "peak_pressure"]
     assert "mesh-dependent" in stored.long_name
+
+
+def test_factors_follow_a_direction_further_and_skip_what_the_mesher_cannot_build():
+    _, seq = direction_study(["sidewall", "through"], factors=(2, 4, 8))
+    assert seq["sidewall"] == ["patch", "sidewall-x2", "sidewall-x4", "sidewall-x8"]
+    assert seq["through"] == ["patch", "through-x2", "through-x4"]  # 8 layers: over 4
+    with pytest.raises(SpecError, match="powers of 2"):
+        direction_study(["bead"], factors=(3,))
+
+
+def test_the_converged_preset_refines_the_sidewall_and_puts_the_belts_at_depth():
+    from farm.presets import default_model
+
+    conv, patch = MESH_PRESETS["converged"]["full"], PATCH
+    assert conv == refined(refined(patch, "sidewall", 4), "through", 2)
+    model = default_model("full", "reinforced-calibrated", mesh="converged")
+    assert model.mesh.through == 2 and model.reinforcement.belt_layout == "cords"
+    # patch and its ids stay as they were
+    assert patch == MESH_PRESETS["patch"]["full"] and patch.through == 1
