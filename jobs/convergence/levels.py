@@ -151,14 +151,12 @@ def refined(base: MeshDensity, direction: str, factor: int) -> MeshDensity:
     :data:`farm.spacing.MAX_GROWTH`; ``through`` is capped by the mesher at
     :data:`farm.specs.MAX_THROUGH`.
     """
-    if direction not in DIRECTIONS:
-        raise SpecError(f"--direction {direction!r} is not a direction of the mesh: choose "
-                        f"from {', '.join(DIRECTIONS)} (or all)")
+    _known(direction)
     if factor == 1:
         return base
     if direction == "together":
         mesh = base
-        for name in DIRECTIONS[:-1]:
+        for name in DIRECTIONS[:-1]:  # every direction but "together" itself
             mesh = refined(mesh, name, factor)
         return mesh
     if direction == "circumferential":
@@ -202,12 +200,15 @@ def chosen_directions(names: Sequence[str]) -> tuple[str, ...]:
     """The directions named, ``all`` for every one, in the order given."""
     out: list[str] = []
     for name in names:
-        for d in (DIRECTIONS if name == "all" else (name,)):
-            if d not in DIRECTIONS:
-                raise SpecError(f"--direction {d!r} is not a direction of the mesh: choose "
-                                f"from {', '.join(DIRECTIONS)} (or all)")
-            out.append(d)
+        out += DIRECTIONS if name == "all" else (_known(name),)
     return tuple(dict.fromkeys(out))
+
+
+def _known(direction: str) -> str:
+    if direction not in DIRECTIONS:
+        raise SpecError(f"--direction {direction!r} is not a direction of the mesh: choose "
+                        f"from {', '.join(DIRECTIONS)} (or all)")
+    return direction
 
 
 DIRECTION_FACTORS = {"together": (2,)}
