@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 import zarr
 
-from storage import identity
+import storage.identity as identity
 from storage._zarr import array, read
 from storage.errors import MeshMismatchError, SchemaError
 from storage.lock import client_lock

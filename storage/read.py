@@ -17,7 +17,7 @@ import numpy as np
 import xarray as xr
 import zarr
 
-from storage import identity
+import storage.identity as identity
 from storage._zarr import array, list_dir, read, read_coordinates
 from storage.checksum import Slots, check
 from storage.errors import DamagedStoreError, NotReservedError, SchemaError, reading, verify_hint

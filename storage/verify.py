@@ -57,7 +57,7 @@ import zarr
 from zarr.abc.store import Store
 from zarr.storage import LocalStore
 
-from storage import identity
+import storage.identity as identity
 from storage._zarr import dimension_names, get_bytes, list_dir, read, set_bytes
 from storage.checksum import Slots, check, label_digest, split
 from storage.errors import GroupNotFoundError, NotAStoreError, StoreError, verify_hint
