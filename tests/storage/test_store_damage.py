@@ -650,3 +650,18 @@ def test_a_clean_group_carries_its_identity(built):
     attrs = zarr.open_group(built / GROUP, mode="r").attrs
     assert set(attrs[IDENTITY]) == set(PARTS)
     assert verify(built).ok
+
+
+@pytest.mark.parametrize("length", [3, 9])
+def test_repair_gives_an_edited_length_back_from_the_consolidated_copy(built, capsys, length):
+    """Issue 50: a status shape of 3 for 6 ids made repair raise BoundsCheckError."""
+    meta = built / GROUP / "status" / "zarr.json"
+    doc = json.loads(meta.read_text())
+    doc["shape"] = [length]
+    meta.write_text(json.dumps(doc))
+    assert _cli("sweep", "verify", str(built)) == 1
+    assert _cli("sweep", "verify", str(built), "--repair") == 1  # damage was found
+    out, err = capsys.readouterr()
+    assert "Traceback" not in out + err and "length restored" in out + err
+    assert verify(built).ok
+    assert storage.status_counts(built, GROUP) == {"pending": 1, "done": 4, "failed": 1}
