@@ -225,6 +225,11 @@ def verify(store: StoreLike, group: str | None = None, *, repair: bool = False) 
     if repair and lock:
         raise StoreError(f"cannot repair {where}: {lock[0].reason}")
     copies = _copies(root_doc)
+    if repair and root_doc is None and get_bytes(zs, "zarr.json") is None \
+            and _experiment_groups(zs):
+        # a lost root, intact groups (issue 50: repair refused, "not a Zarr v3 store"):
+        # the lock, and every client after it, know a store by its root: write it first
+        _plain_root(zs)
     if group is not None:
         check_group(zs, group)
     with _lock(zs, repair):  # repairs write metadata: one client at a time
@@ -333,11 +338,15 @@ def check_group(store: StoreLike, group: str) -> None:
                              f"{names}): give one of them, or leave out --group")
 
 
+def _plain_root(zs: Store) -> None:
+    set_bytes(zs, "zarr.json", json.dumps({"zarr_format": 3, "node_type": "group",
+                                           "attributes": {}}).encode())
+
+
 def _repair_root(zs: Store, root_damage: list[Damage], restored: bool) -> list[str]:
     done: list[str] = []
     if root_damage:
-        set_bytes(zs, "zarr.json", json.dumps({"zarr_format": 3, "node_type": "group",
-                                               "attributes": {}}).encode())
+        _plain_root(zs)
         done.append("zarr.json: rewritten as a plain root group")
     if done or restored:  # the consolidated copy must show the restored metadata
         try:

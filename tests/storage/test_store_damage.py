@@ -665,3 +665,16 @@ def test_repair_gives_an_edited_length_back_from_the_consolidated_copy(built, ca
     assert "Traceback" not in out + err and "length restored" in out + err
     assert verify(built).ok
     assert storage.status_counts(built, GROUP) == {"pending": 1, "done": 4, "failed": 1}
+
+
+def test_repair_rebuilds_a_lost_root_from_its_intact_groups(built, capsys):
+    """Issue 50: with the root's zarr.json deleted, repair refused ("not a Zarr v3
+    store") although every group was intact."""
+    (built / "zarr.json").unlink()
+    assert _cli("sweep", "verify", str(built)) == 1
+    _cli("sweep", "verify", str(built), "--repair")
+    out, err = capsys.readouterr()
+    assert "Traceback" not in out + err
+    assert verify(built).ok
+    assert storage.status_counts(built, GROUP) == {"pending": 1, "done": 4, "failed": 1}
+    _exact(storage.done(storage.open_dataset(built, GROUP)))
