@@ -241,9 +241,12 @@ def direction_study(directions: Sequence[str], mesh: str = "patch", quick: bool 
     levels: dict[str, Level] = {}
     sequences = {}
     for d in directions:
-        chosen = (2,) if quick else tuple(factors) or DIRECTION_FACTORS.get(d, (2, 4))
-        seq = direction_levels(d, base, [f for f in sorted(set(chosen))
-                                         if _buildable(base, d, f)], name)
+        chosen = sorted(set((2,) if quick else tuple(factors)
+                            or DIRECTION_FACTORS.get(d, (2, 4))))
+        buildable = [f for f in chosen if _buildable(base, d, f)]
+        if not buildable:  # not one level: the first factor's refusal says why
+            refined(base, d, chosen[0])
+        seq = direction_levels(d, base, buildable, name)
         levels.update((lv.name, lv) for lv in seq)
         sequences[d] = [lv.name for lv in seq]
     return tuple(levels.values()), sequences

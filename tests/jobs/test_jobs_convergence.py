@@ -251,3 +251,10 @@ def test_the_converged_preset_refines_the_sidewall_and_puts_the_belts_at_depth()
     assert model.mesh.through == 2 and model.reinforcement.belt_layout == "cords"
     # patch and its ids stay as they were
     assert patch == MESH_PRESETS["patch"]["full"] and patch.through == 1
+
+
+def test_a_direction_with_no_buildable_level_is_refused_not_skipped():
+    with pytest.raises(SpecError, match="has none"):
+        direction_study(["circumferential"], mesh="thesis")
+    with pytest.raises(SpecError, match="at most 4"):
+        direction_study(["through"], mesh="converged", factors=(4,))
