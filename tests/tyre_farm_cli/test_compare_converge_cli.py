@@ -22,6 +22,8 @@ def _run(argv, capsys):
     (["converge", "--direction", "radial"], "--direction 'radial' is not a direction"),
     (["converge", "--direction", "bead", "--mesh", "fine"], "unknown mesh preset 'fine'"),
     (["converge", "--direction", "circumferential", "--mesh", "thesis"], "has none"),
+    (["converge", "--direction", "bead", "--factors", "2,x"], "--factors"),
+    (["converge", "--direction", "bead", "--factors", "3"], "powers of 2"),
 ])
 def test_bad_input_is_one_line_and_nothing_is_solved(argv, needle, capsys, monkeypatch):
     import jobs.calibrate.compare
