@@ -109,8 +109,26 @@ def create_group(store: StoreLike, group: str, mesh: MeshNodes, attrs: GroupAttr
         if group in root and _is_complete(root, group):
             _check_same_mesh(open_group(zs, group), group, mesh, attrs)
         else:
+            _check_not_renamed(root, group)
             _build(root, group, mesh, attrs)
         _publish(zs)
+
+
+def _check_not_renamed(root: zarr.Group, group: str) -> None:
+    """Refuse to build ``group`` anew when another folder of the store was made as it
+    (issue 50: a renamed group folder made resume solve every experiment again into a
+    new group): rename the folder back instead."""
+    wanted = identity.name_digest(group)
+    try:
+        others = [(name, g.attrs.get(identity.IDENTITY)) for name, g in root.groups()]
+    except Exception:  # a damaged neighbour: verify names it; it is no reason to refuse
+        return
+    for name, stored in others:
+        if name != group and isinstance(stored, dict) and stored.get("group") == wanted:
+            raise SchemaError(
+                f"group {group!r} is not in the store, but its folder {name!r} was made as "
+                f"{group!r} (renamed by hand?): rename {name!r} back to {group!r} and run "
+                "the command again, so that nothing is solved twice")
 
 
 def _is_complete(root: zarr.Group, group: str) -> bool:

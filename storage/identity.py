@@ -38,6 +38,11 @@ def _sha(data: bytes) -> str:
     return hashlib.sha256(data).hexdigest()
 
 
+def name_digest(group: str) -> str:
+    """The digest of a group's name, as :func:`digests` stores it."""
+    return _sha(group.encode())
+
+
 def mesh_digest(arrays: Mapping[str, Any]) -> str:
     """One digest of the mesh arrays: each one's name, dtype, shape and bytes."""
     h = hashlib.sha256()
@@ -51,7 +56,7 @@ def mesh_digest(arrays: Mapping[str, Any]) -> str:
 def digests(group: str, attrs: Mapping[str, Any], arrays: Mapping[str, Any]) -> dict[str, str]:
     """The digest of each part of :data:`PARTS` as the group stands."""
     return {
-        "group": _sha(group.encode()),
+        "group": name_digest(group),
         "model_spec": _sha(json.dumps(attrs.get("model_spec")).encode()),
         "mesh_key": _sha(json.dumps(attrs.get("mesh_key")).encode()),
         "mesh": mesh_digest(arrays),

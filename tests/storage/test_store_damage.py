@@ -678,3 +678,12 @@ def test_repair_rebuilds_a_lost_root_from_its_intact_groups(built, capsys):
     assert verify(built).ok
     assert storage.status_counts(built, GROUP) == {"pending": 1, "done": 4, "failed": 1}
     _exact(storage.done(storage.open_dataset(built, GROUP)))
+
+
+def test_a_renamed_group_is_not_built_again_under_its_own_name(built):
+    """Issue 50: resume then solved all experiments again into a new group."""
+    shutil.move(built / GROUP, built / "moved")
+    publish(built)
+    with pytest.raises(storage.StoreError, match="rename 'moved' back"):
+        storage.create_group(built, GROUP, make_mesh(N_INNER, N_TREAD), make_attrs())
+    assert not (built / GROUP).exists()
