@@ -44,10 +44,13 @@ def name_digest(group: str) -> str:
 
 
 def mesh_digest(arrays: Mapping[str, Any]) -> str:
-    """One digest of the mesh arrays: each one's name, dtype, shape and bytes."""
+    """One digest of the mesh arrays: each one's name, shape and values, integers as
+    int64 and reals as float64 (a reader that widens a dtype, as xarray may, reads the
+    same values and so the same digest)."""
     h = hashlib.sha256()
     for name in MESH_ARRAYS:
-        a = np.ascontiguousarray(arrays[name])
+        a = np.asarray(arrays[name])
+        a = np.ascontiguousarray(a, dtype=np.int64 if a.dtype.kind in "iu" else np.float64)
         h.update(f"{name}:{a.dtype.str}:{a.shape}".encode())
         h.update(a.tobytes())
     return h.hexdigest()
