@@ -700,27 +700,28 @@ class _GroupCheck:
     # 5. other chunks ---------------------------------------------------------------------
 
     def _mesh_chunks(self) -> None:
+        values = {}
         for name, a in self.arrays.items():
             if dimension_names(a)[:1] == ("experiment",):
                 continue
             try:
-                a[...]
+                values[name] = a[...]
             except Exception as e:  # a chunk that does not decode
                 self.key_damage(f"{self.group}/{name}", f"a chunk does not decode ({_short(e)})")
-        self._identity()
+        self._identity(values)
 
-    def _identity(self) -> None:
-        """The group's name, model and mesh against the digests it was made with
-        (:mod:`storage.identity`): repair cannot tell which side is right, so it marks
-        nothing; the message says what to do."""
-        if any(name not in self.arrays for name in identity.MESH_ARRAYS):
-            return  # a lost mesh array is damage already
+    def _identity(self, values: dict[str, Any]) -> None:
+        """The group's name, model and mesh (``values``: the arrays read) against the
+        digests it was made with (:mod:`storage.identity`): repair cannot tell which
+        side is right, so it marks nothing; the message says what to do."""
+        if any(name not in values for name in identity.MESH_ARRAYS):
+            return  # a lost or undecodable mesh array is damage already
         try:
             attrs = dict(zarr.open_group(store=self.zs, path=self.group, mode="r",
                                          use_consolidated=False).attrs)
-            arrays = {name: self.arrays[name][...] for name in identity.MESH_ARRAYS}
-        except Exception:  # a chunk or the metadata does not decode: named already
+        except Exception:  # the metadata does not decode: named already
             return
+        arrays = {name: values[name] for name in identity.MESH_ARRAYS}
         for part in identity.changed(self.group, attrs, arrays) or ():
             self.key_damage(f"{self.group}/{part}", _IDENTITY_ADVICE.get(part, (
                 f"{identity.PARTS.get(part, part)} differs from what the group was made "
