@@ -124,7 +124,8 @@ def _check_not_renamed(root: zarr.Group, group: str) -> None:
     except Exception:  # a damaged neighbour: verify names it; it is no reason to refuse
         return
     for name, stored in others:
-        if name != group and isinstance(stored, dict) and stored.get("group") == wanted:
+        if (name != group and isinstance(stored, dict)
+                and stored.get("version") == identity.VERSION and stored.get("group") == wanted):
             raise SchemaError(
                 f"group {group!r} is not in the store, but its folder {name!r} was made as "
                 f"{group!r} (renamed by hand?): rename {name!r} back to {group!r} and run "

@@ -26,6 +26,11 @@ MESH_ARRAYS = ("inner_node", "inner_xyz", "inner_row", "inner_col",
                "tread_node", "tread_xyz", "tread_row", "tread_col")
 """The mesh arrays digested, in this order (:meth:`storage.mesh.MeshNodes.arrays`)."""
 
+VERSION = 1
+"""How the digests are made. A group whose identity has another version is treated as
+one made before identities (not checked), never as damaged: a change of this module
+must not turn every existing store into a damaged one."""
+
 PARTS = {
     "group": "the group's folder name",
     "model_spec": "the group attribute model_spec",
@@ -56,9 +61,12 @@ def mesh_digest(arrays: Mapping[str, Any]) -> str:
     return h.hexdigest()
 
 
-def digests(group: str, attrs: Mapping[str, Any], arrays: Mapping[str, Any]) -> dict[str, str]:
-    """The digest of each part of :data:`PARTS` as the group stands."""
+def digests(group: str, attrs: Mapping[str, Any], arrays: Mapping[str, Any]
+            ) -> dict[str, Any]:
+    """The digest of each part of :data:`PARTS` as the group stands, and the
+    :data:`VERSION` they were made by."""
     return {
+        "version": VERSION,
         "group": name_digest(group),
         "model_spec": _sha(json.dumps(attrs.get("model_spec")).encode()),
         "mesh_key": _sha(json.dumps(attrs.get("mesh_key")).encode()),
@@ -74,5 +82,7 @@ def changed(group: str, attrs: Mapping[str, Any], arrays: Mapping[str, Any]) -> 
         return None
     if not isinstance(stored, Mapping):
         return ["identity"]
+    if stored.get("version") != VERSION:
+        return None  # made by another revision of this module: not comparable
     now = digests(group, attrs, arrays)
     return [part for part in PARTS if stored.get(part) != now[part]]

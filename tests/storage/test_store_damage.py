@@ -648,7 +648,7 @@ def test_a_clean_group_carries_its_identity(built):
     from storage.identity import IDENTITY, PARTS
 
     attrs = zarr.open_group(built / GROUP, mode="r").attrs
-    assert set(attrs[IDENTITY]) == set(PARTS)
+    assert set(attrs[IDENTITY]) == {*PARTS, "version"}
     assert verify(built).ok
 
 
@@ -687,3 +687,15 @@ def test_a_renamed_group_is_not_built_again_under_its_own_name(built):
     with pytest.raises(storage.StoreError, match="rename 'moved' back"):
         storage.create_group(built, GROUP, make_mesh(N_INNER, N_TREAD), make_attrs())
     assert not (built / GROUP).exists()
+
+
+def test_an_identity_of_another_version_is_not_checked_and_never_damage(built):
+    """A later change of how digests are made must not make every store damaged."""
+    meta = built / GROUP / "zarr.json"
+    doc = json.loads(meta.read_text())
+    doc["attributes"]["identity"] = {**doc["attributes"]["identity"], "version": 99,
+                                     "mesh": "0" * 64}
+    meta.write_text(json.dumps(doc))
+    publish(built)
+    assert verify(built).ok
+    assert storage.open_dataset(built, GROUP).sizes["experiment"] == len(IDS)
