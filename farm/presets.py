@@ -28,7 +28,7 @@ from farm.specs import ContactLaw, Material, Materials, MeshDensity, ModelSpec
 # revision (farm/mesh/version.py); on the current mesh these moduli give 3784 N (-3.8 %)
 # and 4860 N (+8.6 %), from -22 % and +27 % with Table 3.1's. Two points, three moduli,
 # and no exact fit: this model stiffens with pressure more than the thesis' (no cords,
-# README), and only a stiff tread (468 MPa, an effective belt-and-rubber modulus, not
+# docs/guide/models.md), and only a stiff tread (468 MPa, an effective belt-and-rubber modulus, not
 # rubber) over a bead at the fit's lower bound (1 MPa, 1/20 of the start) brings the two
 # pressures together. An effective model for force levels, not material data.
 MATERIAL_PRESETS: dict[str, dict[str, Materials]] = {
@@ -161,3 +161,62 @@ def default_model(kind: str, materials: str = "table-3.1", mesh: str | MeshDensi
         contact=CONTACT_PRESETS.get(materials, ContactLaw()),
     )
     return dataclasses.replace(base, **overrides) if overrides else base
+
+
+# What each preset can be trusted for, said on the first line of `farm run` and `farm roll`
+# (issue 48: both default to the thesis' uncalibrated tyre on its unconverged mesh, which
+# a newcomer took for the farm's answer). Figures: docs/guide/models.md and
+# docs/mesh-convergence.md.
+MATERIAL_NOTES = {
+    "table-3.1": "the thesis' Table 3.1 rubber, uncalibrated: full-model Fz 13-27 % off "
+                 "the thesis' points, the reduced sector 2.5x stiff",
+    "thesis-calibrated": "a cordless fit to the thesis' points with a 468 MPa tread, for "
+                         "force levels only",
+    "cord-reinforced": "cords on the cavity face, uncalibrated: Fz 18-46 % off",
+    "reinforced-calibrated": "calibrated on the patch mesh; on the converged mesh its 25 mm "
+                             "points fall 15-20 % low",
+}
+MESH_NOTES = {
+    "thesis": "Table 3.1's element counts, not converged",
+    "patch": "converged round the tyre and across the tread but not in the sidewall, "
+             "about 8-12 % stiff",
+    "converged": "converged in every direction",
+}
+CREDIBLE = ("reinforced-calibrated", "converged")
+"""The material and mesh presets results should use (README, "Which tyre to use")."""
+
+
+def mesh_name(spec: ModelSpec) -> str | None:
+    """The mesh preset whose density ``spec`` has, or None (a density of its own)."""
+    return next((name for name, kinds in MESH_PRESETS.items()
+                 if kinds.get(spec.kind) == spec.mesh), None)
+
+
+def materials_name(spec: ModelSpec) -> str | None:
+    """The material preset ``spec`` has unchanged (rubber, cords, contact), or None."""
+    for name, kinds in MATERIAL_PRESETS.items():
+        if (kinds.get(spec.kind) == spec.materials
+                and REINFORCEMENT_PRESETS.get(name) == spec.reinforcement
+                and CONTACT_PRESETS.get(name, ContactLaw()) == spec.contact):
+            return name
+    return None
+
+
+def describe_model(spec: ModelSpec) -> str:
+    """One line: which tyre and mesh ``spec`` is and how far to trust it.
+
+    >>> describe_model(default_model("full", mesh="converged")).split(";")[1]
+    ' mesh converged: converged in every direction'
+    """
+    mats, mesh = materials_name(spec), mesh_name(spec)
+    m = (f"materials {mats}: {MATERIAL_NOTES[mats]}" if mats in MATERIAL_NOTES else
+         f"materials {mats}" if mats else "materials of its own (a preset changed by --set)")
+    d = spec.mesh
+    counts = (f"tread {d.tread}, sidewall {d.sidewall}, bead {d.bead}, "
+              f"{d.circumferential} round, {d.through} through")
+    g = (f"mesh {mesh}: {MESH_NOTES[mesh]}" if mesh in MESH_NOTES else
+         f"a mesh of its own ({counts}; not a converged preset)")
+    line = f"{spec.kind} model, {m}; {g}"
+    if spec.kind == "full" and (mats, mesh) != CREDIBLE:
+        line += f"; for results use --materials {CREDIBLE[0]} --mesh {CREDIBLE[1]}"
+    return line

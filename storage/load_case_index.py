@@ -27,6 +27,14 @@ from xarray.core.indexing import IndexSelResult
 _TOLERANCE_HINT = "for a tolerance use storage.select(ds, name=value), which matches within 1e-9"
 
 
+def kpa_hint(name: Hashable, label: float, values: np.ndarray) -> str:
+    """A hint when ``label`` is a pressure in kPa: the store keeps MPa (issue 48), while
+    every command and study file takes kPa, so ``sel(pressure=200)`` is the natural slip."""
+    if name != "pressure" or not np.any(np.isclose(values, label / 1000.0, rtol=1e-9, atol=0)):
+        return ""
+    return f"; the store keeps pressure in MPa: pressure={label / 1000.0:g} is {label:g} kPa"
+
+
 class LoadCaseIndex(xr.Index):
     """Index of the load-case coordinates (1-D, along one dimension) of a dataset."""
 
@@ -112,7 +120,7 @@ class LoadCaseIndex(xr.Index):
         missing = wanted[~np.isin(wanted, values)]
         if missing.size:
             raise KeyError(f"no experiment has {name}={missing[0]:.12g} (labels match "
-                           f"exactly; {_TOLERANCE_HINT})")
+                           f"exactly; {_TOLERANCE_HINT}){kpa_hint(name, missing[0], values)}")
         return np.isin(values, wanted)
 
     def _size(self) -> int:

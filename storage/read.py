@@ -21,7 +21,7 @@ import storage.identity as identity
 from storage._zarr import array, list_dir, read, read_coordinates
 from storage.checksum import Slots, check
 from storage.errors import DamagedStoreError, NotReservedError, SchemaError, reading, verify_hint
-from storage.load_case_index import LoadCaseIndex
+from storage.load_case_index import LoadCaseIndex, kpa_hint
 from storage.paths import StoreLike, describe, open_group, open_store
 from storage.reserve import read_ids
 from storage.schema import (
@@ -276,7 +276,13 @@ def select(ds: xr.Dataset, **params: Any) -> xr.Dataset:
             raise SchemaError(
                 f"unknown parameter {name!r}; this group's parameters: {', '.join(known)}"
             )
-        keep &= _matches(np.asarray(ds[name], dtype=np.float64), want, name)
+        values = np.asarray(ds[name], dtype=np.float64)
+        match = _matches(values, want, name)
+        if not match.any() and not isinstance(want, slice):
+            hint = kpa_hint(name, float(np.atleast_1d(want)[0]), values)
+            if hint:  # an empty selection would pass silently for a kPa value
+                raise SchemaError(f"no experiment has {name}={want!r}{hint}")
+        keep &= match
     return ds.isel(experiment=np.flatnonzero(keep))
 
 

@@ -65,8 +65,20 @@ def _literal(text: str) -> Any:
 
 MATERIALS_HELP = ("Material preset: table-3.1 (the thesis' Table 3.1), thesis-calibrated, "
                   "cord-reinforced, reinforced-calibrated (full model, docs/reinforcement.md).")
-MESH_HELP = ("Mesh preset: thesis (Table 3.1's element counts) or patch (full model only: "
-             "refined over +-32 degrees about the road, docs/mesh-convergence.md).")
+MESH_HELP = ("Mesh preset: thesis (Table 3.1's element counts), patch (full model only: "
+             "refined over +-32 degrees about the road) or converged (full model only: patch "
+             "with the sidewall and the wall's depth refined; the one for results, "
+             "docs/mesh-convergence.md).")
+KPA_HINT_BELOW = 5.0  # no tyre is inflated to under 5 kPa; 0.08-0.4 is a pressure in MPa
+
+
+def kpa_hint(kpa: float) -> str:
+    """A warning line when a pressure in kPa looks like one in MPa (issue 48: ``--pressure
+    0.2`` was taken as 0.2 kPa without a word), else ''."""
+    if not 0 < kpa < KPA_HINT_BELOW:
+        return ""
+    return (f"note: --pressure {kpa:g} is {kpa:g} kPa (a nearly flat tyre); pressures are "
+            f"kPa, so {kpa * 1000:g} kPa is --pressure {kpa * 1000:g}")
 
 
 def check_materials(name: str) -> str:

@@ -19,13 +19,14 @@ from rich.table import Table
 from farm.ccx.runner import find_ccx
 from farm.errors import SpecError
 from farm.mesh import mesh_for
+from farm.presets import describe_model, mesh_name
 from farm.solve.rolling import RolledState, free_rolling_radius, inflated_radius, solve_roll
 from farm.specs import MAX_PRESSURE_MPA, THREADS, TIMEOUT_S, LoadPath, Roll, SolverSettings
 from jobs.errors import StudyError
 from jobs.validate import scalars
 from tyre_farm_cli.errors import usage
 from tyre_farm_cli.jsondoc import dump
-from tyre_farm_cli.params import MATERIALS_HELP, MESH_HELP, build_model
+from tyre_farm_cli.params import MATERIALS_HELP, MESH_HELP, build_model, kpa_hint
 from tyre_farm_cli.progress import LogLines
 
 MAX_SAMPLES = 100
@@ -63,7 +64,10 @@ def roll(
                       tilt=tilt, distance=distance, rolling_radius=fixed or 400.0)
     find_ccx()
     lines = LogLines(every=10.0)
-    lines.log(f"roll: meshing the full model ({mesh})")
+    lines.log(f"roll: {describe_model(spec)}")
+    if hint := kpa_hint(pressure):
+        lines.log(f"roll: {hint}")
+    lines.log(f"roll: meshing the full model ({mesh_name(spec) or 'a mesh of its own'})")
     m = mesh_for(spec)
     mpa = pressure / 1000.0
     found = None

@@ -19,6 +19,7 @@ from farm.ccx.runner import find_ccx
 from farm.errors import SpecError
 from farm.experiment import PathResult, run_load_path
 from farm.mesh import mesh_for
+from farm.presets import describe_model
 from farm.specs import (
     MAX_PRESSURE_MPA,
     THREADS,
@@ -33,7 +34,7 @@ from jobs.wording import plural
 from tyre_farm_cli.checks import output_file, output_folder
 from tyre_farm_cli.errors import usage
 from tyre_farm_cli.jsondoc import dump
-from tyre_farm_cli.params import MATERIALS_HELP, MESH_HELP, build_model, parse_range
+from tyre_farm_cli.params import MATERIALS_HELP, MESH_HELP, build_model, kpa_hint, parse_range
 from tyre_farm_cli.progress import LogLines
 
 PEAK_NOTE = ("* the largest nodal contact pressure: mesh-dependent, it does not converge "
@@ -128,6 +129,9 @@ class RunLines:
 def _solve(spec, path: LoadPath, settings: SolverSettings, kpa: float) -> PathResult:
     """Mesh and solve, saying so on stderr (stdout keeps the results only)."""
     lines = RunLines()
+    lines.stage(describe_model(spec))
+    if hint := kpa_hint(kpa):
+        lines.stage(hint)
     lines.stage(f"meshing the {spec.kind} model (cached after the first run)")
     mesh = mesh_for(spec)
     lines.stage(f"mesh ready: {plural(mesh.n_nodes, 'node')}, "

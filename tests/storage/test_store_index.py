@@ -221,3 +221,25 @@ def test_what_consumers_do_still_works(fresh, tmp_path):
     back = xr.open_zarr(tmp_path / "copy.zarr", consolidated=False)
     assert back["deflection"].values.tolist() == DEFLECTION[:4]
     assert _ids(index_parameters(back).sel(deflection=30)) == ["e2"]
+
+
+@pytest.mark.parametrize("select", ["sel", "select"])
+@pytest.mark.parametrize(("kpa", "mpa"), [(200, 0.2), (300.0, 0.3), ([200], 0.2)])
+def test_a_pressure_in_kpa_is_refused_with_the_unit_the_store_keeps(fresh, select, kpa, mpa):
+    """Every command takes kPa, the store MPa (issue 48): ``sel(pressure=200)`` says so
+    instead of a bare miss (sel) or a silently empty selection (select)."""
+    ds = storage.open_dataset(fresh, GROUP)
+    error = KeyError if select == "sel" else storage.SchemaError
+    with pytest.raises(error, match=rf"keeps pressure in MPa: pressure={mpa:g} is"):
+        ds.sel(pressure=kpa) if select == "sel" else storage.select(ds, pressure=kpa)
+
+
+def test_no_unit_hint_where_the_value_is_no_pressure_in_kpa(fresh):
+    ds = storage.open_dataset(fresh, GROUP)
+    with pytest.raises(KeyError) as e:
+        ds.sel(pressure=250)  # 0.25 MPa is no stored pressure either
+    assert "MPa" not in str(e.value)
+    assert storage.select(ds, pressure=0.25).sizes["experiment"] == 0
+    with pytest.raises(KeyError) as e:
+        ds.sel(deflection=20000)
+    assert "MPa" not in str(e.value)

@@ -29,6 +29,11 @@ def test_stages_go_to_stderr_and_stdout_stays_clean(as_json, monkeypatch, capsys
                               *(["--json"] if as_json else [])], capsys)
     assert code == 0, err
     stages = _stages(err)
+    # first: which tyre and mesh, and how far to trust them (issue 48); --set made the
+    # mesh one of its own, and the line says so rather than naming the preset it replaced
+    assert stages[0].startswith("reduced model, materials table-3.1: the thesis' Table 3.1")
+    assert "a mesh of its own (tread 4, sidewall 2, bead 1, 8 round" in stages[0]
+    stages = stages[1:]
     assert stages[0].startswith("meshing the reduced model")
     assert stages[1].startswith("mesh ready: ")
     assert stages[2] == "solving 2 deflections at 0 kPa on the iterative road with ccx"
