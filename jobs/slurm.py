@@ -15,6 +15,15 @@ a new job for each one that ended (``scale`` alone would not). ``--lifetime-stag
 spreads the retirements so that the workers of one wave do not all leave at once.
 ``--lifetime-restart`` is *not* set: it would restart the worker inside the same job,
 minutes before SLURM kills that job - exactly the loss we retire to avoid.
+
+Site conventions (issue 48). A cluster keeps its SLURM settings in dask's
+``jobqueue.yaml`` (``jobqueue.slurm.*``). What the user does not give here comes from
+there: partition, account, interface and directories as dask-jobqueue reads them, and
+cores, memory and walltime by :func:`site_settings` (a value equal to dask-jobqueue's own
+packaged default is not the site's: ``dask.config.ensure_file`` copies that file into
+``~/.config/dask`` unchanged), else :data:`FALLBACK`. The site's job directives and
+worker arguments are kept and ours added after them. Processes stay one per core, the
+farm's rule, and ``python`` this interpreter (the package must be importable).
 """
 
 from __future__ import annotations
@@ -37,6 +46,8 @@ INSTALL_HINT = "pip install 'tyre-farm[slurm]'"
 RETIRE_MARGIN_SECONDS = 300  # workers retire about 5 min before the walltime ...
 MIN_LIFETIME_SECONDS = 60  # ... but live at least 1 min
 START_TIMEOUT_SECONDS = 300  # for the first worker to join (queue wait included)
+FALLBACK: dict[str, Any] = {"cores": 1, "memory": "2GiB", "walltime": "01:00:00"}
+"""Cores, memory and walltime per job where neither the options nor the site say."""
 
 # SLURM's --time formats: M, M:S, H:M:S, D-H, D-H:M, D-H:M:S
 _WALLTIME = re.compile(r"^(?:(?P<d>\d+)-(?P<dh>\d+)(?::(?P<dm>\d+)(?::(?P<ds>\d+))?)?"
@@ -90,10 +101,10 @@ class SlurmOptions:
     queue: str | None = None
     account: str | None = None
     jobs: int = 1
-    cores: int = 1
+    cores: int | None = None  # None: the site's jobqueue.yaml, else FALLBACK
     processes: int | None = None
-    memory: str = "2GiB"
-    walltime: str = "01:00:00"
+    memory: str | None = None
+    walltime: str | None = None
     interface: str | None = None
     job_extra_directives: tuple[str, ...] = ()
     local_directory: str | None = None
@@ -104,22 +115,36 @@ class SlurmOptions:
     start_timeout: float = START_TIMEOUT_SECONDS
 
     def __post_init__(self) -> None:
+        site = site_settings()
+        taken = [name for name in FALLBACK if getattr(self, name) is None and name in site]
+        for name, fallback in FALLBACK.items():  # resolved once: the value every check sees
+            if getattr(self, name) is None:
+                object.__setattr__(self, name, site.get(name, fallback))
+        try:
+            self._check()
+        except ClusterError as e:
+            if not taken:
+                raise
+            raise ClusterError(f"{e} ({', '.join(taken)} from the site's dask config, "
+                               f"jobqueue.slurm.*: fix it there or give the option)") from e
+
+    def _check(self) -> None:
         for name in ("jobs", "cores"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise ClusterError(f"SLURM {name} must be a whole number >= 1, got {value!r}")
-        p = self.processes
+        p, cores = self.processes, int(self.cores or 0)
         if p is not None and (isinstance(p, bool) or not isinstance(p, int) or p < 1
-                              or self.cores % p):
+                              or cores % p):
             raise ClusterError(f"SLURM processes must divide cores ({self.cores}), got {p!r}: "
                                "leave it unset for one single-threaded worker per core")
         try:
-            if parse_bytes(self.memory) <= 0:
+            if parse_bytes(self.memory) <= 0:  # type: ignore[arg-type]  # TypeError below
                 raise ValueError("not positive")
         except (ValueError, TypeError) as e:
             raise ClusterError(f"SLURM memory {self.memory!r} is not an amount of memory: "
                                "give e.g. '4GiB' or '4000MB'") from e
-        lifetime_seconds(walltime_seconds(self.walltime))  # raises when unusable
+        lifetime_seconds(walltime_seconds(self.walltime))  # type: ignore[arg-type]  # raises
         if not isinstance(self.job_extra_directives, tuple) or not all(
                 isinstance(d, str) for d in self.job_extra_directives):
             raise ClusterError("SLURM job_extra_directives must be a tuple of strings, got "
@@ -138,23 +163,63 @@ class SlurmOptions:
 
     @property
     def worker_processes(self) -> int:
+        assert self.cores is not None  # resolved in __post_init__
         return self.processes or self.cores
 
     def worker_extra_args(self) -> list[str]:
-        """The lifetime flags of every worker (see the module docstring)."""
+        """The site's worker arguments, then the lifetime flags (module docstring)."""
+        assert self.walltime is not None  # resolved in __post_init__
         lifetime, stagger = lifetime_seconds(walltime_seconds(self.walltime))
-        return ["--lifetime", f"{lifetime}s", "--lifetime-stagger", f"{stagger}s"]
+        return [*_site_list("worker-extra-args"),
+                "--lifetime", f"{lifetime}s", "--lifetime-stagger", f"{stagger}s"]
 
     def cluster_kwargs(self) -> dict[str, Any]:
         """Keyword arguments of ``dask_jobqueue.SLURMCluster``."""
         return dict(
             queue=self.queue, account=self.account, cores=self.cores,
             processes=self.worker_processes, memory=self.memory, walltime=self.walltime,
-            interface=self.interface, job_extra_directives=list(self.job_extra_directives),
+            interface=self.interface,
+            job_extra_directives=[*_site_list("job-extra-directives"),
+                                  *self.job_extra_directives],
             local_directory=self.local_directory, log_directory=self.log_directory,
             python=self.python, job_name=self.job_name,
             worker_extra_args=self.worker_extra_args(),
             scheduler_options={"dashboard_address": self.dashboard_address})
+
+
+def _packaged_defaults() -> dict[str, Any]:
+    """dask-jobqueue's own ``jobqueue.slurm`` defaults ({} without dask-jobqueue)."""
+    import importlib.util
+    from pathlib import Path
+
+    import yaml
+
+    spec = importlib.util.find_spec("dask_jobqueue")
+    if spec is None or spec.origin is None:
+        return {}
+    path = Path(spec.origin).with_name("jobqueue.yaml")
+    try:
+        return dict(yaml.safe_load(path.read_text())["jobqueue"]["slurm"])
+    except (OSError, KeyError, TypeError, yaml.YAMLError):
+        return {}
+
+
+def site_settings() -> dict[str, Any]:
+    """Cores, memory and walltime the site's dask config (``jobqueue.slurm.*``) sets,
+    where they differ from dask-jobqueue's packaged defaults."""
+    packaged = _packaged_defaults()
+    found = {}
+    for name in FALLBACK:
+        value = dask.config.get(f"jobqueue.slurm.{name}", None)
+        if value is not None and value != packaged.get(name):
+            found[name] = value
+    return found
+
+
+def _site_list(key: str) -> list[str]:
+    """A list setting of the site's ``jobqueue.slurm`` (job directives, worker args)."""
+    value = dask.config.get(f"jobqueue.slurm.{key}", None) or []
+    return [str(v) for v in value] if isinstance(value, list | tuple) else []
 
 
 def _slurm_cluster_class():

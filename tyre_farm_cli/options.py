@@ -126,23 +126,28 @@ CLUSTER_OPTIONS: dict[str, tuple[Any, Any]] = {
         help="TLS: this client's private key (PEM) [default: none].")),
     "slurm_partition": (str | None, typer.Option(
         None, "--slurm-partition", rich_help_panel=SLURM_PANEL,
-        help=f"{_SLURM}partition (sbatch -p) [default: SLURM's default partition].")),
+        help=f"{_SLURM}partition (sbatch -p) [default: the site's jobqueue.slurm.queue, else "
+        "SLURM's default partition].")),
     "slurm_account": (str | None, typer.Option(
         None, "--slurm-account", rich_help_panel=SLURM_PANEL,
-        help=f"{_SLURM}account (sbatch -A) [default: none].")),
+        help=f"{_SLURM}account (sbatch -A) [default: the site's jobqueue.slurm.account, else "
+        "none].")),
     "slurm_jobs": (int, typer.Option(
         1, "--slurm-jobs", min=1, max=10_000, rich_help_panel=SLURM_PANEL,
         help=f"{_SLURM}SLURM jobs kept running (a job that ends is replaced).")),
-    "slurm_cores": (int, typer.Option(
-        1, "--slurm-cores", min=1, max=1024, rich_help_panel=SLURM_PANEL,
-        help=f"{_SLURM}cores per job, one single-threaded worker (one ccx) each.")),
-    "slurm_memory": (str, typer.Option(
-        "2GiB", "--slurm-memory", rich_help_panel=SLURM_PANEL,
-        help=f"{_SLURM}memory per job, e.g. 4GiB.")),
-    "slurm_walltime": (str, typer.Option(
-        "01:00:00", "--slurm-walltime", rich_help_panel=SLURM_PANEL,
+    "slurm_cores": (int | None, typer.Option(
+        None, "--slurm-cores", min=1, max=1024, rich_help_panel=SLURM_PANEL,
+        help=f"{_SLURM}cores per job, one single-threaded worker (one ccx) each "
+        "[default: jobqueue.slurm.cores of the site's dask config, else 1].")),
+    "slurm_memory": (str | None, typer.Option(
+        None, "--slurm-memory", rich_help_panel=SLURM_PANEL,
+        help=f"{_SLURM}memory per job, e.g. 4GiB [default: the site's jobqueue.slurm.memory, "
+        "else 2GiB].")),
+    "slurm_walltime": (str | None, typer.Option(
+        None, "--slurm-walltime", rich_help_panel=SLURM_PANEL,
         help=f"{_SLURM}time limit per job (sbatch -t); workers retire about 5 min before it, "
-        "so a walltime kill costs no task failure.")),
+        "so a walltime kill costs no task failure [default: the site's "
+        "jobqueue.slurm.walltime, else 01:00:00].")),
     "slurm_interface": (str | None, typer.Option(
         None, "--slurm-interface", rich_help_panel=SLURM_PANEL,
         help=f"{_SLURM}network interface of scheduler and workers, e.g. ib0 or lo "

@@ -10,6 +10,7 @@ import sys
 import time
 import uuid
 
+import dask
 import pytest
 
 import storage
@@ -180,3 +181,48 @@ def test_jobs_that_never_start_are_a_clear_error_and_are_cancelled(tmp_path):
             slurm_client(options):
         pytest.fail("a client without workers was handed out")
     assert _wait_gone(name) == [], "the pending jobs were not cancelled"
+
+
+# Site conventions (issue 48): a cluster's jobqueue.yaml is where its users keep cores,
+# memory, walltime, partition and directives; the farm's options fill in, never override.
+SITE = {"jobqueue": {"slurm": {"cores": 8, "memory": "16GiB", "walltime": "04:00:00",
+                               "job-extra-directives": ["--qos=site"],
+                               "worker-extra-args": ["--nanny-port", "0"]}}}
+
+
+def test_the_sites_jobqueue_settings_fill_what_the_options_leave():
+    with dask.config.set(SITE):
+        kwargs = SlurmOptions().cluster_kwargs()
+    assert (kwargs["cores"], kwargs["memory"], kwargs["walltime"]) == (8, "16GiB", "04:00:00")
+    assert kwargs["processes"] == 8  # still one single-threaded worker per core
+    assert kwargs["job_extra_directives"] == ["--qos=site"]
+    args = kwargs["worker_extra_args"]
+    assert args[:2] == ["--nanny-port", "0"] and "--lifetime" in args
+    lifetime = int(args[args.index("--lifetime") + 1].rstrip("s"))
+    assert lifetime == 4 * 3600 - 300  # retires before the site's walltime, not ours
+
+
+def test_options_given_win_over_the_site_and_add_to_its_directives():
+    with dask.config.set(SITE):
+        kwargs = SlurmOptions(cores=2, memory="4GiB", walltime="00:30:00",
+                              job_extra_directives=("--exclusive",)).cluster_kwargs()
+    assert (kwargs["cores"], kwargs["memory"], kwargs["walltime"]) == (2, "4GiB", "00:30:00")
+    assert kwargs["job_extra_directives"] == ["--qos=site", "--exclusive"]
+
+
+def test_dask_jobqueues_own_defaults_are_not_a_sites_choice():
+    """``dask.config.ensure_file`` copies dask-jobqueue's yaml into ~/.config/dask: its
+    30 min walltime and null cores are the package's, and the farm's fallback stays."""
+    pytest.importorskip("dask_jobqueue")
+    packaged = {"jobqueue": {"slurm": {"cores": None, "memory": None,
+                                       "walltime": "00:30:00"}}}
+    with dask.config.set(packaged):
+        options = SlurmOptions()
+    assert (options.cores, options.memory, options.walltime) == (1, "2GiB", "01:00:00")
+
+
+def test_a_bad_site_value_is_named_as_the_sites():
+    with dask.config.set({"jobqueue": {"slurm": {"walltime": "1h"}}}), \
+            pytest.raises(ClusterError, match=r"not a SLURM time.*walltime from the site's dask "
+                          r"config"):
+        SlurmOptions()

@@ -12,7 +12,7 @@ import pytest
 import jobs.cluster
 import jobs.slurm
 from jobs.cluster import DaskCluster
-from jobs.slurm import SlurmOptions
+from jobs.slurm import FALLBACK, SlurmOptions
 from tests.jobs.conftest import study_text
 from tyre_farm_cli import main
 from tyre_farm_cli.options import CLUSTER_OPTIONS, ClusterKind, cluster_spec
@@ -52,7 +52,7 @@ def test_every_cluster_command_has_the_cluster_options(command, capsys):
                    "--tls-key", "--slurm-partition", "--slurm-jobs", "--slurm-cores",
                    "--slurm-memory", "--slurm-walltime"):
         assert option in out, (command, option)
-    assert "[default: 01:00:00]" in " ".join(out.split())
+    assert "jobqueue.slurm.walltime, else 01:00:00]" in " ".join(out.split())
 
 
 def test_the_slurm_defaults_are_slurm_options_defaults():
@@ -64,7 +64,10 @@ def test_the_slurm_defaults_are_slurm_options_defaults():
                             ("slurm_memory", "memory"), ("slurm_walltime", "walltime"),
                             ("slurm_interface", "interface"), ("slurm_job_name", "job_name"),
                             ("slurm_dashboard", "dashboard_address")]:
-        assert NO_SLURM[cli_name] == fields[field] == getattr(made, field), cli_name
+        assert NO_SLURM[cli_name] == fields[field], cli_name
+        # cores, memory, walltime: None is "the site's, else the farm's fallback"
+        want = FALLBACK.get(field, fields[field]) if fields[field] is None else fields[field]
+        assert getattr(made, field) == want, cli_name
 
 
 def test_slurm_options_reach_the_spec():
