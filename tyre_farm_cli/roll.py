@@ -16,6 +16,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from farm.ccx.progress import SolverProgress, reporting
 from farm.ccx.runner import find_ccx
 from farm.errors import SpecError
 from farm.mesh import mesh_for
@@ -64,6 +65,10 @@ def roll(
                       tilt=tilt, distance=distance, rolling_radius=fixed or 400.0)
     find_ccx()
     lines = LogLines(every=10.0)
+    stage = ["meshing"]
+
+    def report(progress: SolverProgress) -> None:  # ccx's own progress (issue 48)
+        lines.progress(f"roll: {stage[0]}, {progress.describe()}")
     lines.log(f"roll: {describe_model(spec)}")
     if hint := kpa_hint(pressure):
         lines.log(f"roll: {hint}")
@@ -73,7 +78,9 @@ def roll(
     found = None
     if fixed is None:
         lines.log("roll: finding the free-rolling radius (rolls at kappa = 0)")
-        radius, tried = free_rolling_radius(spec, m, deflection, mpa, motion, settings)
+        stage[0] = "finding the free-rolling radius"
+        with reporting(report):
+            radius, tried = free_rolling_radius(spec, m, deflection, mpa, motion, settings)
         found = {"radius_mm": radius,
                  # Fx and Fz of each roll: means over its last element pitch (its end
                  # state for a roll shorter than a pitch)
@@ -81,8 +88,11 @@ def roll(
         motion = dataclasses.replace(motion, rolling_radius=radius)
     lines.log(f"roll: rolling {distance:g} mm at r_e {motion.rolling_radius:.2f} mm")
     fractions = tuple(float(f) for f in np.round(np.linspace(0, 1, samples + 1), 9))
-    states = solve_roll(spec, m, deflection, mpa, motion, settings, fractions)
-    radius0 = inflated_radius(spec, m, mpa, settings)
+    stage[0] = f"rolling {distance:g} mm"
+    with reporting(report):
+        states = solve_roll(spec, m, deflection, mpa, motion, settings, fractions)
+        radius0 = inflated_radius(spec, m, mpa, settings)
+    lines.flush()
     if as_json:
         dump(_document(spec, pressure, deflection, motion, states, radius0, found))
     else:

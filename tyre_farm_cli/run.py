@@ -13,8 +13,10 @@ from pathlib import Path
 
 import typer
 from rich.console import Console
+from rich.progress import BarColumn, Progress, TaskID, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
+from farm.ccx.progress import SolverProgress, reporting
 from farm.ccx.runner import find_ccx
 from farm.errors import SpecError
 from farm.experiment import PathResult, run_load_path
@@ -35,7 +37,7 @@ from tyre_farm_cli.checks import output_file, output_folder
 from tyre_farm_cli.errors import usage
 from tyre_farm_cli.jsondoc import dump
 from tyre_farm_cli.params import MATERIALS_HELP, MESH_HELP, build_model, kpa_hint, parse_range
-from tyre_farm_cli.progress import LogLines
+from tyre_farm_cli.progress import LogLines, console, interactive
 
 PEAK_NOTE = ("* the largest nodal contact pressure: mesh-dependent, it does not converge "
              "with refinement (docs/mesh-convergence.md); compare it only on one mesh")
@@ -104,26 +106,54 @@ HEARTBEAT_SECONDS = 10.0  # a solve runs for minutes: a line now and then, not a
 
 
 class RunLines:
-    """The stages of ``farm run`` on stderr (meshing, solving, done), and while ccx runs a
-    line every :data:`HEARTBEAT_SECONDS`: a solve once printed nothing for 40-110 s."""
+    """The stages of ``farm run`` on stderr (meshing, solving, done), and while ccx runs
+    how far it has got, read from its ``.sta`` file (issue 48; :mod:`farm.ccx.progress`):
+    a bar on a terminal, else a line every :data:`HEARTBEAT_SECONDS` (a solve once
+    printed nothing for 40-110 s, and then only the seconds)."""
 
-    def __init__(self, lines: LogLines | None = None) -> None:
+    def __init__(self, lines: LogLines | None = None, bar: bool | None = None) -> None:
         self.lines = lines or LogLines(every=HEARTBEAT_SECONDS)
         self.start = time.perf_counter()
+        self.seen: SolverProgress | None = None
+        self.bar = interactive() if bar is None else bar
+        self._bar: Progress | None = None
+        self._task: TaskID | None = None
 
     def stage(self, text: str) -> None:
         self.lines.log(f"run: {text}")
+
+    def report(self, progress: SolverProgress) -> None:
+        """The :func:`farm.ccx.progress.reporting` callback: remember the latest look."""
+        self.seen = progress
 
     def solving(self) -> Callable[[], bool]:
         """The solver's ``should_stop`` poll, used as a clock: it never stops the run."""
         start = time.perf_counter()
         self.lines.last = self.lines.clock()  # the first beat after a period, not at once
+        if self.bar:
+            self._bar = Progress(TextColumn("run: solving"), BarColumn(),
+                                 TextColumn("{task.description}"), TimeElapsedColumn(),
+                                 console=console(), transient=True)
+            self._bar.start()
+            self._task = self._bar.add_task("", total=1.0)
 
         def poll() -> bool:
-            self.lines.progress(f"run: solving, {time.perf_counter() - start:.0f} s")
+            where = self.seen.describe() if self.seen else "starting"
+            if self._bar is not None and self._task is not None:
+                self._bar.update(self._task, completed=self.seen.fraction if self.seen else 0,
+                                 description=where)
+            else:
+                self.lines.progress(f"run: solving, {where}, "
+                                    f"{time.perf_counter() - start:.0f} s")
             return False
 
         return poll
+
+    def close(self) -> None:
+        """Stop the bar, if one runs."""
+        if self._bar is not None:
+            self._bar.stop()
+            self._bar = None
 
 
 def _solve(spec, path: LoadPath, settings: SolverSettings, kpa: float) -> PathResult:
@@ -138,7 +168,11 @@ def _solve(spec, path: LoadPath, settings: SolverSettings, kpa: float) -> PathRe
                 f"{time.perf_counter() - lines.start:.1f} s")
     lines.stage(f"solving {plural(len(path.deflections), 'deflection')} at {kpa:g} kPa on the "
                 f"{spec.road} road with ccx")
-    result = run_load_path(spec, path, settings, should_stop=lines.solving())
+    try:
+        with reporting(lines.report):
+            result = run_load_path(spec, path, settings, should_stop=lines.solving())
+    finally:
+        lines.close()
     lines.stage(f"done in {time.perf_counter() - lines.start:.1f} s: "
                 f"{plural(result.ccx_runs, 'ccx run')}, "
                 f"{plural(result.increments, 'increment')}")

@@ -32,6 +32,7 @@ from pathlib import Path
 import psutil
 
 from farm.ccx.outcome import HINTS, Outcome, classify
+from farm.ccx.progress import current_reporter, progress_of, step_periods
 from farm.errors import CcxNotFoundError, SolverError
 
 TAIL_LINES = 40
@@ -208,11 +209,14 @@ def _kill_group(proc: subprocess.Popen) -> None:
 
 
 class _Progress:
-    """Watches the ``.sta`` file: when (in seconds since start) each increment converged."""
+    """Watches the ``.sta`` file: when (in seconds since start) each increment converged,
+    and, inside :func:`farm.ccx.progress.reporting`, how far the run has got."""
 
-    def __init__(self, sta: Path, start: float) -> None:
+    def __init__(self, sta: Path, start: float, periods: list[float] | None = None) -> None:
         self.sta, self.start, self.size = sta, start, 0
         self.marks: list[tuple[float, float]] = []
+        self.reporter = current_reporter()
+        self.periods = periods or []
 
     def poll(self) -> None:
         try:
@@ -226,6 +230,20 @@ class _Progress:
             for t in _sta_rows(self.sta):
                 if t not in seen:
                     self.marks.append((t, now))
+            if self.reporter is not None:
+                self._report()
+
+    def _report(self) -> None:
+        rows = []
+        with contextlib.suppress(OSError):
+            for line in self.sta.read_text(errors="replace").splitlines():
+                fields = line.split()
+                if len(fields) >= 7 and fields[0].isdigit():
+                    rows.append(fields)
+        got = progress_of(rows, self.periods)
+        if got is not None and self.reporter is not None:
+            with contextlib.suppress(Exception):  # a display must never stop a solve
+                self.reporter(got)
 
 
 def _wait(proc: subprocess.Popen, timeout: float, should_stop,
@@ -314,7 +332,7 @@ def run_ccx(
     command = (exe, "-i", jobname)
     log = workdir / f"{jobname}.log"
     start = time.perf_counter()
-    progress = _Progress(workdir / f"{jobname}.sta", start)
+    progress = _Progress(workdir / f"{jobname}.sta", start, step_periods(deck))
     with open(log, "wb") as out:
         proc = subprocess.Popen(
             command, cwd=workdir, stdout=out, stderr=subprocess.STDOUT,

@@ -55,3 +55,34 @@ def test_the_heartbeat_is_rate_limited_and_never_stops_the_solve():
         assert poll() is False
     beats = [s for s in _stages(stream.getvalue()) if s.startswith("solving, ")]
     assert len(beats) == 2  # at 10 s and 20.5 s: not at the start, not every poll
+
+
+def test_the_heartbeat_says_how_far_ccx_has_got():
+    from farm.ccx.progress import SolverProgress
+
+    stream, now = io.StringIO(), [0.0]
+    lines = RunLines(LogLines(stream, every=10.0, clock=lambda: now[0]), bar=False)
+    poll = lines.solving()
+    now[0] = 10.0
+    poll()
+    lines.report(SolverProgress(0.43, 1, 2, 12, 1))
+    now[0] = 20.0
+    poll()
+    beats = [s for s in _stages(stream.getvalue()) if s.startswith("solving, ")]
+    assert beats[0].startswith("solving, starting, ")
+    assert beats[1].startswith("solving, 43 % of the path (step 1 of 2, 12 increments, "
+                               "1 cutback), ")
+
+
+def test_on_a_terminal_the_progress_is_a_bar_that_goes_away():
+    from farm.ccx.progress import SolverProgress
+
+    stream = io.StringIO()
+    lines = RunLines(LogLines(stream), bar=True)
+    poll = lines.solving()
+    lines.report(SolverProgress(0.5, 1, 1, 3, 0))
+    assert poll() is False
+    assert lines._bar is not None and lines._bar.tasks[0].completed == 0.5
+    lines.close()
+    assert lines._bar is None
+    assert "solving, " not in stream.getvalue()  # the bar, not heartbeat lines
