@@ -50,7 +50,8 @@ ALLOWED_FAILURES = 10  # the embedded scheduler's allowed-failures (Dask's defau
 #: queued on the trunk's worker one after another while the other worker idled
 #: (benchmarks/bench_throughput.py). Measured on the patch mesh: trunk 2 min, slide 1 min.
 TASK_DURATIONS = {"trunk": "2m", "slide": "1m", "path": "1m"}
-#: What every scheduler the farm starts gets (embedded here, SLURM's in jobs.slurm).
+#: What every scheduler the farm starts gets (embedded here, SLURM's in jobs.slurm), with
+#: the farm's page (:func:`with_farm_page`).
 SCHEDULER_CONFIG = {
     "distributed.scheduler.allowed-failures": ALLOWED_FAILURES,
     **{f"distributed.scheduler.default-task-durations.{k}": v
@@ -64,6 +65,21 @@ EMBEDDED_CONFIG = {
     # tests/jobs/test_jobs_worker_loss.py). Our nannies restart their workers: keep them.
     "distributed.deploy.lost-worker-timeout": "1 day",
 }
+DASHBOARD_MODULE = "jobs.dashboard"
+
+
+def with_farm_page(config: dict[str, Any]) -> dict[str, Any]:
+    """``config`` with the farm's page on the dashboard (:mod:`jobs.dashboard`): its
+    module added to Dask's own HTTP routes, read when a scheduler starts (issue 48).
+    Dask's defaults exist once distributed is imported, so this imports it."""
+    import distributed  # noqa: F401  (registers distributed's config defaults)
+
+    routes = list(dask.config.get("distributed.scheduler.http.routes", []))
+    if DASHBOARD_MODULE not in routes:
+        routes.append(DASHBOARD_MODULE)
+    return {**config, "distributed.scheduler.http.routes": routes}
+
+
 LOST_WORKER_RESUBMITS = 10  # resubmissions of a task whose workers kept dying
 SCHEDULER_VARIABLES = ("FARM_SCHEDULER", "DASK_SCHEDULER_ADDRESS")  # in this order
 CONNECT_TIMEOUT = "20s"  # to reach a running scheduler (and finish a TLS handshake)
@@ -148,7 +164,7 @@ def connect(scheduler: str | None = None, workers: int | None = None,
     if address is None:
         security = tls.cluster_security() if tls is not None else None
         # the settings are read while the cluster runs, not only when it starts
-        with dask.config.set(EMBEDDED_CONFIG), \
+        with dask.config.set(with_farm_page(EMBEDDED_CONFIG)), \
                 _embedded(workers or default_workers(), dashboard, security) as cluster, \
                 Client(cluster) as client:
             yield client

@@ -37,6 +37,7 @@ from typing import Any, Generic, TypeVar
 from farm.ccx.runner import ccx_version
 from jobs.cluster import ClusterSpec, DaskCluster, ResubmittingClient, dashboard_link
 from jobs.errors import ClusterError
+from jobs.events import StudyEvents
 from jobs.loops.cache import EvaluationCache
 from jobs.loops.evaluator import Evaluator
 from jobs.progress import Progress, RunReport, Session
@@ -47,7 +48,7 @@ class Announce(Progress):
     line on stderr saying where the dashboard is."""
 
     def started(self, session: Session, state: Any) -> None:
-        print(f"dashboard: {session.dashboard}   workers: {session.workers}",
+        print(f"{session.where}   workers: {session.workers}",
               file=sys.stderr, flush=True)
 
 
@@ -116,22 +117,32 @@ def drive(strategy: Strategy[R], *, cluster: ClusterSpec | None = None,
             on_client(client)
         session = Session(client, solver_version(client, cluster.embedded),
                           dashboard_link(client), len(client.scheduler_info()["workers"]))
+        page = StudyEvents(client, _study_name(strategy), type(strategy).__name__.lower())
         try:
             strategy.start(session)
             progress.started(session, strategy.state())
             while not strategy.poll():
                 progress.advanced(strategy.state())
+                page.update(strategy.state())
                 time.sleep(strategy.poll_seconds)
             progress.advanced(strategy.state())
         except BaseException:
             strategy.cancel()
+            page.update(strategy.state(), ended=True)
             raise
+        page.update(strategy.state(), ended=True)
         report = strategy.finish(session)
     report.dashboard, report.workers, report.solver = (session.dashboard, session.workers,
                                                        session.solver)
     report.wall_seconds = time.perf_counter() - start
     progress.finished(report)
     return report
+
+
+def _study_name(strategy: Strategy) -> str:
+    """What the farm page calls a run: its study's name, else its kind."""
+    study = getattr(strategy, "study", None)
+    return str(getattr(study, "name", None) or type(strategy).__name__)
 
 
 class LoopThreads(Strategy[R]):

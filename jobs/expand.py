@@ -22,7 +22,13 @@ from scipy.stats import qmc
 
 from farm.specs import RoadMotion
 from jobs import nested
-from jobs.identity import experiment_id, legacy_experiment_id, path_key, resolve_ids
+from jobs.identity import (
+    experiment_id,
+    legacy_experiment_id,
+    load_label,
+    path_key,
+    resolve_ids,
+)
 from jobs.study import CASE_PARAMETERS, MOTION_PARAMETERS, ROLL_PARAMETERS, Study
 
 
@@ -147,7 +153,8 @@ def plan(study: Study, solver: str, held: frozenset[str] = frozenset()) -> list[
                 else (study.max_path_length or len(experiments)))
         for k in range(0, len(experiments), size):
             piece = tuple(experiments[k:k + size])
-            paths.append(PathPlan(path_key(e.id for e in piece), p, piece, m))
+            label = load_label(p, (e.deflection for e in piece), m)
+            paths.append(PathPlan(path_key((e.id for e in piece), label), p, piece, m))
     return paths
 
 
@@ -198,10 +205,13 @@ def tree_plan(study: Study, solver: str) -> list[TreePlan]:
             for s in slides:
                 shift = (s.shift_x, s.shift_y)
                 exps = tuple(exp(d, t.pressure, t.motion(shift, f)) for f in design.fractions)
-                branches.append(BranchPlan("slide-" + path_key(e.id for e in exps)[5:], level,
-                                           shift, exps))
-        out.append(TreePlan("trunk-" + path_key(e.id for e in trunk)[5:], t.pressure, t.motion(),
-                            t.deflections, trunk, tuple(branches), design.fractions))
+                label = load_label(t.pressure, (d,), t.motion(shift, 1.0))
+                branches.append(BranchPlan(path_key((e.id for e in exps), label, "slide"),
+                                           level, shift, exps))
+        label = load_label(t.pressure, t.deflections, t.motion())
+        out.append(TreePlan(path_key((e.id for e in trunk), label, "trunk"), t.pressure,
+                            t.motion(), t.deflections, trunk, tuple(branches),
+                            design.fractions))
     return out
 
 

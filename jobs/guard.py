@@ -28,6 +28,7 @@ from farm.ccx.outcome import Outcome
 from farm.errors import FarmError, SolverError
 from farm.measure.measurement import Measurement
 from farm.specs import SolverSettings
+from jobs import events
 
 
 @dataclass(frozen=True, eq=False)
@@ -96,7 +97,21 @@ def guarded(solve: Callable[[SolverSettings], T], settings: SolverSettings, *,
             retry: bool = True) -> T | Failed:
     """Run ``solve(settings)`` under the policy above; ``retry=False`` skips step 1.
     ``solve`` returns a :class:`Solved` for sweeps and loops, anything for other jobs
-    (a :class:`farm.experiment.PathResult` for the convergence study)."""
+    (a :class:`farm.experiment.PathResult` for the convergence study). In a Dask task the
+    solver's progress and the outcome go to the scheduler's farm page
+    (:mod:`jobs.events`)."""
+    start = time.perf_counter()
+    with events.publishing():
+        result = _guarded(solve, settings, retry)
+    if isinstance(result, Failed):
+        events.finished("failed", time.perf_counter() - start, result.reason)
+    else:
+        events.finished("done", time.perf_counter() - start)
+    return result
+
+
+def _guarded(solve: Callable[[SolverSettings], T], settings: SolverSettings,
+             retry: bool) -> T | Failed:
     try:
         start = time.perf_counter()
         try:

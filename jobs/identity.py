@@ -84,9 +84,30 @@ def evaluation_key(kind: str, model: ModelSpec, solver: str, outputs: int,
                          "task": dict(task)})
 
 
-def path_key(experiment_ids: Iterable[str]) -> str:
-    """Dask key of a load-path task: the same experiments are never run twice at once."""
-    return "path-" + content_hash(list(experiment_ids))[:24]
+def path_key(experiment_ids: Iterable[str], label: str = "", kind: str = "path") -> str:
+    """Dask key of a load-path task: the same experiments are never run twice at once.
+
+    ``label`` (:func:`load_label`) names the load case where the dashboard shows the key
+    (issue 48); the hash of the ids alone makes the key unique. ``kind`` is the first
+    word, which Dask groups tasks by (``path``, ``trunk``, ``slide``)."""
+    return "-".join(x for x in (kind, label, content_hash(list(experiment_ids))[:24]) if x)
+
+
+def load_label(pressure: float, deflections: Iterable[float], motion=None) -> str:
+    """A load case as a key's words: ``200kPa-10to40mm-mu0.6-sx3-tilt2``; pressure in
+    MPa, deflections in mm, a :class:`farm.specs.RoadMotion` or None. Only characters
+    safe in a file name (a path's claim is a file named by its key)."""
+    ds = sorted(float(d) for d in deflections)
+    span = f"{ds[0]:g}mm" if len(ds) == 1 or ds[0] == ds[-1] else f"{ds[0]:g}to{ds[-1]:g}mm"
+    words = [f"{1000 * pressure:g}kPa", span] if ds else [f"{1000 * pressure:g}kPa"]
+    if motion is not None:
+        for name, short in (("friction", "mu"), ("shift_x", "sx"), ("shift_y", "sy"),
+                            ("tilt", "tilt"), ("slip_ratio", "kappa"),
+                            ("slip_angle", "alpha"), ("roll", "roll")):
+            value = getattr(motion, name, 0.0)
+            if value:
+                words.append(f"{short}{value:.4g}")
+    return "-".join(words)
 
 
 def value_key(body: Mapping) -> str:

@@ -21,6 +21,15 @@ class Session:
     dashboard: str
     workers: int
 
+    @property
+    def where(self) -> str:
+        """``dashboard: URL   farm page: URL`` (the farm's page, :mod:`jobs.dashboard`,
+        sits beside Dask's status page on every scheduler the farm starts)."""
+        if not self.dashboard.endswith("/status"):
+            return f"dashboard: {self.dashboard}"
+        return (f"dashboard: {self.dashboard}   farm page: "
+                f"{self.dashboard.removesuffix('status')}farm")
+
 
 @dataclass(kw_only=True)
 class RunReport:

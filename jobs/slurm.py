@@ -39,7 +39,7 @@ from typing import Any
 import dask
 from dask.utils import parse_bytes
 
-from jobs.cluster import SCHEDULER_CONFIG
+from jobs.cluster import SCHEDULER_CONFIG, with_farm_page
 from jobs.errors import ClusterError
 
 INSTALL_HINT = "pip install 'tyre-farm[slurm]'"
@@ -242,7 +242,7 @@ def slurm_client(options: SlurmOptions) -> Iterator[Any]:
 
     cls = _slurm_cluster_class()
     # the scheduler runs here: these settings apply to it as to the embedded cluster's
-    with dask.config.set(SCHEDULER_CONFIG), \
+    with dask.config.set(with_farm_page(SCHEDULER_CONFIG)), \
             warnings.catch_warnings():
         warnings.filterwarnings("ignore", message=r"Port \d+ is already in use",
                                 category=UserWarning)

@@ -16,6 +16,9 @@ if [ "${1:-}" = "--slow" ]; then
 fi
 if [ "${1:-}" = "--e2e" ]; then
     shift
+    # the farm's dashboard page is tested in a real browser: Debian's chromium
+    command -v chromium >/dev/null || apt_install chromium
+    export FARM_REQUIRE_CHROMIUM=1
     exec python -m pytest -m e2e "$@"
 fi
 # the 25 slowest tests are listed at the end: the default run aims at about 15 min

@@ -32,7 +32,7 @@ class CalibrationLines(Progress):
         self.lines = lines or LogLines()
 
     def started(self, session, state) -> None:
-        self._say(f"dashboard: {session.dashboard}   workers: {session.workers}", now=True)
+        self._say(f"{session.where}   workers: {session.workers}", now=True)
 
     def finished(self, report) -> None:
         self.lines.flush()

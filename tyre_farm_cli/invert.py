@@ -48,7 +48,7 @@ class RichLoops:
         self.reported: set[str] = set()
 
     def started(self, session, loops) -> None:
-        self.console.print(f"dashboard: {session.dashboard}   workers: {session.workers}   "
+        self.console.print(f"{session.where}   workers: {session.workers}   "
                            f"loops: {len(loops)}")
         self.bar = Progress(TextColumn("{task.description}", style="bold"), BarColumn(),
                             MofNCompleteColumn(), TextColumn("best {task.fields[best]}"),

@@ -59,7 +59,7 @@ class RichProgress:
         self.task: TaskID | None = None
 
     def started(self, session, state) -> None:
-        self.console.print(f"dashboard: {session.dashboard}   workers: {session.workers}   "
+        self.console.print(f"{session.where}   workers: {session.workers}   "
                            f"experiments: {state.total} ({state.skipped} already done)")
         self.bar = Progress(
             TextColumn("[bold]sweep"), BarColumn(), MofNCompleteColumn(),
