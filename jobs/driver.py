@@ -37,7 +37,7 @@ from typing import Any, Generic, TypeVar
 from farm.ccx.runner import ccx_version
 from jobs.cluster import ClusterSpec, DaskCluster, ResubmittingClient, dashboard_link
 from jobs.errors import ClusterError
-from jobs.events import StudyEvents
+from jobs.events import CcxFeed, StudyEvents
 from jobs.loops.cache import EvaluationCache
 from jobs.loops.evaluator import Evaluator
 from jobs.progress import Progress, RunReport, Session
@@ -116,7 +116,8 @@ def drive(strategy: Strategy[R], *, cluster: ClusterSpec | None = None,
         if on_client is not None:
             on_client(client)
         session = Session(client, solver_version(client, cluster.embedded),
-                          dashboard_link(client), len(client.scheduler_info()["workers"]))
+                          dashboard_link(client), len(client.scheduler_info()["workers"]),
+                          CcxFeed(client))
         page = StudyEvents(client, _study_name(strategy), type(strategy).__name__.lower())
         try:
             strategy.start(session)
@@ -131,6 +132,7 @@ def drive(strategy: Strategy[R], *, cluster: ClusterSpec | None = None,
             page.update(strategy.state(), ended=True)
             raise
         page.update(strategy.state(), ended=True)
+        session.feed.close()
         report = strategy.finish(session)
     report.dashboard, report.workers, report.solver = (session.dashboard, session.workers,
                                                        session.solver)

@@ -108,3 +108,36 @@ def _counts(state: Any) -> dict[str, float]:
         return {}
     return {k: v for k, v in dataclasses.asdict(state).items()
             if isinstance(v, int | float) and not isinstance(v, bool)}
+
+
+class CcxFeed:
+    """The client's view of its running solves: the latest :data:`PROGRESS` event of each
+    task, until its :data:`FINISHED` one (``Client.subscribe_topic``; filled on the
+    client's event loop). :meth:`summary` is what progress lines append."""
+
+    def __init__(self, client: Any) -> None:
+        self.client = client
+        self.running: dict[str, float] = {}
+        for topic, handler in ((PROGRESS, self._progress), (FINISHED, self._finished)):
+            with contextlib.suppress(Exception):
+                client.subscribe_topic(topic, handler)
+
+    def _progress(self, event: Any) -> None:
+        msg = event[1] if isinstance(event, tuple | list) and len(event) == 2 else event
+        if isinstance(msg, dict) and "key" in msg:
+            self.running[str(msg["key"])] = float(msg.get("fraction") or 0.0)
+
+    def _finished(self, event: Any) -> None:
+        msg = event[1] if isinstance(event, tuple | list) and len(event) == 2 else event
+        if isinstance(msg, dict):
+            self.running.pop(str(msg.get("key")), None)
+
+    def summary(self) -> str:
+        """``'ccx 43 %, 12 %'`` for the solves running now, '' for none."""
+        shares = sorted(self.running.values(), reverse=True)
+        return "ccx " + ", ".join(f"{100 * f:.0f} %" for f in shares[:8]) if shares else ""
+
+    def close(self) -> None:
+        for topic in (PROGRESS, FINISHED):
+            with contextlib.suppress(Exception):
+                self.client.unsubscribe_topic(topic)

@@ -20,6 +20,11 @@ class Session:
     solver: str
     dashboard: str
     workers: int
+    feed: Any = None  # a jobs.events.CcxFeed: the running solves' ccx progress
+
+    def ccx(self) -> str:
+        """What the running solves' ccx has done (``'ccx 43 %, 12 %'``), or ''."""
+        return self.feed.summary() if self.feed is not None else ""
 
     @property
     def where(self) -> str:

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import json
 import sys
+import time
 from pathlib import Path
+from typing import Any
 
 import typer
 from rich.console import Console
@@ -19,6 +21,8 @@ from tyre_farm_cli.params import MESH_HELP
 from tyre_farm_cli.progress import LogLines, interactive
 from tyre_farm_cli.progress import console as stderr_console
 
+CCX_EVERY_SECONDS = 30.0  # how often a calibration says how far its running solves are
+
 
 class CalibrationLines(Progress):
     """Progress of a calibration (:class:`jobs.progress.Progress`) on stderr: one line per
@@ -30,14 +34,22 @@ class CalibrationLines(Progress):
         self.console = console if console is not None else (
             stderr_console() if interactive() and lines is None else None)
         self.lines = lines or LogLines()
+        self.session: Any = None
+        self.ccx_at = 0.0
 
     def started(self, session, state) -> None:
+        self.session = session
         self._say(f"{session.where}   workers: {session.workers}", now=True)
 
     def finished(self, report) -> None:
         self.lines.flush()
 
     def advanced(self, state) -> None:
+        ccx = self.session.ccx() if self.session is not None else ""
+        if ccx and state.parameter_sets == self.last and \
+                time.monotonic() - self.ccx_at >= CCX_EVERY_SECONDS:
+            self.ccx_at = time.monotonic()  # a round of the converged mesh takes minutes
+            self._say(f"parameter sets {state.parameter_sets}/{state.budget}, solving: {ccx}")
         if state.parameter_sets != self.last:
             self.last = state.parameter_sets
             self._say(f"parameter sets {state.parameter_sets}/{state.budget}  load paths "

@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import typer
 from rich.console import Console
@@ -57,8 +57,10 @@ class RichProgress:
         self.console = console
         self.bar: Progress | None = None  # made when the sweep starts
         self.task: TaskID | None = None
+        self.session: Any = None
 
     def started(self, session, state) -> None:
+        self.session = session
         self.console.print(f"{session.where}   workers: {session.workers}   "
                            f"experiments: {state.total} ({state.skipped} already done)")
         self.bar = Progress(
@@ -66,15 +68,16 @@ class RichProgress:
             TextColumn("done {task.fields[done]}  failed {task.fields[failed]}  "
                        "running {task.fields[running]}"),
             TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
-            console=self.console, transient=False)
+            TextColumn("{task.fields[ccx]}"), console=self.console, transient=False)
         self.bar.start()
         self.task = self.bar.add_task("sweep", total=state.total, completed=state.skipped,
-                                      done=0, failed=0, running=0)
+                                      done=0, failed=0, running=0, ccx="")
 
     def advanced(self, state) -> None:
         if self.bar is not None and self.task is not None:
             self.bar.update(self.task, completed=state.skipped + state.done + state.failed,
-                            done=state.done, failed=state.failed, running=state.running)
+                            done=state.done, failed=state.failed, running=state.running,
+                            ccx=self.session.ccx() if self.session is not None else "")
 
     def finished(self, report) -> None:
         if self.bar is not None:
@@ -87,17 +90,21 @@ class SweepLines:
     def __init__(self, name: str, lines: LogLines | None = None) -> None:
         self.name, self.lines = name, lines or LogLines()
         self.seen: tuple[int, int] | None = None
+        self.session: Any = None
+        self.ccx = ""
 
     def started(self, session, state) -> None:
+        self.session = session
         self.lines.log(f"sweep {self.name}: dashboard {session.dashboard}, "
                        f"{plural(session.workers, 'worker')}, "
                        f"{plural(state.total, 'experiment')} ({state.skipped} already done)")
 
     def advanced(self, state) -> None:
         ended = (state.done, state.failed)
-        if ended != self.seen:
-            self.seen = ended
-            self.lines.progress(self._text(state))
+        ccx = self.session.ccx() if self.session is not None else ""
+        if ended != self.seen or ccx != self.ccx:  # ccx's own progress: issue 48
+            self.seen, self.ccx = ended, ccx
+            self.lines.progress(self._text(state) + (f"; {ccx}" if ccx else ""))
 
     def finished(self, report) -> None:
         self.lines.flush()

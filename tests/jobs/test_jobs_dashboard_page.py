@@ -21,6 +21,7 @@ from pathlib import Path
 
 import pytest
 
+from jobs.progress import Progress
 from jobs.study import load_study
 from jobs.sweep import run_sweep
 
@@ -82,8 +83,17 @@ def test_the_farm_page_shows_a_running_sweep_in_a_real_browser(scheduler_with_pa
     from jobs.cluster import DaskCluster
 
     reports: list = []
+    feed: list[str] = []  # what the sweep's own progress lines append (farm sweep submit)
+
+    class Seen(Progress):
+        def started(self, session, state):
+            self.session = session
+
+        def advanced(self, state):
+            feed.append(self.session.ccx())
+
     sweep = threading.Thread(target=lambda: reports.append(run_sweep(
-        load_study(study_file), cluster=DaskCluster(address, 2))))
+        load_study(study_file), cluster=DaskCluster(address, 2), progress=Seen())))
     sweep.start()
     seen = None
     deadline = time.monotonic() + 300
@@ -117,3 +127,4 @@ def test_the_farm_page_shows_a_running_sweep_in_a_real_browser(scheduler_with_pa
     after = _json(f"{dashboard}/farm.json")  # every solve reported, none failed
     assert after["recent"] and not after["failures"]
     assert all(r["status"] == "done" for r in after["recent"])
+    assert any(f.startswith("ccx ") and "%" in f for f in feed), feed[-5:]

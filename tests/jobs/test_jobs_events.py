@@ -136,3 +136,44 @@ def test_a_key_names_its_load_case(args, label):
     key = path_key(["a", "b"], load_label(*args))
     assert key.startswith(f"path-{label}-") and len(key.rsplit("-", 1)[1]) == 24
     assert "/" not in key and " " not in key  # a claim is a file named by the key
+
+
+def test_the_clients_feed_keeps_running_solves_until_they_finish():
+    class Client:
+        def __init__(self):
+            self.handlers = {}
+
+        def subscribe_topic(self, topic, handler):
+            self.handlers[topic] = handler
+
+        def unsubscribe_topic(self, topic):
+            self.handlers.pop(topic)
+
+    client = Client()
+    feed = events.CcxFeed(client)
+    assert feed.summary() == ""
+    client.handlers[events.PROGRESS]((1.0, {"key": "a", "fraction": 0.12}))
+    client.handlers[events.PROGRESS]((2.0, {"key": "b", "fraction": 0.43}))
+    client.handlers[events.PROGRESS]((3.0, {"key": "a", "fraction": 0.5}))
+    assert feed.summary() == "ccx 50 %, 43 %"
+    client.handlers[events.FINISHED]((4.0, {"key": "a", "status": "done"}))
+    assert feed.summary() == "ccx 43 %"
+    assert Session(None, "", "", 1, feed).ccx() == "ccx 43 %"
+    assert Session(None, "", "", 1).ccx() == ""
+    feed.close()
+    assert client.handlers == {}
+
+
+def test_sweep_lines_say_how_far_ccx_has_got():
+    import io
+
+    from jobs.sweep import SweepState
+    from tyre_farm_cli.progress import LogLines
+    from tyre_farm_cli.sweep import SweepLines
+
+    stream = io.StringIO()
+    lines = SweepLines("s", LogLines(stream, every=0.0))
+    session = SimpleNamespace(dashboard="d", workers=2, ccx=lambda: "ccx 43 %")
+    lines.started(session, SweepState(4, 0, 0, 0, 0))
+    lines.advanced(SweepState(4, 0, 1, 0, 1))
+    assert stream.getvalue().splitlines()[-1].endswith("sweep s: 1/4 done, 0 failed; ccx 43 %")
