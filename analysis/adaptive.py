@@ -8,7 +8,7 @@ RMSE in % of each output's range (:meth:`FieldSurrogate.loo_predict`), and its b
 kriging-believer choice of :meth:`FieldSurrogate.next_batch` over the round's candidates,
 with the group's failed experiments counted as observed: a round does not return to where
 ccx just failed (measured: such neighbourhoods are the most uncertain, and an adaptive
-design lost 2 of its 24 picks to failures there, README "Adaptive studies").
+design lost 2 of its 24 picks to failures there, docs/guide/surrogate.md, "Adaptive studies").
 """
 
 from __future__ import annotations

@@ -47,7 +47,7 @@ if [ ! -f "$stamp" ]; then
     # mode's import hook loses against namespace directories of the same name, and Dask
     # workers put their scratch folder - which holds a "storage" directory - first on
     # sys.path, shadowing our storage package.
-    .venv/bin/python -m pip install -q -e ".[test,s3,slurm]" --config-settings editable_mode=compat
+    .venv/bin/python -m pip install -q -e ".[test,s3,slurm,docs]" --config-settings editable_mode=compat
     rm -f .venv/.installed-* && touch "$stamp"
 fi
 export PATH="$root/.venv/bin:$PATH"

@@ -10,6 +10,10 @@ source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
 export FARM_REQUIRE_CCX=1
 ruff check .
 mypy  # [tool.mypy] in pyproject.toml names what it checks
+# the documentation site, warnings as errors (mkdocs.yml: strict); built to a scratch folder
+docs_site="$(mktemp -d)"
+mkdocs build --strict --quiet --site-dir "$docs_site"
+rm -rf "$docs_site"
 if [ "${1:-}" = "--slow" ]; then
     shift
     exec python -m pytest -m slow "$@"
