@@ -83,6 +83,11 @@ def set_bytes(store: Store, key: str, data: bytes) -> None:
     run(store.set(key, default_buffer_prototype().buffer.from_bytes(data)))
 
 
+def delete_key(store: Store, key: str) -> None:
+    """Remove ``key`` (a chunk reads as the array's fill value then)."""
+    run(store.delete(key))
+
+
 def list_dir(store: Store, prefix: str) -> list[str]:
     """Names directly under ``prefix`` (``""``: the root), keys and "folders" alike."""
 

@@ -36,7 +36,9 @@ Per experiment group, :func:`verify` checks that
 
 - a done or failed slot whose load case is lost (a parameter chunk deleted or not
   decoding) is kept as it is: ``farm sweep resume STUDY`` writes the load case back
-  from the study (an id stands for one load case) and its checksum verifies again.
+  from the study (an id stands for one load case) and its checksum verifies again; a
+  parameter chunk that does not decode is removed first (it read as an error on every
+  try, which stopped resume: issue 50's loop).
 
 Load-case values garbled into other numbers mark their experiments pending; resume
 writes the true values back where the slot's checksum label proves them
@@ -58,7 +60,7 @@ from zarr.abc.store import Store
 from zarr.storage import LocalStore
 
 import storage.identity as identity
-from storage._zarr import dimension_names, get_bytes, list_dir, read, set_bytes
+from storage._zarr import delete_key, dimension_names, get_bytes, list_dir, read, set_bytes
 from storage.checksum import Slots, check, label_digest, split
 from storage.errors import GroupNotFoundError, NotAStoreError, StoreError, verify_hint
 from storage.group import unfinished_groups
@@ -371,6 +373,7 @@ class _GroupCheck:
         self.restored: set[str] = set()
         self.restore: dict[int, int] = {}  # slot -> the status its checksum verifies
         self.keep: set[int] = set()  # slots repair leaves as they are (load case lost)
+        self.undecodable: dict[str, list[str]] = {}  # array -> keys of chunks that do not decode
         self.relabel: dict[int, str] = {}  # slot -> the id its checksum was signed with
 
     def report(self, reserved: int = 0, checked: int = 0, unverifiable: int = 0) -> GroupReport:
@@ -754,6 +757,7 @@ class _GroupCheck:
             self.repaired.append(f"{self.group}: {len(self.keep)} slot(s) kept as they are: "
                                  "their load case is lost; `farm sweep resume STUDY` restores "
                                  "it from the study")
+            self._drop_undecodable_parameters()
         skip = set(self.restore) | self.keep | set(self.relabel)
         marked = sorted({d.index for d in self.damage
                          if d.index is not None and d.index not in skip})
@@ -779,6 +783,20 @@ class _GroupCheck:
 
     # reading -----------------------------------------------------------------------------
 
+    def _drop_undecodable_parameters(self) -> None:
+        """Remove the load-case chunks that do not decode: their values are lost either
+        way, and a chunk that raises on every read stopped resume from writing the load
+        case back (issue 50: repair said "resume restores it", resume said "run verify",
+        a loop). Removed, they read as missing, which resume restores from the study."""
+        keys = [k for name, found in sorted(self.undecodable.items())
+                if self.arrays[name].attrs.get("role") == "parameter" for k in found]
+        for key in keys:
+            delete_key(self.zs, key)
+        if keys:
+            self.repaired.append(f"{self.group}: {len(keys)} load-case chunk(s) that do not "
+                                 f"decode removed ({_few(keys)}), so that resume can write "
+                                 "them back")
+
     def _read_1d(self, name: str, k: int) -> tuple[list, set[int]]:
         """Values of a 1-d array over ``k`` slots, and the slots whose chunk does not
         decode (those are named once per chunk)."""
@@ -798,8 +816,9 @@ class _GroupCheck:
                 try:
                     values[c:c + chunk] = read(a, slice(c, min(c + chunk, hi))).tolist()
                 except Exception as e:
-                    self.key_damage(f"{self.group}/{name}/c/{c // chunk}",
-                                    f"the chunk does not decode ({_short(e)})")
+                    key = f"{self.group}/{name}/c/{c // chunk}"
+                    self.key_damage(key, f"the chunk does not decode ({_short(e)})")
+                    self.undecodable.setdefault(name, []).append(key)
                     bad.update(range(c, min(c + chunk, hi)))
         fill = "" if a.dtype.kind in "OTU" else a.fill_value
         values = [fill if v is None and i not in bad else v for i, v in enumerate(values)]

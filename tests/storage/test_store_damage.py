@@ -474,6 +474,27 @@ def test_a_lost_load_case_keeps_its_results_and_resume_restores_it(built, name, 
     _exact(ds)
 
 
+@pytest.mark.parametrize("name", ["pressure", "deflection"])
+def test_a_load_case_chunk_that_does_not_decode_is_no_loop_of_repair_and_resume(
+        built, name, capsys):
+    """Issue 50: a flipped byte in a compressed parameter chunk. Repair said resume would
+    restore the load case, and resume (reading the chunk) said run verify: a loop. Repair
+    now removes the chunk (its values were lost anyway), and resume restores it."""
+    chunk = built / GROUP / name / "c" / "0"
+    data = chunk.read_bytes()  # the zstd frame's magic kept, its block garbled
+    chunk.write_bytes(data[:4] + bytes(b ^ 0xFF for b in data[4:]))
+    assert "does not decode" in "\n".join(verify(built).lines())
+    _cli("sweep", "verify", str(built), "--repair")
+    out = capsys.readouterr().out
+    assert "kept as they are" in out and "load-case chunk(s) that do not decode removed" in out
+    assert not chunk.exists()
+    storage.reserve(built, GROUP, IDS, {"deflection": DEFLECTION, "pressure": PRESSURE})
+    assert verify(built).ok
+    ds = storage.done(storage.open_dataset(built, GROUP))
+    assert set(ds["experiment"].values) == set(DONE_IDS)  # nothing to solve again
+    _exact(ds)
+
+
 def test_a_lost_load_case_is_restored_only_from_the_same_id(built):
     (built / GROUP / "pressure" / "c" / "0").unlink()
     # a different value for a slot whose value is intact is still a conflict
