@@ -130,8 +130,9 @@ def parts(study: Study) -> list[Study]:
 
 
 def _held(study: Study) -> frozenset[str]:
-    """Ids the study's group holds already (none for a new group)."""
-    return frozenset(storage.statuses(study.store, study.group_name))
+    """Ids the study's group holds already (none for a new group), a slot whose id was
+    damaged too: reserving then gives a lost id back (:func:`storage.reserve`)."""
+    return storage.held_ids(study.store, study.group_name)
 
 
 def _account(report: SweepReport, study: Study, paths: list[PathPlan], status: dict[str, int],

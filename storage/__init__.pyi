@@ -19,6 +19,7 @@ from .mesh import GroupAttrs, MeshNodes, package_versions
 from .paths import URL_SCHEMES, StoreLike, open_store
 from .read import (
     done,
+    held_ids,
     index_parameters,
     open_dataset,
     parameters,
@@ -62,6 +63,7 @@ __all__ = [
     "client_lock",
     "create_group",
     "done",
+    "held_ids",
     "index_parameters",
     "list_groups",
     "open_dataset",

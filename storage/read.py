@@ -286,6 +286,17 @@ def select(ds: xr.Dataset, **params: Any) -> xr.Dataset:
     return ds.isel(experiment=np.flatnonzero(keep))
 
 
+def held_ids(store: StoreLike, group: str) -> frozenset[str]:
+    """Every id the group holds, damaged slots included (an empty id before reserved
+    ones does not raise, as in :func:`statuses`): what a client resolving old ids
+    against the group needs before :func:`storage.reserve` restores a lost id."""
+    zs = open_store(store, read_only=True)
+    where = describe(zs)
+    with reading(f"the ids of group {group!r}", where):
+        g = open_group(zs, group)
+        return frozenset(str(e) for e in read(array(g, "experiment")).tolist() if e)
+
+
 def statuses(
     store: StoreLike, group: str, experiment_ids: Iterable[str] | None = None
 ) -> dict[str, int]:

@@ -720,3 +720,49 @@ def test_an_identity_of_another_version_is_not_checked_and_never_damage(built):
     publish(built)
     assert verify(built).ok
     assert storage.open_dataset(built, GROUP).sizes["experiment"] == len(IDS)
+
+
+@pytest.mark.parametrize(("slot", "damage"), [
+    (2, "empty"), (2, "duplicate"), (0, "duplicate"),  # done slots: the checksum proves
+    (4, "empty"),  # a failed slot: signed too
+])
+def test_resume_gives_a_lost_or_duplicated_id_back(built, slot, damage):
+    """Issue 50: an id emptied or copied over another slot's. Repair could not tell which
+    id was lost, and resume refused the group ("empty experiment id before reserved
+    ones", or a duplicate's load-case conflict): 19 of 20 for good. Reserving the study's
+    ids again now restores the id its checksum label proves (or, for a pending slot, the
+    one whose load case it holds), and nothing is solved again."""
+    import zarr
+
+    ids = zarr.open_array(str(built / GROUP / "experiment"), mode="r+")
+    ids[slot] = "" if damage == "empty" else IDS[(slot + 1) % len(IDS)]
+    assert not verify(built).ok
+    if damage == "empty":
+        with pytest.raises(storage.SchemaError, match="empty experiment id"):
+            storage.statuses(built, GROUP)
+    got = storage.reserve(built, GROUP, IDS, {"deflection": DEFLECTION, "pressure": PRESSURE})
+    assert got == {e: i for i, e in enumerate(IDS)}  # every id back in its own slot
+    assert verify(built).ok
+    assert storage.statuses(built, GROUP) == {
+        **dict.fromkeys(DONE_IDS, storage.DONE), "e4": storage.FAILED, "e5": storage.PENDING}
+    _exact(storage.done(storage.open_dataset(built, GROUP)))
+
+
+def test_a_pending_slots_id_is_proven_by_its_load_case_and_never_guessed(built):
+    """A pending slot has no checksum: its id comes back when exactly one id given now
+    has its load case; two pending slots of one load case that both lost their ids are
+    left alone (nothing tells them apart), and the refusal stays."""
+    import zarr
+
+    extra = ["e6", "e7", "e8"]
+    storage.reserve(built, GROUP, extra, {"deflection": [50.0, 50.0, 60.0],
+                                          "pressure": PRESSURE})
+    ids = zarr.open_array(str(built / GROUP / "experiment"), mode="r+")
+    every = IDS + extra
+    values = {"deflection": [*DEFLECTION, 50.0, 50.0, 60.0], "pressure": PRESSURE}
+    ids[5] = ""  # pending e5 at 38.9 mm: one id given has that load case
+    assert storage.reserve(built, GROUP, every, values)["e5"] == 5
+    ids[6], ids[7] = "", ""  # e6 and e7: both pending at 50 mm
+    with pytest.raises(storage.SchemaError, match="empty experiment id"):
+        storage.reserve(built, GROUP, every, values)
+    assert ids[6] == "" and ids[7] == ""  # nothing guessed
