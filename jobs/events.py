@@ -92,7 +92,10 @@ class StudyEvents:
         self.sent: dict[str, float] | None = None
 
     def update(self, state: Any, *, ended: bool = False) -> None:
-        counts = _counts(state)
+        try:
+            counts = _counts(state)
+        except Exception:  # a page must never stop a study
+            return
         now = time.monotonic()
         if not ended and (counts == self.sent or now - self.last < self.every):
             return
@@ -103,10 +106,13 @@ class StudyEvents:
 
 
 def _counts(state: Any) -> dict[str, float]:
-    """The numbers of a progress state (a dataclass of counts), for the page."""
+    """The numbers of a progress state (a dataclass of counts), for the page: its own
+    fields only, read as they are (``dataclasses.asdict`` deep-copies, and a state may
+    hold locks: a calibration's did)."""
     if not dataclasses.is_dataclass(state) or isinstance(state, type):
         return {}
-    return {k: v for k, v in dataclasses.asdict(state).items()
+    values = {f.name: getattr(state, f.name, None) for f in dataclasses.fields(state)}
+    return {k: v for k, v in values.items()
             if isinstance(v, int | float) and not isinstance(v, bool)}
 
 

@@ -70,18 +70,18 @@ def _guarded_path(task: PathTask, exps: list[Experiment], should_stop, retry: bo
     return guarded(solve, task.settings, retry=retry)
 
 
-def _solve(task: PathTask, exps: list[Experiment], should_stop) -> PathOutcome:
+def solve_experiments(task: PathTask, exps: list[Experiment], should_stop) -> PathOutcome:
     """Solve the experiments as one path; split it if it fails for a solver outcome."""
     result = _guarded_path(task, exps, should_stop, task.retry_smaller_increments)
     if isinstance(result, Failed) and result.retry_smaller and len(exps) > 1:
         # each deflection on its own, with the study's settings and no second retry
         results = [_guarded_path(task, [x], should_stop, False) for x in exps]
-        return _combine(task, [_write(task, [x], r) for x, r in zip(exps, results,
+        return _combine(task, [write_outcome(task, [x], r) for x, r in zip(exps, results,
                                                                      strict=True)])
-    return _write(task, exps, result)
+    return write_outcome(task, exps, result)
 
 
-def _write(task: PathTask, exps: list[Experiment], result) -> PathOutcome:
+def write_outcome(task: PathTask, exps: list[Experiment], result) -> PathOutcome:
     if isinstance(result, Failed):
         for x in exps:
             storage.write_failure(task.store, task.group, x.id, result.reason, {})
@@ -123,5 +123,5 @@ def run_path(task: PathTask) -> PathOutcome:
                         if status.get(e.id) == storage.DONE)
         if not todo:
             return PathOutcome(task.path.key, skipped=skipped)
-        outcome = _solve(task, todo, should_stop)
+        outcome = solve_experiments(task, todo, should_stop)
         return dataclasses.replace(outcome, skipped=skipped)

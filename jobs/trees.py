@@ -30,7 +30,7 @@ from farm.solve.tree import Trunk, solve_branch, solve_trunk
 from farm.specs import LoadPath, ModelSpec, RoadMotion, SolverSettings
 from jobs.expand import BranchPlan, Experiment, PathPlan, TreePlan
 from jobs.guard import Failed, Solved, cancellation_check, guarded
-from jobs.tasks import PathOutcome, PathTask, _solve, _write
+from jobs.tasks import PathOutcome, PathTask, solve_experiments, write_outcome
 
 
 @dataclass(frozen=True)
@@ -103,7 +103,7 @@ def run_trunk(task: TreeTask) -> TrunkResult:
         if trunk is not None and mine:
             states = measure(mesh, trunk.solution, tree.pressure, inflated=True)
             solution = trunk.solution
-            parts.append(_write(task.path_task(tree.key, tuple(mine), tree.motion), mine,
+            parts.append(write_outcome(task.path_task(tree.key, tuple(mine), tree.motion), mine,
                                 Solved(tuple(states[level[e.id]] for e in mine),
                                        solution.solve_seconds, solution.ccx_runs,
                                        solution.increments)))
@@ -116,11 +116,11 @@ def run_trunk(task: TreeTask) -> TrunkResult:
             # step is the one-run path's deck up to there, so from rest would stop at the
             # same place (the first touch, as a rule); recorded, not repeated
             plain = task.path_task(tree.key, tuple(rest), tree.motion)
-            parts.append(_write(plain, rest, Failed(
+            parts.append(write_outcome(plain, rest, Failed(
                 f"{reason} (the trunk, before its first deflection; the same path from "
                 "rest was not tried again)")))
         elif rest:  # the levels a partial trunk did not reach: as the plain sweep does
-            parts.append(_solve(task.path_task(tree.key, tuple(rest), tree.motion), rest,
+            parts.append(solve_experiments(task.path_task(tree.key, tuple(rest), tree.motion), rest,
                                 should_stop))
         done = {*skipped, *(i for p in parts for i in p.done)}
         outcome = PathOutcome(tree.key, tuple(i for p in parts for i in p.done),
@@ -163,7 +163,7 @@ def run_branch(task: TreeTask, trunk: TrunkResult) -> PathOutcome:
             result = dataclasses.replace(result, measurements=tuple(
                 m for e, m in zip(branch.experiments, result.measurements, strict=True)
                 if e.id in wanted))
-        return dataclasses.replace(_write(plain, todo, result), skipped=skipped)
+        return dataclasses.replace(write_outcome(plain, todo, result), skipped=skipped)
 
 
 def _slide(task: TreeTask, branch: BranchPlan, trunk: Trunk, should_stop) -> Solved | Failed:

@@ -175,3 +175,55 @@ def test_shared_geometry_imports_nothing_of_the_farm():
     """What analysis may import of farm stays free of farm imports (no gmsh, no solver)."""
     for name in SHARED["analysis"]:
         assert not {t for t in GRAPH[name] if t.split(".")[0] in PACKAGES}, name
+
+
+def _private_uses(source: str) -> list[str]:
+    """Private names (``_x``, not dunders) a module takes from another of the farm's
+    modules: ``from pkg.mod import _x`` or ``mod._x`` on an imported module."""
+    tree = ast.parse(source)
+    ours = {"farm", "jobs", "storage", "analysis", "tyre_farm_cli"}
+    found, modules = [], set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and node.module and node.level == 0 \
+                and node.module.split(".")[0] in ours:
+            for a in node.names:
+                if a.name.startswith("_") and not a.name.startswith("__"):
+                    found.append(f"{node.module}.{a.name}")
+                else:
+                    modules.add(a.asname or a.name)  # may be a module: plots
+        elif isinstance(node, ast.Import):
+            for a in node.names:
+                if a.name.split(".")[0] in ours:
+                    modules.add(a.asname or a.name.split(".")[0])
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) \
+                and node.value.id in modules and node.attr.startswith("_") \
+                and not node.attr.startswith("__"):
+            found.append(f"{node.value.id}.{node.attr}")
+    return found
+
+
+def test_no_module_uses_another_modules_private_names():
+    """Issue 49: private helpers shared across modules (14 imports, e.g. the rolling and
+    tree solvers taking contact's ``_solve``, ``_state``, ``_road``) made every new load
+    path extend another module's private parts. A name another module needs is public.
+    (``storage._zarr`` is a private *module*, the one use of zarr internals: its names
+    are public to ``storage``.)"""
+    bad = {}
+    for path in sorted(ROOT.glob("*/**/*.py")):
+        if path.parts[len(ROOT.parts)] not in {"farm", "jobs", "storage", "analysis",
+                                               "tyre_farm_cli"}:
+            continue
+        found = [u for u in _private_uses(path.read_text(encoding="utf-8"))
+                 if u not in {"_lazy.attach_stub"}]
+        if found:
+            bad[str(path.relative_to(ROOT))] = found
+    assert not bad, bad
+
+
+def test_the_private_name_check_finds_both_forms():
+    assert _private_uses("from farm.solve.contact import _solve, road_of\n") == [
+        "farm.solve.contact._solve"]
+    assert _private_uses("from analysis.render import plots\nplots._figure(1)\n") == [
+        "plots._figure"]
+    assert _private_uses("import numpy as np\nnp._x\nfrom os import _exit\n") == []

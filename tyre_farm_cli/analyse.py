@@ -118,7 +118,7 @@ Scheduler = Annotated[
 Json = Annotated[bool, typer.Option("--json", help=JSON_HELP)]
 
 
-def _load(store: str, options: list[str] | None, group: str | None, pressure: float | None,
+def load_selection(store: str, options: list[str] | None, group: str | None, pressure: float | None,
           deflection: float | None):
     """The selection of ``store`` (opened with its ``--storage-option`` pairs);
     ``pressure`` in kPa (the CLI's unit), converted to the store's MPa."""
@@ -186,7 +186,7 @@ def pca(
     """Cross-covariance PCA per direction: singular values, eigen-maps, importance (§5.3)."""
     folder = _out(out, "pca")
     with dask_scheduler(scheduler):
-        ds = _load(store, storage_option, group, pressure, deflection)
+        ds = load_selection(store, storage_option, group, pressure, deflection)
         _done(
             _study("crosscov").run(
                 ds, folder, inputs=inputs, n_modes=components, component=force_component
@@ -214,7 +214,7 @@ def pcr(
     """Principal component regression with 1..N modes (§5.4, Figs. 5.5-5.7)."""
     folder = _out(out, "pcr")
     with dask_scheduler(scheduler):
-        ds = _load(store, storage_option, group, pressure, deflection)
+        ds = load_selection(store, storage_option, group, pressure, deflection)
         reference_deflection = _reference(ds, reference_deflection)
         _done(
             _study("pcr").run(
@@ -258,7 +258,7 @@ def plsr(
     """PLS regression, SIMPLS beside scikit-learn's NIPALS, PCTVAR (§5.5, Figs. 5.8-5.10)."""
     folder = _out(out, "plsr")
     with dask_scheduler(scheduler):
-        ds = _load(store, storage_option, group, pressure, deflection)
+        ds = load_selection(store, storage_option, group, pressure, deflection)
         reference_deflection = _reference(ds, reference_deflection)
         _done(
             _study("plsr").run(
@@ -333,7 +333,7 @@ def noise(
         _draws(draws)
     folder = _out(out, "noise")
     with dask_scheduler(scheduler):
-        ds = _load(store, storage_option, group, pressure, deflection)
+        ds = load_selection(store, storage_option, group, pressure, deflection)
         reference_deflection = _reference(ds, reference_deflection)
         _done(
             _study("noise").run(
@@ -412,7 +412,7 @@ def combined(
         _draws_at_least_one(draws)
     folder = _out(out, "combined")
     with dask_scheduler(scheduler):
-        ds = _load(store, storage_option, group, pressure, None)
+        ds = load_selection(store, storage_option, group, pressure, None)
         _done(
             _study("combined").run(
                 ds,
@@ -500,7 +500,7 @@ def sensor(
         _draws_at_least_one(draws)
     folder = _out(out, "sensor")
     with dask_scheduler(scheduler):
-        ds = _load(store, storage_option, group, pressure, None)
+        ds = load_selection(store, storage_option, group, pressure, None)
         _done(_study("sensor").run(ds, folder, sensor=spec, learner_names=names,
                                    test_fraction=test_fraction, folds=folds, draws=draws,
                                    max_components=max_components, seed=seed, **axes),
@@ -542,7 +542,7 @@ def surrogate(
             raise ParameterError(f"--field must be {' or '.join(fields)}, got {field!r}")
     folder = _out(out, "surrogate")
     with dask_scheduler(scheduler):
-        ds = _load(store, storage_option, group, pressure, None)
+        ds = load_selection(store, storage_option, group, pressure, None)
         _done(_study("surrogate").run(ds, folder, field=field, folds=folds, seed=seed,
                                       restarts=restarts), as_json)
 

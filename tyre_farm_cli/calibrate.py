@@ -78,9 +78,11 @@ def calibrate(
     thickness: bool = typer.Option(False, "--thickness", help="Also fit the three wall "
                                    "thicknesses (a new mesh per evaluation)."),
     reading: str = typer.Option(
-        "200kPa", "--reading", help="Which pressure the thesis' 4475.5 N point at 30 mm is "
-        "read at: 200kPa (chapter 5, Table 5.1) or 80kPa (§3.3.2, Fig. 3.2); the full "
-        "model's default points only. `farm compare` shows a model under both."),
+        "80kPa", "--reading", help="Which pressure the thesis' 4475.5 N point at 30 mm is "
+        "read at: 80kPa (§3.3.2, Fig. 3.2; the reading a tyre with cords can meet together "
+        "with the measured stiffness ratio, docs/reinforcement.md) or 200kPa (chapter 5, "
+        "Table 5.1); the full model's default points only. `farm compare` shows a model "
+        "under both."),
     ratio: bool = typer.Option(
         False, "--ratio", help="Also fit the measured 200/80 kPa stiffness ratio (1.636, "
         "§3.4): adds the reading's 30 mm point at the other pressure, scaled by it (full "

@@ -31,7 +31,7 @@ from tyre_farm_cli.analyse import (
     Sensor,
     StorageOption,
     Store,
-    _load,
+    load_selection,
 )
 from tyre_farm_cli.checks import model_folder, output_folder
 from tyre_farm_cli.errors import usage
@@ -72,7 +72,7 @@ def fit(
         for value, name in ((alpha, "--alpha"), (test_fraction, "--test-fraction")):
             if not 0.0 < value < 1.0:
                 raise fail(name, f"must be in (0, 1), got {value:g}")
-    ds = _load(store, storage_option, group, pressure, None)
+    ds = load_selection(store, storage_option, group, pressure, None)
     model, check = predictor.fit(ds, spec, learner=learner, draws=draws, alpha=alpha,
                                  test_fraction=test_fraction, folds=folds, seed=seed)
     ids = [str(i) for i in np.asarray(ds["experiment"].values)[model.info["train"]]]
@@ -110,7 +110,7 @@ def measure(
         output_folder(out, "--out")
         if limit is not None and limit < 1:
             raise typer.BadParameter(f"--limit must be at least 1, got {limit}")
-    ds = _load(store, storage_option, group, pressure, None)
+    ds = load_selection(store, storage_option, group, pressure, None)
     if limit is not None:
         ds = ds.isel(experiment=slice(0, limit))
     virtual = VirtualSensor(spec, InnerSurface.from_dataset(ds))
@@ -203,7 +203,7 @@ def mismatch(
     with usage():
         integer(draws, "--draws", low=1, high=MAX_DRAWS)
     fitted, manifest = predictor.load(model)
-    ds = _load(store, storage_option, group, pressure, None)
+    ds = load_selection(store, storage_option, group, pressure, None)
     table, _, _ = run(fitted, ds, draws=draws, seed=seed)
     if as_json:
         typer.echo(json.dumps({"model": str(model), "trained_on": manifest.get("group"),

@@ -21,14 +21,14 @@ from analysis import data
 DPI = 120
 
 
-def _figure(nrows: int, ncols: int, width: float, height: float, **kw):
+def new_figure(nrows: int, ncols: int, width: float, height: float, **kw):
     fig = Figure(figsize=(width, height), layout="constrained")
     FigureCanvasAgg(fig)
     axes = fig.subplots(nrows, ncols, squeeze=False, **kw)
     return fig, axes
 
 
-def _save(fig: Figure, path: Path) -> Path:
+def save_figure(fig: Figure, path: Path) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=DPI)
     return path
@@ -57,7 +57,7 @@ def _surface(ax, values, nodes: pd.DataFrame, vmax: float, cmap="RdBu_r"):
 
 def singular_values(table: pd.DataFrame, path: Path, title: str) -> Path:
     """Figs. 5.1/5.3: all singular values on a log scale (top), first three linear."""
-    fig, axes = _figure(2, 1, 7, 6)
+    fig, axes = new_figure(2, 1, 7, 6)
     top, bottom = axes[0, 0], axes[1, 0]
     directions = list(dict.fromkeys(table["direction"]))
     width = 0.8 / max(len(directions), 1)
@@ -74,7 +74,7 @@ def singular_values(table: pd.DataFrame, path: Path, title: str) -> Path:
     top.set(title=title, xlabel="mode", ylabel="singular value (log)")
     bottom.set(xlabel="mode", ylabel="singular value", xticks=[1, 2, 3])
     top.legend()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def eigen_maps(
@@ -86,7 +86,7 @@ def eigen_maps(
 ) -> Path:
     """Figs. 5.2/5.4: first column of W per direction, own scale (left) and normalised
     by the direction's importance σ₁/σ₁,max on a common scale (right)."""
-    fig, axes = _figure(len(vectors), 2, 10, 2.6 * len(vectors))
+    fig, axes = new_figure(len(vectors), 2, 10, 2.6 * len(vectors))
     for i, (d, w) in enumerate(vectors.items()):
         own = float(np.nanmax(np.abs(w))) or 1.0
         im = _surface(axes[i, 0], w, nodes, own)
@@ -97,7 +97,7 @@ def eigen_maps(
         fig.colorbar(im, ax=axes[i, 1])
         axes[i, 1].set_title(f"{d}: normalised (importance {importance[d]:.2f})")
     fig.suptitle(title)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def predictions(
@@ -112,7 +112,7 @@ def predictions(
     Left: every node, predicted against reference. Right: the longitudinal profile
     along the tread's centre row.
     """
-    fig, axes = _figure(1, 2, 11, 4.5)
+    fig, axes = new_figure(1, 2, 11, 4.5)
     scatter, profile = axes[0, 0], axes[0, 1]
     lim = [float(min(reference.min(), 0)), float(reference.max()) * 1.05 or 1.0]
     scatter.plot(lim, lim, "k--", lw=1, label="y = x")
@@ -127,7 +127,7 @@ def predictions(
     profile.set(xlabel="x [mm]", ylabel="force [N]", title="centre row of the tread")
     scatter.legend(fontsize=8)
     profile.legend(fontsize=8, title="modes")
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def _peak_row(tread: pd.DataFrame, reference: np.ndarray) -> np.ndarray:
@@ -141,7 +141,7 @@ def _peak_row(tread: pd.DataFrame, reference: np.ndarray) -> np.ndarray:
 
 def variance_bars(table: pd.DataFrame, path: Path, title: str) -> Path:
     """Figs. 5.7/5.10: % of variance explained per mode, bars grouped by label."""
-    fig, axes = _figure(1, 1, 7, 4)
+    fig, axes = new_figure(1, 1, 7, 4)
     ax = axes[0, 0]
     labels = list(dict.fromkeys(table["label"]))
     width = 0.8 / max(len(labels), 1)
@@ -149,14 +149,14 @@ def variance_bars(table: pd.DataFrame, path: Path, title: str) -> Path:
         ax.bar(part["mode"] + (i - (len(labels) - 1) / 2) * width, part["pct"], width, label=label)
     ax.set(xlabel="mode", ylabel="variance explained [%]", title=title)
     ax.legend(fontsize=8)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def node_maps(
     tread: pd.DataFrame, panels: Mapping[str, np.ndarray], path: Path, title: str
 ) -> Path:
     """Fig. 5.11: maps over the tread (mean error, standard deviation)."""
-    fig, axes = _figure(1, len(panels), 5.5 * len(panels), 4)
+    fig, axes = new_figure(1, len(panels), 5.5 * len(panels), 4)
     for ax, (name, values) in zip(axes[0], panels.items(), strict=True):
         diverging = np.nanmin(values) < 0
         vmax = float(np.nanmax(np.abs(values))) or 1.0
@@ -166,7 +166,7 @@ def node_maps(
         fig.colorbar(im, ax=ax, label="N")
         ax.set_title(name)
     fig.suptitle(title)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def noise_sweep(sweep: pd.DataFrame, path: Path) -> Path:
@@ -174,7 +174,7 @@ def noise_sweep(sweep: pd.DataFrame, path: Path) -> Path:
     over σ in its unit (mm, or µstrain for strains) and, on top, in multiples of the
     thesis' level."""
     groups = list(sweep.groupby("inputs", sort=False))
-    fig, axes = _figure(len(groups), 1, 7, 3.5 * len(groups))
+    fig, axes = new_figure(len(groups), 1, 7, 3.5 * len(groups))
     for ax, (inputs, part) in zip(axes[:, 0], groups, strict=True):
         scale, unit = noise_unit(inputs)
         sigma = part["sigma"].to_numpy() * scale
@@ -192,7 +192,7 @@ def noise_sweep(sweep: pd.DataFrame, path: Path) -> Path:
         twin.errorbar(sigma, part["Fz_mean"], yerr=part["Fz_total_std"], color="tab:orange",
                       fmt="s-", ms=3, capsize=2)
         twin.set_ylabel("mean total Fz ± std of the total [N]", color="tab:orange")
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def noise_unit(inputs: str) -> tuple[float, str]:
@@ -213,7 +213,7 @@ def lines(path: Path, series: Mapping[str, tuple[np.ndarray, np.ndarray]], *, xl
           ylabel: str, title: str, logx: bool = False) -> Path:
     """One marked line per ``label -> (x, y)`` on one axis (the sensor study's error
     curves)."""
-    fig, axes = _figure(1, 1, 7, 4.5)
+    fig, axes = new_figure(1, 1, 7, 4.5)
     ax = axes[0, 0]
     for label, (x, y) in series.items():
         ax.plot(x, y, "o-", ms=3, label=label)
@@ -222,4 +222,4 @@ def lines(path: Path, series: Mapping[str, tuple[np.ndarray, np.ndarray]], *, xl
     ax.set(xlabel=xlabel, ylabel=ylabel, title=title)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, ncols=2)
-    return _save(fig, path)
+    return save_figure(fig, path)

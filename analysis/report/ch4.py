@@ -42,7 +42,7 @@ TABLES = ("forces", "rmse", "nodal_errors", "cost", "per_solve")
 N_MM_PER_N_M = 1e3  # the store's moments are N mm; the thesis prints N m
 
 
-def _check(ds: xr.Dataset) -> None:
+def check_solves(ds: xr.Dataset) -> None:
     missing = [name for name in VARIABLES if name not in ds]
     if ds.attrs.get("kind") != KIND or missing:
         raise MissingVariableError(
@@ -51,23 +51,23 @@ def _check(ds: xr.Dataset) -> None:
             + "): open the study's group with storage.solves.open_solves")
 
 
-def _text(ds: xr.Dataset, name: str) -> list[str]:
+def text_values(ds: xr.Dataset, name: str) -> list[str]:
     return [str(v) for v in ds[name].values]
 
 
-def _ok(ds: xr.Dataset) -> np.ndarray:
+def solved_ok(ds: xr.Dataset) -> np.ndarray:
     """Solves whose final forward evaluation succeeded (its RMSE was recorded)."""
     return ~np.isnan(ds["rmse"].values).all(axis=1)
 
 
 def per_solve(ds: xr.Dataset) -> pd.DataFrame:
     """One row per solve (the raw numbers behind every table)."""
-    _check(ds)
+    check_solves(ds)
     force, moment = ds["total_force"].values, ds["moment"].values
     frame = pd.DataFrame({
-        "condition": _text(ds, "condition"), "method": _text(ds, "method"),
-        "optimizer": _text(ds, "optimizer"), "repeat": ds["repeat"].values.astype(np.int64),
-        "status": _text(ds, "status"), "Fz": force[:, 2],
+        "condition": text_values(ds, "condition"), "method": text_values(ds, "method"),
+        "optimizer": text_values(ds, "optimizer"), "repeat": ds["repeat"].values.astype(np.int64),
+        "status": text_values(ds, "status"), "Fz": force[:, 2],
         "Mx": moment[:, 0] / N_MM_PER_N_M, "My": moment[:, 1] / N_MM_PER_N_M,
         **{name: ds[name].values.astype(np.int64)
            for name in ("evaluations", "solved", "rounds")},
@@ -112,11 +112,11 @@ def rmse(ds: xr.Dataset) -> pd.DataFrame:
 
 def _errors(ds: xr.Dataset) -> dict[tuple[str, str, str], np.ndarray]:
     """Nodal force errors x - x_true of the solves that finished, pooled per key, N."""
-    _check(ds)
-    keys = zip(*(_text(ds, k) for k in KEYS), strict=True)
+    check_solves(ds)
+    keys = zip(*(text_values(ds, k) for k in KEYS), strict=True)
     error = ds["x_final"].values - ds["x_true"].values
     groups: dict[tuple[str, str, str], list[np.ndarray]] = {}
-    for key, e, ok in zip(keys, error, _ok(ds), strict=True):
+    for key, e, ok in zip(keys, error, solved_ok(ds), strict=True):
         if ok:
             groups.setdefault(key, []).append(e)
     return {key: np.concatenate(errs) for key, errs in groups.items()}
@@ -189,7 +189,7 @@ def histograms(ds: xr.Dataset, folder: Path) -> list[Path]:
     errors = _errors(ds)
     folder.mkdir(parents=True, exist_ok=True)
     paths = []
-    for cond in dict.fromkeys(_text(ds, "condition")):
+    for cond in dict.fromkeys(text_values(ds, "condition")):
         mine = {(m, o): e for (c, m, o), e in errors.items() if c == cond}
         if not mine:
             continue

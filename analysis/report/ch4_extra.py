@@ -25,7 +25,7 @@ import pandas as pd
 import xarray as xr
 
 from analysis.report import ch4_thesis as thesis
-from analysis.report.ch4 import KEYS, _check, _ok, _text
+from analysis.report.ch4 import KEYS, check_solves, solved_ok, text_values
 
 #: How a solve's message carries the weight the discrepancy principle chose.
 WEIGHT = re.compile(r"discrepancy weight ([-+0-9.eE]+|nan|inf)")
@@ -33,28 +33,28 @@ WEIGHT = re.compile(r"discrepancy weight ([-+0-9.eE]+|nan|inf)")
 
 def _weights(ds: xr.Dataset) -> np.ndarray:
     out = []
-    for message in _text(ds, "message"):
+    for message in text_values(ds, "message"):
         m = WEIGHT.search(message)
         out.append(float(m.group(1)) if m else np.nan)
     return np.array(out)
 
 
 def _per_solve(ds: xr.Dataset) -> pd.DataFrame:
-    _check(ds)
+    check_solves(ds)
     x_true = ds["x_true"].values
     e0 = ds["x0"].values - x_true
     e = ds["x_final"].values - x_true
-    ok = _ok(ds)
+    ok = solved_ok(ds)
     fz_ref = float(ds["reference_total_force"].values[2])
     return pd.DataFrame({
-        **{k: _text(ds, k) for k in KEYS}, "ok": ok,
+        **{k: text_values(ds, k) for k in KEYS}, "ok": ok,
         "evaluations": ds["evaluations"].values.astype(np.int64),
         "rounds": ds["rounds"].values.astype(np.int64),
         "solved": ds["solved"].values.astype(np.int64),
         "x0_err": list(e0), "err": list(e),
         "Fz": np.where(ok, ds["total_force"].values[:, 2], np.nan),
         "Fz_err_pct": np.where(ok, 100 * (ds["total_force"].values[:, 2] / fz_ref - 1), np.nan),
-        "weight": _weights(ds), "status": _text(ds, "status")})
+        "weight": _weights(ds), "status": text_values(ds, "status")})
 
 
 def _pooled(errors) -> tuple[float, float]:
@@ -85,7 +85,7 @@ def same_solves(ds: xr.Dataset, others: Mapping[str, xr.Dataset]) -> xr.Dataset:
     The unregularised row of a setting must pool the same noise draws as the regularised
     ones beside it (the quick reproduction regularises one repeat of two, say)."""
     def triples(d: xr.Dataset) -> list[tuple]:
-        return list(zip(_text(d, "condition"), _text(d, "method"),
+        return list(zip(text_values(d, "condition"), text_values(d, "method"),
                         d["repeat"].values.tolist(), strict=True))
 
     wanted = set().union(*(triples(d) for d in others.values()))

@@ -461,7 +461,7 @@ def _pca_table(ds: xr.Dataset, sets: list[str], varying: list[str]) -> pd.DataFr
 
 
 def _pred_figure(report: Report, name: str, Y_true: np.ndarray, P: np.ndarray) -> Path:
-    fig, axes = plots._figure(2, 3, 12, 7.5)
+    fig, axes = plots.new_figure(2, 3, 12, 7.5)
     for j, total in enumerate(TOTALS):
         ax = axes[j // 3, j % 3]
         t, p = Y_true[:, j], P[:, j]
@@ -472,7 +472,7 @@ def _pred_figure(report: Report, name: str, Y_true: np.ndarray, P: np.ndarray) -
         ax.set(xlabel=f"true {total} [{unit}]", ylabel=f"predicted {total} [{unit}]",
                title=total)
     fig.suptitle(f"Held-out test set, PLSR from {name} (noise-free)")
-    return plots._save(fig, report.out / f"pred_vs_true_{name}.png")
+    return plots.save_figure(fig, report.out / f"pred_vs_true_{name}.png")
 
 
 def _summary(report, ds, varying, train, test, folds, draws, figures, cap) -> None:

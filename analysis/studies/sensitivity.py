@@ -26,7 +26,7 @@ import pandas as pd
 
 from analysis.errors import ParameterError, UndefinedVarianceWarning
 from analysis.render import markdown
-from analysis.render.plots import DPI, _figure
+from analysis.render.plots import DPI, new_figure
 from analysis.sensitivity import MIN_SWAPPED_ROWS, MorrisScreening, SobolIndices
 from analysis.sensitivity_data import OutputRequest, read_outputs
 from analysis.studies.common import Report
@@ -112,7 +112,7 @@ def _bars(table: pd.DataFrame, method: str, conf_level: float, path: Path) -> Pa
     outputs = list(dict.fromkeys(table["output"]))
     ncols = min(PANELS_PER_ROW, len(outputs))
     nrows = -(-len(outputs) // ncols)
-    fig, axes = _figure(nrows, ncols, 4.2 * ncols, 3.2 * nrows)
+    fig, axes = new_figure(nrows, ncols, 4.2 * ncols, 3.2 * nrows)
     measures = _measures(method)
     width = 0.8 / len(measures)
     for ax, name in zip(axes.ravel(), outputs, strict=False):

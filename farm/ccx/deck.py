@@ -26,7 +26,8 @@ from farm.specs import ContactLaw, Materials, ModelSpec, SolverSettings
 ELEMENT_TYPE = "C3D8I"  # incompatible modes: plain C3D8 locks at nu = 0.499 (§3.2)
 
 
-def _num(v: float) -> str:
+def fnum(v: float) -> str:
+    """A number as the decks write it: 12 significant digits, no trailing zeros."""
     return f"{float(v):.12g}"
 
 
@@ -38,7 +39,7 @@ def _id_lines(ids: Iterable[int], per_line: int = 16) -> list[str]:
 def mesh_lines(mesh: TyreMesh) -> list[str]:
     """Nodes, elements per region (element sets TREAD/SIDEWALL/BEAD) and node sets."""
     lines = ["*NODE, NSET=TYRE"]
-    lines += [f"{k + 1}, {_num(x)}, {_num(y)}, {_num(z)}" for k, (x, y, z) in enumerate(mesh.nodes)]
+    lines += [f"{k + 1}, {fnum(x)}, {fnum(y)}, {fnum(z)}" for k, (x, y, z) in enumerate(mesh.nodes)]
     for r, region in enumerate(REGIONS):
         ids = np.flatnonzero(mesh.element_region == r)
         lines.append(f"*ELEMENT, TYPE={ELEMENT_TYPE}, ELSET={region.upper()}")
@@ -55,7 +56,7 @@ def material_lines(materials: Materials) -> list[str]:
     for region, m in materials.by_region().items():
         name = region.upper()
         lines += [f"*MATERIAL, NAME=M_{name}", "*HYPERELASTIC, NEO HOOKE",
-                  f"{_num(m.c10)}, {_num(m.d1)}",
+                  f"{fnum(m.c10)}, {fnum(m.d1)}",
                   f"*SOLID SECTION, ELSET={name}, MATERIAL=M_{name}"]
     return lines
 
@@ -72,7 +73,7 @@ def cavity_pressure_lines(mesh: TyreMesh, pressure: float, amplitude: str | None
     """Inflation pressure (MPa) on every cavity face (face 0: an element of a layered
     wall that does not touch the cavity, :mod:`farm.mesh.layers`)."""
     head = "*DLOAD" + (f", AMPLITUDE={amplitude}" if amplitude else "")
-    return [head] + [f"{e + 1}, P{f}, {_num(pressure)}"
+    return [head] + [f"{e + 1}, P{f}, {fnum(pressure)}"
                      for e, f in enumerate(mesh.inner_face) if f > 0]
 
 
@@ -108,7 +109,7 @@ def road_slab(mesh: TyreMesh, z_top: float, half_length: float, half_width: floa
     for layer, z in enumerate((z_top - thickness, z_top)):
         for i, x in enumerate(xs):
             for j, y in enumerate(ys):
-                lines.append(f"{ids[layer, i, j]}, {_num(x)}, {_num(y)}, {_num(z)}")
+                lines.append(f"{ids[layer, i, j]}, {fnum(x)}, {fnum(y)}, {fnum(z)}")
     lines.append("*ELEMENT, TYPE=C3D8, ELSET=ROAD")
     faces = []
     e = e0
@@ -141,9 +142,9 @@ def contact_lines(mesh: TyreMesh, law: ContactLaw,
     lines = ["*SURFACE, NAME=TREAD_SURF, TYPE=ELEMENT", *faces,
              "*SURFACE INTERACTION, NAME=ROAD_CONTACT",
              "*SURFACE BEHAVIOR, PRESSURE-OVERCLOSURE=EXPONENTIAL",
-             f"{_num(law.clearance)}, {_num(law.pressure)}"]
+             f"{fnum(law.clearance)}, {fnum(law.pressure)}"]
     if friction is not None and friction[0] > 0:
-        lines += ["*FRICTION", f"{_num(friction[0])}, {_num(friction[1])}"]
+        lines += ["*FRICTION", f"{fnum(friction[0])}, {fnum(friction[1])}"]
     return [*lines, "*CONTACT PAIR, INTERACTION=ROAD_CONTACT, TYPE=NODE TO SURFACE",
             "TREAD_SURF, ROAD_TOP"]
 
@@ -206,7 +207,7 @@ def road_motion_lines(road: Road, travel: float, shift: tuple[float, float], til
     index = np.ravel(index)
     end = t0 + 1 + move_time
     lines = amplitude_lines("ROAD_MOVE", [(0.0, 0.0), (t0 + 1, 0.0), (end, 1.0)], split)
-    bcs = ["*BOUNDARY, AMPLITUDE=ROAD_MOVE", f"ROAD, 1, 1, {_num(shift[0])}"]
+    bcs = ["*BOUNDARY, AMPLITUDE=ROAD_MOVE", f"ROAD, 1, 1, {fnum(shift[0])}"]
     t1 = t0 + tilt_time
     sy, sz = shift[1] * math.cos(angle), shift[1] * math.sin(angle)  # in the road plane
     ry, rz = _rise(travel, tilt, rise)
@@ -261,7 +262,7 @@ def road_position_lines(road: Road, travel: float, shift: tuple[float, float],
     """
     ids = np.arange(road.first_node, road.first_node + len(road.xyz))
     values = _road_values(road, travel, shift, tilt, rise)
-    return ["*BOUNDARY", *(f"{i}, {dof + 1}, {dof + 1}, {_num(values[k, dof])}"
+    return ["*BOUNDARY", *(f"{i}, {dof + 1}, {dof + 1}, {fnum(values[k, dof])}"
                            for k, i in enumerate(ids) for dof in range(3))]
 
 
@@ -316,9 +317,9 @@ def road_step_lines(road: Road, before: tuple[float, tuple[float, float]],
     for (node, dof), u1 in np.ndenumerate(new):
         u0 = old[node, dof]
         if abs(u1 - u0) <= 1e-12 or abs(u1) <= 1e-9:
-            plain.append(f"{ids[node]}, {dof + 1}, {dof + 1}, {_num(u1)}")
+            plain.append(f"{ids[node]}, {dof + 1}, {dof + 1}, {fnum(u1)}")
         else:
-            held.setdefault((dof + 1, _num(u0 / u1)), []).append(node)
+            held.setdefault((dof + 1, fnum(u0 / u1)), []).append(node)
     lines: list[str] = []
     bcs: list[str] = []
     for k, ((dof, ratio), nodes) in enumerate(sorted(held.items())):
@@ -326,7 +327,7 @@ def road_step_lines(road: Road, before: tuple[float, tuple[float, float]],
         lines += [f"*AMPLITUDE, NAME={amp}",
                   *_amplitude([(0.0, float(ratio)), (dwell, float(ratio)), (1.0, 1.0)])]
         bcs.append(f"*BOUNDARY, AMPLITUDE={amp}")
-        bcs += [f"{ids[n]}, {dof}, {dof}, {_num(new[n, dof - 1])}" for n in nodes]
+        bcs += [f"{ids[n]}, {dof}, {dof}, {fnum(new[n, dof - 1])}" for n in nodes]
     return [*lines, *(plain if len(plain) > 1 else []), *bcs]
 
 
@@ -391,7 +392,7 @@ def _amplitude(points: list[tuple[float, float]]) -> list[str]:
     from one line: a fifth pair is silently dropped), each time once (the first of
     equal times; equal times carry equal values)."""
     kept = [pt for i, pt in enumerate(points) if i == 0 or pt[0] > points[i - 1][0]]
-    pairs = [f"{_num(t)}, {_num(v)}" for t, v in kept]
+    pairs = [f"{fnum(t)}, {fnum(v)}" for t, v in kept]
     return [", ".join(pairs[k:k + 4]) for k in range(0, len(pairs), 4)]
 
 
@@ -406,8 +407,8 @@ def static_step_lines(period: float, settings: SolverSettings,
     start = settings.initial_increment if first is None else min(first,
                                                                  settings.initial_increment)
     return [f"*STEP, NLGEOM, INC={settings.max_increments}", "*STATIC",
-            f"{_num(start)}, {_num(period)}, "
-            f"{_num(min(start, settings.min_increment))}, {_num(settings.max_increment)}"]
+            f"{fnum(start)}, {fnum(period)}, "
+            f"{fnum(min(start, settings.min_increment))}, {fnum(settings.max_increment)}"]
 
 
 #: Cutbacks ccx may take within one increment of a frictional path (its default is 5).
@@ -440,7 +441,7 @@ TIGHT_FIELD_CONTROLS = (1e-5, 1e-5)
 
 def tight_controls_lines() -> list[str]:
     """Step option: :data:`TIGHT_FIELD_CONTROLS` as R_n, C_n; ccx's defaults for the rest."""
-    return ["*CONTROLS, PARAMETERS=FIELD", ", ".join(_num(v) for v in TIGHT_FIELD_CONTROLS)]
+    return ["*CONTROLS, PARAMETERS=FIELD", ", ".join(fnum(v) for v in TIGHT_FIELD_CONTROLS)]
 
 
 def restart_lines(read: bool, write: bool) -> list[str]:
@@ -462,16 +463,16 @@ def continuation_step_lines(settings: SolverSettings) -> list[str]:
     """
     first = min(1.0, 4 * settings.initial_increment)
     return [f"*STEP, NLGEOM, INC={settings.max_increments}", "*STATIC",
-            f"{_num(first)}, 1, {_num(settings.min_increment)}, {_num(first)}"]
+            f"{fnum(first)}, 1, {fnum(settings.min_increment)}, {fnum(first)}"]
 
 
 def time_points_lines(time_points: Sequence[float], split: Split | None = None) -> list[str]:
     """The output times (model definition, referenced as ``OUT`` by the step's output);
     with a ``split``, total times past its hold."""
     if split is None:
-        return ["*TIME POINTS, NAME=OUT", *(_num(t) for t in time_points)]
+        return ["*TIME POINTS, NAME=OUT", *(fnum(t) for t in time_points)]
     return ["*TIME POINTS, NAME=OUT, TIME=TOTAL TIME",
-            *(_num(split.time(t)) for t in time_points)]
+            *(fnum(split.time(t)) for t in time_points)]
 
 
 def written_sets(mesh: TyreMesh) -> tuple[str, ...]:

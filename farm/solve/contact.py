@@ -51,7 +51,7 @@ def road_gap(spec: ModelSpec) -> float:
     return 1.5 * spec.contact.clearance + 0.5
 
 
-def _solve(deck: str, settings: SolverSettings, should_stop,
+def run_deck(deck: str, settings: SolverSettings, should_stop,
            jobname: str) -> tuple[CcxRun, FrdFile]:
     with scratch_dir(keep=settings.keep_scratch, prefix=f"{jobname}-") as workdir:
         run = run_ccx(deck, workdir, jobname=jobname, threads=settings.threads,
@@ -69,7 +69,7 @@ def inflate(spec: ModelSpec, mesh: TyreMesh, pressure: float, settings: SolverSe
         D.cavity_pressure_lines(mesh, pressure, None),
         ["*NODE FILE, NSET=MEASURED", "U", "*END STEP"],
     )
-    run, frd = _solve(deck, settings, should_stop, "inflate")
+    run, frd = run_deck(deck, settings, should_stop, "inflate")
     block = frd.results_named("DISP")[-1]
     z = mesh.xyz(block.node_ids)[:, 2] + block.values[:, 2]
     return run, float(z.min())
@@ -110,7 +110,7 @@ def path_deck(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: SolverS
     t0 = 1.0 if spec.inflated else 0.0
     times = [t0 + (gap + d) / travel for d in path.deflections]
     z_road = touch_z - gap
-    road = _road(spec, mesh, z_road)
+    road = road_of(spec, mesh, z_road)
     amplitudes = ["*AMPLITUDE, NAME=ROAD_RAMP", f"0, 0, {t0}, 0, {t0 + 1}, 1"]
     pressure: list[str] = []
     if spec.inflated:
@@ -150,7 +150,7 @@ def stage(spec: ModelSpec, path: LoadPath, time: float,
     return f"in the slide, {100 * min(1.0, time - t0 - 1.0):.0f} % of it"
 
 
-def _road(spec: ModelSpec, mesh: TyreMesh, z_road: float) -> D.Road:
+def road_of(spec: ModelSpec, mesh: TyreMesh, z_road: float) -> D.Road:
     return D.road_slab(mesh, z_road, half_length=0.8 * spec.geometry.outer_radius,
                        half_width=0.6 * spec.geometry.section_width)
 
@@ -208,7 +208,7 @@ def _combined_deck(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: So
     split = rise_split(spec, path, settings)
     times = _combined_times(spec, path)
     z_road = touch_z - gap
-    road = _road(spec, mesh, z_road)
+    road = road_of(spec, mesh, z_road)
     amplitudes, boundary = D.road_motion_lines(
         road, travel, (motion.shift_x, motion.shift_y), motion.tilt, t0,
         TILT_TIME if motion.tilt else 0.0, motion.rise, split)
@@ -354,7 +354,7 @@ def friction_forces(frd: FrdFile, mesh: TyreMesh, time: float, positions: np.nda
     return force[tread - 1], status[tread - 1], slip[tread - 1]
 
 
-def _combined_state(frd: FrdFile, mesh: TyreMesh, faces: np.ndarray, road: D.Road,
+def combined_state(frd: FrdFile, mesh: TyreMesh, faces: np.ndarray, road: D.Road,
                     time: float, deflection: float, road_z: float, motion: RoadMotion,
                     seconds: float = np.nan) -> SolvedState:
     """A state of a combined-load path: 3-D tread forces, status, slip, road moment."""
@@ -378,7 +378,7 @@ def _combined_state(frd: FrdFile, mesh: TyreMesh, faces: np.ndarray, road: D.Roa
     )
 
 
-def _state(frd: FrdFile, mesh: TyreMesh, faces: np.ndarray, time: float,
+def path_state(frd: FrdFile, mesh: TyreMesh, faces: np.ndarray, time: float,
            deflection: float, road_z: float, seconds: float = np.nan) -> SolvedState:
     u = node_field(frd, "DISP", time, mesh.n_nodes)
     forc = frd.at("FORC", time)
@@ -403,7 +403,7 @@ def solve_contact_path(spec: ModelSpec, mesh: TyreMesh, path: LoadPath,
         runs += [run] if run is not None else []
     deck, times, z_start = path_deck(spec, mesh, path, settings, touch_z)
     try:
-        run, frd = _solve(deck, settings, should_stop, "path")
+        run, frd = run_deck(deck, settings, should_stop, "path")
     except SolverError as e:  # say where along the path it stopped (issue 29: failures are data)
         where = stage(spec, path, e.reached, rise_split(spec, path, settings)) \
             if e.reached is not None else None
@@ -414,14 +414,14 @@ def solve_contact_path(spec: ModelSpec, mesh: TyreMesh, path: LoadPath,
     if path.motion is not None:
         return _combined_solution(spec, mesh, path, frd, faces, runs, times, z_start)
     if spec.inflated:
-        reference = _state(frd, mesh, faces, 1.0, 0.0, np.nan)
+        reference = path_state(frd, mesh, faces, 1.0, 0.0, np.nan)
     else:
         reference = SolvedState(0.0, np.nan, np.zeros((mesh.n_nodes, 3)),
                                 np.zeros((mesh.inner_nodes.size, 6)),
                                 np.zeros((mesh.tread_nodes.size, 3)), np.zeros(3))
     before = sum(r.seconds for r in runs[:-1])  # the inflation run
     states = tuple(
-        _state(frd, mesh, faces, t, d, z_start + gap + d, before + run.seconds_to(t))
+        path_state(frd, mesh, faces, t, d, z_start + gap + d, before + run.seconds_to(t))
         for t, d in zip(times, path.deflections, strict=True)
     )
     return PathSolution(reference, states, sum(r.seconds for r in runs), len(runs),
@@ -438,13 +438,13 @@ def _combined_solution(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, frd: Frd
     not move, and a shift slides the road in its own plane.
     """
     gap = _combined_gap(spec, path)
-    road = _road(spec, mesh, z_start)
+    road = road_of(spec, mesh, z_start)
     run = runs[-1]
     before = sum(r.seconds for r in runs[:-1])
     motion = _motion(path)
     still = RoadMotion(friction=motion.friction, stick_slope=motion.stick_slope)
     if spec.inflated:  # inflated, road clear and not yet tilted
-        reference = _combined_state(frd, mesh, faces, road, 1.0, 0.0, np.nan, still)
+        reference = combined_state(frd, mesh, faces, road, 1.0, 0.0, np.nan, still)
     else:
         n_tread = mesh.tread_nodes.size
         reference = SolvedState(0.0, np.nan, np.zeros((mesh.n_nodes, 3)),
@@ -457,7 +457,7 @@ def _combined_solution(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, frd: Frd
     if motion.moves:  # friction alone has no motion ramp (path_deck's times)
         cases += [(last, z_start + gap + last, motion.scaled(f)) for f in path.motion_fractions]
     states = tuple(
-        _combined_state(frd, mesh, faces, road, t, d, z, m, before + run.seconds_to(t))
+        combined_state(frd, mesh, faces, road, t, d, z, m, before + run.seconds_to(t))
         for t, (d, z, m) in zip(times, cases, strict=True)
     )
     return PathSolution(reference, states, sum(r.seconds for r in runs), len(runs),

@@ -21,7 +21,7 @@ Kinematics (SAE sign convention, wheel frame; the road moves, the wheel stays):
 Results are written at fractions of the roll; a state's forces are the road's reaction
 on the tyre (Fx, Fy, Fz) and its moment about the contact centre (Mx, My, Mz), both from
 the rigid road's nodal reactions, plus the tread forces and stick/slip states of the
-combined loads (:func:`farm.solve.contact._combined_state`).
+combined loads (:func:`farm.solve.contact.combined_state`).
 """
 
 from __future__ import annotations
@@ -40,8 +40,8 @@ from farm.errors import ResultsError, SolverError, SpecError
 from farm.mesh.tyremesh import TyreMesh
 from farm.solve.contact import (
     TILT_TIME,
-    _combined_state,
-    _solve,
+    combined_state,
+    run_deck,
     slave_faces,
     tilted_gap,
     touch_height,
@@ -324,7 +324,7 @@ def _roll_run(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: floa
     deck, times, road, z_start = roll_deck(spec, solved, deflection, pressure, roll,
                                            settings, touch_z, fractions)
     try:
-        run, frd = _solve(deck, settings, should_stop, "roll")
+        run, frd = run_deck(deck, settings, should_stop, "roll")
     except SolverError as e:
         raise (e.located(_stage(e.reached, deflection, roll)) if e.reached is not None
                else e) from e
@@ -333,8 +333,8 @@ def _roll_run(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: floa
     faces = slave_faces(mesh)
     motion = RoadMotion(friction=roll.friction, tilt=roll.tilt, rise="normal")
     still = RoadMotion(friction=roll.friction)
-    reference = _combined_state(frd, solved, faces, road, 1.0, 0.0, np.nan, still)
-    return run, [_rolled(_combined_state(frd, solved, faces, road, t, deflection, centre_z,
+    reference = combined_state(frd, solved, faces, road, 1.0, 0.0, np.nan, still)
+    return run, [_rolled(combined_state(frd, solved, faces, road, t, deflection, centre_z,
                                          motion, run.seconds_to(t)), reference, mesh, roll,
                          f, start)
                  for t, f in zip(times, fractions, strict=True)]

@@ -51,10 +51,10 @@ from farm.ccx.runner import CcxRun, run_ccx, scratch_dir
 from farm.errors import ResultsError, SolverError, SpecError
 from farm.mesh.tyremesh import TyreMesh
 from farm.solve.contact import (
-    _combined_state,
-    _road,
-    _state,
+    combined_state,
     path_deck,
+    path_state,
+    road_of,
     slave_faces,
     stage,
     tilted_gap,
@@ -139,7 +139,7 @@ def trunk_deck(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: Solver
     first = LoadPath(path.deflections[:1], path.pressure, path.motion)
     gap = tilted_gap(spec, motion.tilt)
     z_start = touch_z - gap
-    road = _road(spec, mesh, z_start)
+    road = road_of(spec, mesh, z_start)
     steps: list[str] = []
     for k, (before, d) in enumerate(itertools.pairwise(path.deflections)):
         steps += [*D.static_step_lines(1.0, settings, first=D.STEP_DWELL), *_controls(motion),
@@ -149,7 +149,7 @@ def trunk_deck(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: Solver
                   *D.output_lines(time_points=True, contact=True, points="STEP_END"),
                   "*END STEP"]
     model = [*D.restart_lines(read=False, write=True), "*TIME POINTS, NAME=STEP_END", "1",
-             "*TIME POINTS, NAME=SLIDE", *(D._num(_slide_time(f)) for f in fractions)]
+             "*TIME POINTS, NAME=SLIDE", *(D.fnum(_slide_time(f)) for f in fractions)]
     # no cut before the rise (SolverSettings.split_rise): a trunk's layout is one step per
     # level with a restart block at each step's end, and its trunks have not failed there
     one_step = dataclasses.replace(settings, split_rise=False)
@@ -318,14 +318,14 @@ def _states(spec: ModelSpec, mesh: TyreMesh, frd: FrdFile, path: LoadPath, z_sta
             seconds: Callable[[float], float]) -> list[SolvedState]:
     """The states at ``times``, one per (deflection, motion) case."""
     faces = slave_faces(mesh)
-    road = _road(spec, mesh, z_start)
+    road = road_of(spec, mesh, z_start)
     tilt = path.motion.tilt if path.motion else 0.0
     gap = tilted_gap(spec, tilt)
     out = []
     for t, (d, m) in zip(times, cases, strict=True):
         z = z_start + gap + d
-        out.append(_state(frd, mesh, faces, t, d, z, seconds(t)) if m is None else
-                   _combined_state(frd, mesh, faces, road, t, d, z, m, seconds(t)))
+        out.append(path_state(frd, mesh, faces, t, d, z, seconds(t)) if m is None else
+                   combined_state(frd, mesh, faces, road, t, d, z, m, seconds(t)))
     return out
 
 
@@ -337,9 +337,9 @@ def _reference(spec: ModelSpec, mesh: TyreMesh, frd: FrdFile, path: LoadPath,
                         "inflated tyre)")
     faces = slave_faces(mesh)
     if path.motion is None:
-        return _state(frd, mesh, faces, 1.0, 0.0, np.nan)
+        return path_state(frd, mesh, faces, 1.0, 0.0, np.nan)
     still = RoadMotion(friction=path.motion.friction, stick_slope=path.motion.stick_slope)
-    return _combined_state(frd, mesh, faces, _road(spec, mesh, z_start), 1.0, 0.0, np.nan,
+    return combined_state(frd, mesh, faces, road_of(spec, mesh, z_start), 1.0, 0.0, np.nan,
                            still)
 
 
@@ -350,7 +350,7 @@ def branch_deck(spec: ModelSpec, mesh: TyreMesh, trunk: Trunk, level: int,
     trunk's ``fractions`` of the slide."""
     motion = trunk.motion
     gap = tilted_gap(spec, motion.tilt)
-    road = _road(spec, mesh, trunk.touch_z - gap)
+    road = road_of(spec, mesh, trunk.touch_z - gap)
     d = trunk.path.deflections[level]
     return "\n".join([
         *D.restart_lines(read=True, write=False),

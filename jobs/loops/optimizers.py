@@ -48,11 +48,11 @@ class Outcome:
     iterations: int
 
 
-class _Budget(Exception):
+class BudgetSpent(Exception):
     """Raised inside the objective when the evaluation budget is spent."""
 
 
-class _Tracker:
+class Tracker:
     """Counts evaluations against the budget and remembers the best point.
 
     ``warm``: pass each batch's ``base`` on to ``evaluate`` (see :data:`BatchFunction`).
@@ -77,7 +77,7 @@ class _Tracker:
     def batch(self, points: Sequence[np.ndarray], base: np.ndarray | None = None
               ) -> list[np.ndarray]:
         if self.stopped or self.used + len(points) > self.budget:
-            raise _Budget
+            raise BudgetSpent
         self.used += len(points)
         points = [np.asarray(p, dtype=float) for p in points]
         out = (self.evaluate(points, base=base) if self.warm and base is not None
@@ -104,11 +104,11 @@ def nelder_mead(evaluate: BatchFunction, x0: np.ndarray, *, max_evaluations: int
                 xatol: float, fatol: float,
                 stop: Callable[[np.ndarray, float], bool] | None = None) -> Outcome:
     """Minimise ``||evaluate([x])[0]||`` with scipy's Nelder-Mead from ``x0``."""
-    tracker = _Tracker(evaluate, max_evaluations, stop)
+    tracker = Tracker(evaluate, max_evaluations, stop)
     sim = initial_simplex(x0)
     try:
         values = tracker.batch(list(sim))  # the n + 1 vertices side by side: one round
-    except _Budget:
+    except BudgetSpent:
         return Outcome(np.asarray(x0, float), np.inf, "max_evaluations", "budget too small", 0)
     known = {p.tobytes(): float(np.linalg.norm(r)) for p, r in zip(sim, values, strict=True)}
 
@@ -121,7 +121,7 @@ def nelder_mead(evaluate: BatchFunction, x0: np.ndarray, *, max_evaluations: int
             f, x0, method="Nelder-Mead",
             options={"initial_simplex": sim, "xatol": xatol, "fatol": fatol,
                      "maxfev": 10 * max_evaluations, "maxiter": 10 * max_evaluations})
-    except _Budget:
+    except BudgetSpent:
         status = "stopped" if tracker.stopped else "max_evaluations"
         # no best point when every residual so far was NaN or infinite: report the start
         best = tracker.best_x if tracker.best_x is not None else np.asarray(x0, float)
@@ -146,7 +146,7 @@ def least_squares(evaluate: BatchFunction, x0: np.ndarray, *, max_evaluations: i
     trial point (base: the point of the last Jacobian, TRF's current point) are passed
     their base.
     """
-    tracker = _Tracker(evaluate, max_evaluations, stop, warm_starts)
+    tracker = Tracker(evaluate, max_evaluations, stop, warm_starts)
     x0 = np.asarray(x0, dtype=float)
     step = np.broadcast_to(np.asarray(fd_step, dtype=float), x0.shape)
     upper = np.broadcast_to(np.asarray(bounds[1], dtype=float), x0.shape)
@@ -188,7 +188,7 @@ def least_squares(evaluate: BatchFunction, x0: np.ndarray, *, max_evaluations: i
         res = scipy.optimize.least_squares(fun, x0, jac=jac, method="trf", x_scale=x_scale,
                                            ftol=ftol, xtol=xtol, gtol=gtol, bounds=bounds,
                                            max_nfev=10 * max_evaluations)
-    except _Budget:
+    except BudgetSpent:
         status = "stopped" if tracker.stopped else "max_evaluations"
         return Outcome(tracker.best_x if tracker.best_x is not None else x0, tracker.best_f,
                        status, f"{status} after {tracker.used} evaluations", -1)

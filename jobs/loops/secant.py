@@ -41,7 +41,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from jobs.loops.jacobians import fd_jacobian, fd_points
-from jobs.loops.optimizers import BatchFunction, Outcome, _Budget, _Tracker
+from jobs.loops.optimizers import BatchFunction, BudgetSpent, Outcome, Tracker
 
 MU0 = 1e-3  # initial damping, relative to diag(J^T J) (Marquardt)
 MU_MAX = 1e12  # beyond this the step is nothing: stop
@@ -89,7 +89,7 @@ def secant_least_squares(evaluate: BatchFunction, x0: np.ndarray, *, max_evaluat
     ``warm_starts``: every trial point is passed the current point as its base, the
     columns of a Jacobian their point (:data:`jobs.loops.optimizers.BatchFunction`).
     """
-    tracker = _Tracker(evaluate, max_evaluations, stop, warm_starts)
+    tracker = Tracker(evaluate, max_evaluations, stop, warm_starts)
     x = np.asarray(x0, dtype=float).copy()
     lower, upper = (np.broadcast_to(np.asarray(b, dtype=float), x.shape) for b in bounds)
     step = np.broadcast_to(np.asarray(fd_step, dtype=float), x.shape)
@@ -150,7 +150,7 @@ def secant_least_squares(evaluate: BatchFunction, x0: np.ndarray, *, max_evaluat
                 mu *= 4.0
             elif rho > GOOD:
                 mu = max(mu / 4.0, 1e-12)
-    except _Budget:
+    except BudgetSpent:
         status = "stopped" if tracker.stopped else "max_evaluations"
         best = tracker.best_x if tracker.best_x is not None else x
         return Outcome(best, tracker.best_f, status, f"{status} after {tracker.used} "

@@ -90,8 +90,8 @@ def test_the_split_deck_applies_the_one_step_loads_and_holds_them_at_the_cut(nam
     assert cut_times == [split.time(t) for t in times]
     assert cut.count("*STEP, NLGEOM") == 2 and one.count("*STEP, NLGEOM") == 1
     period = 1.0 + (2.0 if path.motion.moves else 1.0)
-    assert (f"*STATIC\n0.25, {D._num(split.at)}, 1e-05, 0.5\n" in cut and
-            f"*STATIC\n{D._num(split.hold)}, {D._num(period - split.at + split.hold)}, "
+    assert (f"*STATIC\n0.25, {D.fnum(split.at)}, 1e-05, 0.5\n" in cut and
+            f"*STATIC\n{D.fnum(split.hold)}, {D.fnum(period - split.at + split.hold)}, "
             "1e-05, 0.5\n" in cut)
     assert "*TIME POINTS, NAME=OUT, TIME=TOTAL TIME\n" in cut
     before, after = _amplitudes(one), _amplitudes(cut)

@@ -68,6 +68,16 @@ def test_a_study_is_announced_on_change_and_at_its_end(monkeypatch):
     page.update(State(done=2))
     page.update(State(done=2), ended=True)
     states = [(m["state"]["done"], m["ended"]) for _, m in client.sent]
+    # a state holding what cannot be copied (a calibration's holds a lock) is no crash
+    import threading
+
+    @dataclass
+    class Locked:
+        sets: int = 3
+        lock: object = field(default_factory=threading.Lock)
+
+    page.update(Locked(), ended=True)
+    assert client.sent[-1][1]["state"] == {"sets": 3}
     assert states == [(0, False), (2, False), (2, True)]
     assert set(client.sent[0][1]["state"]) == {"total", "done"}
 
