@@ -95,6 +95,21 @@ REINFORCEMENT_PRESETS: dict[str, Reinforcement] = {
 }
 """Material presets that also put cords in the wall (the others are cordless)."""
 
+# "reinforced-converged" (issue 44): reinforced-calibrated refitted on the `converged` mesh,
+# on which the patch-fitted preset was 8-15 % soft (docs/mesh-convergence.md). `farm
+# calibrate --model full --materials reinforced-calibrated --mesh converged --reading
+# 80kPa --ratio --measured --parameters tread,sidewall,carcass_modulus --max-evaluations 9
+# --workers 2` (2026-11-28, commit 0a9bbb1, 4954 s on 2 cores): tread 17.12 MPa, sidewall
+# 18.74 MPa, textile carcass 7.32 GPa (bead kept at 19.64 MPa, 0.4 MPa under the rubber
+# bound); the thesis model's 80 kPa points -5.6 % / +5.9 %, the ratio's derived point
+# +3.9 %, the measured tyre's 4195 N -11.5 % (docs/calibration/reinforced-converged/).
+MATERIAL_PRESETS["reinforced-converged"] = {"full": Materials(
+    tread=Material(17.12, 0.49), sidewall=Material(18.74, 0.49), bead=Material(19.64, 0.49))}
+CONTACT_PRESETS["reinforced-converged"] = CONTACT_PRESETS["reinforced-calibrated"]
+REINFORCEMENT_PRESETS["reinforced-converged"] = Reinforcement(
+    carcass=dataclasses.replace(Reinforcement().carcass, modulus=7.32), belt=TEXTILE_BELTS,
+    belt_layout="cords", tension_only=True)
+
 DEFAULT_MESH = {
     "reduced": MeshDensity(tread=8, sidewall=5, bead=2, circumferential=20),
     "full": MeshDensity(tread=8, sidewall=5, bead=2, circumferential=40),
@@ -175,6 +190,8 @@ MATERIAL_NOTES = {
     "cord-reinforced": "cords on the cavity face, uncalibrated: Fz 18-46 % off",
     "reinforced-calibrated": "calibrated on the patch mesh; on the converged mesh its 25 mm "
                              "points fall 15-20 % low",
+    "reinforced-converged": "calibrated on the converged mesh: the thesis model's 80 kPa "
+                            "points within 6 %, the measured tyre's 11.5 % low",
 }
 MESH_NOTES = {
     "thesis": "Table 3.1's element counts, not converged",
@@ -182,7 +199,7 @@ MESH_NOTES = {
              "about 8-12 % stiff",
     "converged": "converged in every direction",
 }
-CREDIBLE = ("reinforced-calibrated", "converged")
+CREDIBLE = ("reinforced-converged", "converged")
 """The material and mesh presets results should use (README, "Which tyre to use")."""
 
 

@@ -64,7 +64,9 @@ def _literal(text: str) -> Any:
 
 
 MATERIALS_HELP = ("Material preset: table-3.1 (the thesis' Table 3.1), thesis-calibrated, "
-                  "cord-reinforced, reinforced-calibrated (full model, docs/reinforcement.md).")
+                  "cord-reinforced, reinforced-calibrated (full model, fitted on the patch "
+                  "mesh), reinforced-converged (full model, fitted on the converged mesh: the "
+                  "one for results; docs/reinforcement.md).")
 MESH_HELP = ("Mesh preset: thesis (Table 3.1's element counts), patch (full model only: "
              "refined over +-32 degrees about the road) or converged (full model only: patch "
              "with the sidewall and the wall's depth refined; the one for results, "
