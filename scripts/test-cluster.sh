@@ -162,3 +162,12 @@ assert "needs bokeh" not in page, "the dashboard asks for bokeh: it is not in th
 assert "bokeh" in page and "Dask" in page, page[:300]
 print(f"   {sys.argv[1]}: 200, the Dask dashboard ({len(page)} bytes)", file=sys.stderr)
 PY
+# the farm's page (scheduler --preload jobs.dashboard): the finished sweep's solves
+python3 - "http://127.0.0.1:$FARM_DASHBOARD_PORT/farm.json" <<'PY' || fail "farm page"
+import json, sys, urllib.request
+with urllib.request.urlopen(sys.argv[1], timeout=30) as r:
+    state = json.loads(r.read())
+done = [s for s in state["recent"] if s["status"] == "done"]
+assert done and not state["failures"], state
+print(f"   {sys.argv[1]}: the farm page, {len(done)} solves done", file=sys.stderr)
+PY
