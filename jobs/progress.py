@@ -36,6 +36,13 @@ class Session:
                 f"{self.dashboard.removesuffix('status')}farm")
 
 
+def ccx_of(session: Any) -> str:
+    """:meth:`Session.ccx` of a session, '' for any other object a display is handed
+    (scripts and tests pass their own)."""
+    ccx = getattr(session, "ccx", None)
+    return ccx() if callable(ccx) else ""
+
+
 @dataclass(kw_only=True)
 class RunReport:
     """What every run reports beside its own results (filled in by :func:`jobs.driver.drive`)."""

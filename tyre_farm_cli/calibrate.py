@@ -11,7 +11,7 @@ from typing import Any
 import typer
 from rich.console import Console
 
-from jobs.progress import Progress
+from jobs.progress import Progress, ccx_of
 from jobs.wording import plural
 from tyre_farm_cli.errors import usage
 from tyre_farm_cli.frames import print_frame
@@ -45,7 +45,7 @@ class CalibrationLines(Progress):
         self.lines.flush()
 
     def advanced(self, state) -> None:
-        ccx = self.session.ccx() if self.session is not None else ""
+        ccx = ccx_of(self.session)
         if ccx and state.parameter_sets == self.last and \
                 time.monotonic() - self.ccx_at >= CCX_EVERY_SECONDS:
             self.ccx_at = time.monotonic()  # a round of the converged mesh takes minutes

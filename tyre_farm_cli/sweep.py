@@ -20,6 +20,7 @@ from rich.progress import (
 )
 from rich.table import Table
 
+from jobs.progress import ccx_of
 from jobs.wording import plural
 from tyre_farm_cli.errors import usage
 from tyre_farm_cli.options import (
@@ -77,7 +78,7 @@ class RichProgress:
         if self.bar is not None and self.task is not None:
             self.bar.update(self.task, completed=state.skipped + state.done + state.failed,
                             done=state.done, failed=state.failed, running=state.running,
-                            ccx=self.session.ccx() if self.session is not None else "")
+                            ccx=ccx_of(self.session))
 
     def finished(self, report) -> None:
         if self.bar is not None:
@@ -101,7 +102,7 @@ class SweepLines:
 
     def advanced(self, state) -> None:
         ended = (state.done, state.failed)
-        ccx = self.session.ccx() if self.session is not None else ""
+        ccx = ccx_of(self.session)
         if ended != self.seen or ccx != self.ccx:  # ccx's own progress: issue 48
             self.seen, self.ccx = ended, ccx
             self.lines.progress(self._text(state) + (f"; {ccx}" if ccx else ""))
