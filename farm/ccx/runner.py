@@ -210,40 +210,35 @@ def _kill_group(proc: subprocess.Popen) -> None:
 
 class _Progress:
     """Watches the ``.sta`` file: when (in seconds since start) each increment converged,
-    and, inside :func:`farm.ccx.progress.reporting`, how far the run has got."""
+    and, inside :func:`farm.ccx.progress.reporting`, how far the run has got (the deck's
+    step periods are parsed only then). One read of the file per change serves both."""
 
-    def __init__(self, sta: Path, start: float, periods: list[float] | None = None) -> None:
+    def __init__(self, sta: Path, start: float, deck: str = "") -> None:
         self.sta, self.start, self.size = sta, start, 0
         self.marks: list[tuple[float, float]] = []
         self.reporter = current_reporter()
-        self.periods = periods or []
+        self.periods = step_periods(deck) if self.reporter is not None else []
 
     def poll(self) -> None:
         try:
             size = self.sta.stat().st_size
         except OSError:
             return
-        if size != self.size:
-            self.size = size
-            now = time.perf_counter() - self.start
-            seen = {t for t, _ in self.marks}
-            for t in _sta_rows(self.sta):
-                if t not in seen:
-                    self.marks.append((t, now))
-            if self.reporter is not None:
-                self._report()
-
-    def _report(self) -> None:
-        rows = []
-        with contextlib.suppress(OSError):
-            for line in self.sta.read_text(errors="replace").splitlines():
-                fields = line.split()
-                if len(fields) >= 7 and fields[0].isdigit():
-                    rows.append(fields)
-        got = progress_of(rows, self.periods)
-        if got is not None and self.reporter is not None:
+        if size == self.size:
+            return
+        self.size = size
+        now = time.perf_counter() - self.start
+        rows = _sta_attempts(self.sta)
+        seen = {t for t, _ in self.marks}
+        for fields in _converged(rows):
+            t = float(fields[4])
+            if t not in seen:
+                self.marks.append((t, now))
+        if self.reporter is not None:
             with contextlib.suppress(Exception):  # a display must never stop a solve
-                self.reporter(got)
+                got = progress_of(rows, self.periods)
+                if got is not None:
+                    self.reporter(got)
 
 
 def _wait(proc: subprocess.Popen, timeout: float, should_stop,
@@ -265,15 +260,25 @@ def _wait(proc: subprocess.Popen, timeout: float, should_stop,
                 return Outcome.CANCELLED
 
 
-def _sta_lines(path: Path) -> list[list[str]]:
-    """Rows of converged increments in a ``.sta`` file (failed attempts end in 'U')."""
+def _sta_attempts(path: Path) -> list[list[str]]:
+    """Rows of every increment attempt in a ``.sta`` file, split into fields."""
     rows = []
     with contextlib.suppress(OSError):
         for line in path.read_text(errors="replace").splitlines():
             fields = line.split()
-            if len(fields) >= 7 and fields[0].isdigit() and fields[2].isdigit():
+            if len(fields) >= 7 and fields[0].isdigit():
                 rows.append(fields)
     return rows
+
+
+def _converged(rows: list[list[str]]) -> list[list[str]]:
+    """The converged increments among attempt rows (failed attempts end in 'U')."""
+    return [f for f in rows if f[2].isdigit()]
+
+
+def _sta_lines(path: Path) -> list[list[str]]:
+    """Rows of converged increments in a ``.sta`` file."""
+    return _converged(_sta_attempts(path))
 
 
 def _sta_rows(path: Path) -> list[float]:
@@ -332,7 +337,7 @@ def run_ccx(
     command = (exe, "-i", jobname)
     log = workdir / f"{jobname}.log"
     start = time.perf_counter()
-    progress = _Progress(workdir / f"{jobname}.sta", start, step_periods(deck))
+    progress = _Progress(workdir / f"{jobname}.sta", start, deck)
     with open(log, "wb") as out:
         proc = subprocess.Popen(
             command, cwd=workdir, stdout=out, stderr=subprocess.STDOUT,

@@ -72,3 +72,18 @@ def test_a_real_solve_reports_its_progress_up_to_the_whole_path():
     before = len(seen)
     run_load_path(spec, LoadPath((5.0,), 0.2), SolverSettings())
     assert len(seen) == before
+
+
+@pytest.mark.ccx
+def test_a_display_that_fails_never_stops_the_solve():
+    spec = default_model("full", mesh=MeshDensity(tread=4, sidewall=2, bead=1,
+                                                  circumferential=16))
+    calls = []
+
+    def broken(progress: SolverProgress) -> None:
+        calls.append(progress)
+        raise RuntimeError("a display bug")
+
+    with reporting(broken):
+        result = run_load_path(spec, LoadPath((5.0,), 0.2), SolverSettings())
+    assert calls and result.measurements[0].total_force[2] > 0
