@@ -143,6 +143,5 @@ def dask_setup(scheduler: Any) -> None:
     from distributed.http.utils import get_handlers
 
     app = getattr(scheduler, "http_application", None)
-    if app is not None and not any("farm" in str(r.matcher.regex.pattern)
-                                   for r in app.wildcard_router.rules):
+    if app is not None:  # listed in the routes config as well: tornado serves the first
         app.add_handlers(r".*", get_handlers(scheduler, [__name__]))
