@@ -22,7 +22,6 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 from sklearn.base import BaseEstimator, MultiOutputMixin, RegressorMixin, TransformerMixin
-from sklearn.model_selection import KFold
 from sklearn.utils.validation import check_is_fitted
 
 from analysis.errors import ComponentsError, ParameterError
@@ -30,6 +29,7 @@ from analysis.moments import compute_moments
 from analysis.pcr import PCRegression
 from analysis.pls import SIMPLSRegression
 from analysis.selection import fit_at_most
+from analysis.splits import folds as path_folds
 
 METHODS = {"plsr": SIMPLSRegression, "pcr": PCRegression}
 #: eigenvalues below this fraction of the largest count as zero (rounding)
@@ -184,6 +184,7 @@ def cross_validate(
     x_blocks=None,
     y_blocks=None,
     train_noise: bool = False,
+    groups: np.ndarray | None = None,
 ) -> dict[tuple[str, str], tuple[int, pd.DataFrame]]:
     """Component count with the least k-fold CV error, per method and noise scenario.
 
@@ -194,8 +195,10 @@ def cross_validate(
     sigma per column, per scenario of ``sigmas``; ``None`` or zeros: no noise). The
     error is the mean squared error in block-scaled Y units (each block of Y weighs the
     same: Fx counts as much as Fz), averaged over folds; a tie goes to the smaller
-    count. Folds are shuffled by ``seed``. One fit per fold and method serves every
-    scenario, and (SIMPLS builds its components one after the other) every PLS count.
+    count. Folds are shuffled by ``seed``; with ``groups`` ((K,) load path of each row,
+    :func:`analysis.splits.path_groups`) a fold holds whole load paths (the states of
+    one roll). One fit per fold and method serves every scenario, and (SIMPLS builds its
+    components one after the other) every PLS count.
 
     Returns
     -------
@@ -211,7 +214,9 @@ def cross_validate(
     if top < 1:
         raise ComponentsError(f"{K} experiments in {folds} folds leave no room for one component")
     mse = {(m, sc): np.empty((folds, top)) for m in methods for sc in sigmas}
-    split = KFold(folds, shuffle=True, random_state=seed).split(np.zeros(K))
+    # the states of one roll stay in one fold (issue 45); one experiment per group:
+    # the shuffled KFold of before
+    split = path_folds(np.arange(K) if groups is None else groups, folds, seed)
     for f, (train, test) in enumerate(split):
         clean = _fitted(X[train], Y[train], x_blocks, y_blocks)
         for k, (sc, sigma) in enumerate(sigmas.items()):

@@ -183,6 +183,8 @@ def selection_text(ds: xr.Dataset) -> str:
     parts = [f"store {ds.attrs.get('store', '?')}", f"group {ds.attrs.get('group', '?')!r}"]
     if ds.attrs.get("filters"):
         parts.append(ds.attrs["filters"])
+    if ds.attrs.get("axes") == "road":  # analysis.axes: forces in the road's axes
+        parts.append("forces and moments in the road's axes")
     return ", ".join(parts)
 
 

@@ -30,6 +30,7 @@ from analysis.errors import ParameterError, TooFewExperimentsError
 from analysis.predict.intervals import ConformalIntervals
 from analysis.sensor import InnerSurface, SensorSpec, VirtualSensor
 from analysis.sensor.resample import to_layout
+from analysis.splits import path_groups
 from analysis.studies.combined import split
 from analysis.studies.sensor import (
     TARGETS,
@@ -111,12 +112,13 @@ def fit(ds: xr.Dataset, sensor: SensorSpec, *, learner: str = "plsr", draws: int
                              f"least {1 / K:.3g}")
     surface = InnerSurface.from_dataset(ds)
     virtual = VirtualSensor(sensor, surface)
-    train, test = split(K, test_fraction, seed)
+    train, test = split(ds, test_fraction, seed)  # whole rolls (issue 45)
     U = displacements(ds)
     rng = np.random.default_rng(seed)
     Xf, blocks = measured_features(virtual, virtual.clean(U[train]), draws, rng, inputs)
     reps = Xf.shape[0] // train.size
-    Yf, groups = np.tile(Y[train], (reps, 1)), np.tile(np.arange(train.size), reps)
+    # a fold keeps an experiment's noisy draws, and a roll's states, together
+    Yf, groups = np.tile(Y[train], (reps, 1)), np.tile(path_groups(ds)[train], reps)
     estimator = learners.learner(learner, max_components=max_components, folds=folds,
                                  x_blocks=blocks, y_blocks=[1] * len(TARGETS), seed=seed)
     residuals = _out_of_fold(estimator, Xf, Yf, groups, folds)

@@ -62,6 +62,11 @@ class SolverError(FarmError, RuntimeError):
     where : str
         What the load path was doing at ``reached`` (e.g. "in the slide, 40 % of it"),
         when the caller knows its path's time layout (:meth:`located`).
+    partial : object or None
+        What its load path reached before it stopped (issue 45: a roll that fails keeps
+        the travel it did), as the layer that raised it knows it (:meth:`with_partial`):
+        the rolled states, then the camera's path solution, then the measurements, in
+        the path's order. None where nothing was reached or kept.
     """
 
     def __init__(
@@ -73,12 +78,14 @@ class SolverError(FarmError, RuntimeError):
         hint: str = "",
         reached: float | None = None,
         where: str = "",
+        partial: object | None = None,
     ) -> None:
         self.outcome = outcome
         self.command = list(command)
         self.returncode = returncode
         self.tail = tail
         self.hint, self.reached, self.where = hint, reached, where
+        self.partial = partial
         last = " | ".join(line.strip() for line in tail.strip().splitlines()[-3:] if line.strip())
         msg = f"ccx failed ({outcome}, exit code {returncode}) running {' '.join(command)}"
         if last:
@@ -94,13 +101,19 @@ class SolverError(FarmError, RuntimeError):
     def located(self, where: str) -> SolverError:
         """The same failure, saying what the load path was doing when it stopped."""
         return SolverError(self.outcome, self.command, self.returncode, self.tail, self.hint,
-                           self.reached, where)
+                           self.reached, where, self.partial)
 
     def noting(self, note: str) -> SolverError:
         """The same failure with ``note`` added to its hint (what the caller keeps)."""
         hint = f"{self.hint}. {note}" if self.hint else note
         return SolverError(self.outcome, self.command, self.returncode, self.tail, hint,
-                           self.reached, self.where)
+                           self.reached, self.where, self.partial)
+
+    def with_partial(self, reached: object | None) -> SolverError:
+        """The same failure holding ``reached``: what the path reached, as the caller's
+        layer sees it (:attr:`partial`; None: nothing)."""
+        return SolverError(self.outcome, self.command, self.returncode, self.tail, self.hint,
+                           self.reached, self.where, reached)
 
     def __reduce__(self):  # keep the fields when the error crosses a process boundary
         return (type(self), (self.outcome, self.command, self.returncode, self.tail,

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from farm.ccx.runner import ccx_version
+from farm.errors import SolverError
 from farm.measure.camera import rolling_solution
 from farm.measure.measurement import Measurement, measure
 from farm.measure.patch import PatchMetrics, inflation_growth, patch_metrics, tread_areas
@@ -117,7 +118,14 @@ def run_load_path(model: ModelSpec, path: LoadPath, settings: SolverSettings | N
     path.check_against(model)
     start = time.perf_counter()
     mesh = mesh_for(model)
-    solution = solve_path(model, mesh, path, settings, should_stop)
+    try:
+        solution = solve_path(model, mesh, path, settings, should_stop)
+    except SolverError as e:
+        if not isinstance(e.partial, PathSolution):
+            raise
+        # a roll that stopped (issue 45): the states it reached, measured as any others
+        raise e.with_partial(tuple(measure(mesh, e.partial, path.pressure,
+                                           inflated=model.inflated))) from e
     measurements = measure(mesh, solution, path.pressure, inflated=model.inflated)
     return PathResult(
         model=model, path=path, measurements=tuple(measurements), reference=solution.reference,

@@ -37,6 +37,9 @@ MAX_PRESSURE_MPA = 1.0  # inflation: 1000 kPa, three times a truck tyre's
 MIN_DEFLECTION_MM = 1e-6  # a nanometre: smaller is a rounding error, not a load
 THREADS = (1, 256)  # ccx threads per run
 TIMEOUT_S = (1.0, 7 * 86400.0)  # wall-clock seconds per ccx run: a second to a week
+#: ccx's most iterations in one increment (IC of *CONTROLS, TIME INCREMENTATION, its
+#: default): what ``grow_after`` may be at most
+MAX_ITERATIONS = 16
 MIN_INCREMENT = 1e-12  # smallest min_increment (a fraction of a load ramp)
 MAX_INCREMENTS = 1_000_000
 MAX_THROUGH = 4  # elements through the wall (issue 15 asks for 2+); 4 keeps the 10 mm
@@ -615,8 +618,11 @@ class LoadPath:
     ``motion`` (combined loads, contact road only) adds Coulomb friction and the road's
     tilt to the whole path and, after the last deflection, ramps the road's shift;
     results are produced at each of ``motion_fractions`` (strictly increasing in (0, 1],
-    ending at 1) of that ramp, after those of the deflections. A motion that is no motion
-    (:attr:`RoadMotion.is_identity`) is stored as None: the vertical path itself.
+    ending at 1) of that ramp, after those of the deflections. A rolling motion
+    (issue 45) rolls to its end and keeps its states at ``motion_fractions`` of the
+    roll (any increasing fractions in (0, 1]) instead of the deflection's. A motion
+    that is no motion (:attr:`RoadMotion.is_identity`) is stored as None: the vertical
+    path itself.
     """
 
     deflections: tuple[float, ...]
@@ -655,13 +661,16 @@ class LoadPath:
         object.__setattr__(self, "motion_fractions", f)
         if f == (1.0,):
             return
-        if self.motion is None or not self.motion.moves:
-            raise SpecError(f"motion_fractions {list(f)} need a road shift to divide; "
-                            "leave them at [1.0]")
-        if not (f and all(math.isfinite(v) and 0 < v <= 1 for v in f) and f[-1] == 1.0
+        if self.motion is None or not (self.motion.moves or self.motion.rolls):
+            raise SpecError(f"motion_fractions {list(f)} need a road shift or a roll to "
+                            "divide; leave them at [1.0]")
+        # a roll is always solved to its end; its states may be any of its fractions
+        # (issue 45: those a resumed roll still needs), a shift's end at 1
+        ends = self.motion.rolls or f[-1] == 1.0
+        if not (f and all(math.isfinite(v) and 0 < v <= 1 for v in f) and ends
                 and all(b > a for a, b in itertools.pairwise(f))):
-            raise SpecError("motion_fractions must be strictly increasing in (0, 1] and end "
-                            f"at 1, got {list(f)}")
+            raise SpecError("motion_fractions must be strictly increasing in (0, 1] and, for "
+                            f"a shift, end at 1, got {list(f)}")
 
     def check_against(self, model: ModelSpec) -> None:
         """Reject loads the model cannot take (raises :class:`SpecError`)."""
@@ -720,6 +729,11 @@ class SolverSettings:
     # held for that step's first increment), so that ccx's increments start small again
     # before contact (farm.ccx.deck.Split; docs/combined-loads.md, "First touch").
     split_rise: bool = False
+    # Frictional paths (issue 45): ccx grows an increment only after two in a row that
+    # converged within this many iterations (IG of *CONTROLS, TIME INCREMENTATION; ccx's
+    # default 4). Contact under friction takes 5-9 iterations an increment, so at 4 its
+    # increments never grow after a cutback (docs/rolling.md, "Increments that grow").
+    grow_after: int = 4
 
     def __post_init__(self) -> None:
         low, high = THREADS
@@ -741,6 +755,10 @@ class SolverSettings:
                 and 1 <= self.max_increments <= MAX_INCREMENTS):
             raise SpecError(f"solver.max_increments must be an integer in [1, {MAX_INCREMENTS}], "
                             f"got {self.max_increments!r}")
+        if not (isinstance(self.grow_after, int) and not isinstance(self.grow_after, bool)
+                and 1 <= self.grow_after <= MAX_ITERATIONS):
+            raise SpecError(f"solver.grow_after must be an integer in [1, {MAX_ITERATIONS}] "
+                            f"(iterations; ccx's default 4), got {shown(self.grow_after)}")
         if not isinstance(self.split_rise, bool):
             raise SpecError("solver.split_rise must be true or false, got "
                             f"{shown(self.split_rise)}")

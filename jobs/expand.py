@@ -12,6 +12,7 @@ so Dask never runs the same path twice at once.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -148,14 +149,31 @@ def plan(study: Study, solver: str, held: frozenset[str] = frozenset()) -> list[
         if held and m is None:  # recipe-1 ids exist only for vertical experiments
             ids = resolve_ids(ids, [legacy_experiment_id(study.model, d, p, solver)
                                     for d in found], held)
+        if m is not None and m.rolls:  # one path per roll, its states its experiments
+            paths += [_roll_plan(study, solver, d, p, m) for d in found]
+            continue
         experiments = [Experiment(i, d, p, m) for i, d in zip(ids, found, strict=True)]
-        size = (1 if m is not None and (m.moves or m.rolls)
+        size = (1 if m is not None and m.moves
                 else (study.max_path_length or len(experiments)))
         for k in range(0, len(experiments), size):
             piece = tuple(experiments[k:k + size])
             label = load_label(p, (e.deflection for e in piece), m)
             paths.append(PathPlan(path_key((e.id for e in piece), label), p, piece, m))
     return paths
+
+
+def _roll_plan(study: Study, solver: str, deflection: float, pressure: float,
+               motion: RoadMotion) -> PathPlan:
+    """One roll (issue 45: a roll is a load path): an experiment per state it keeps
+    (``[loads.roll] states``), each labelled by its travel, with the id a roll of that
+    travel from rest has, as a slide's fractions have theirs."""
+    assert study.rolling is not None
+    exps = tuple(Experiment(experiment_id(study.model, deflection, pressure, solver, m),
+                            deflection, pressure, m)
+                 for m in (dataclasses.replace(motion, roll=t)
+                           for t in study.rolling.travels))
+    label = load_label(pressure, (deflection,), motion)
+    return PathPlan(path_key((e.id for e in exps), label), pressure, exps, motion)
 
 
 @dataclass(frozen=True)
@@ -225,10 +243,13 @@ def parameters(exps: list[Experiment], combined: bool = False,
     """The load-case parameters the store keeps per experiment: deflection (mm) and
     pressure (MPa); with ``combined`` (a study with combined-load keys) also friction,
     shift_x (mm), shift_y (mm) and tilt (deg), 0 for a vertical case among them; with
-    ``rolling`` (issue 30) also slip_ratio and slip_angle (deg)."""
+    ``rolling`` (issue 30) also slip_ratio and slip_angle (deg), and ``travel`` (mm, issue
+    45): how far the road had travelled at the state."""
     out = {"deflection": np.array([e.deflection for e in exps]),
            "pressure": np.array([e.pressure for e in exps])}
     names = (*(MOTION_PARAMETERS if combined else ()), *(ROLL_PARAMETERS if rolling else ()))
     for name in names:
         out[name] = np.array([getattr(e.motion, name) if e.motion else 0.0 for e in exps])
+    if rolling:
+        out["travel"] = np.array([e.motion.roll if e.motion else 0.0 for e in exps])
     return out

@@ -66,6 +66,9 @@ class Failed:
     reason: str
     outcome: str = "error"
     transient: bool = False
+    #: the states its load path reached before it stopped (a roll, issue 45), solved
+    #: and measured: the task stores them and records the rest as failed
+    partial: Solved | None = None
 
     @property
     def retry_smaller(self) -> bool:
@@ -112,6 +115,7 @@ def guarded(solve: Callable[[SolverSettings], T], settings: SolverSettings, *,
 
 def _guarded(solve: Callable[[SolverSettings], T], settings: SolverSettings,
              retry: bool) -> T | Failed:
+    tries: list[SolverError] = []
     try:
         start = time.perf_counter()
         try:
@@ -119,15 +123,29 @@ def _guarded(solve: Callable[[SolverSettings], T], settings: SolverSettings,
         except SolverError as e:
             if not (retry and Outcome(e.outcome).retry_smaller):
                 raise
+            tries.append(e)
             failed = time.perf_counter() - start
             return _counting_the_failed_try(solve(smaller_increments(settings)), failed)
     except SolverError as e:
         outcome = Outcome(e.outcome)
         if outcome is Outcome.CANCELLED:
             raise
-        return Failed(str(e), outcome.value, outcome.transient)
+        return Failed(str(e), outcome.value, outcome.transient, _furthest([*tries, e]))
     except FarmError as e:
         return Failed(f"{type(e).__name__}: {e}", type(e).__name__)
+
+
+def _furthest(tries: list[SolverError]) -> Solved | None:
+    """Of the failed tries of a path, the states the one that got furthest reached
+    (:attr:`farm.errors.SolverError.partial`: measurements; issue 45), as a
+    :class:`Solved` whose seconds are the last state's and whose runs count every try;
+    None where no try kept a state."""
+    kept = [e.partial for e in tries if isinstance(e.partial, tuple) and e.partial
+            and all(isinstance(m, Measurement) for m in e.partial)]
+    if not kept:
+        return None
+    best: tuple[Measurement, ...] = max(kept, key=len)
+    return Solved(best, float(best[-1].solve_seconds), ccx_runs=len(tries))
 
 
 def _counting_the_failed_try(result: T, seconds: float) -> T:

@@ -119,17 +119,30 @@ ROLL_PARAMETERS = tuple(name for name, _ in ROLL_KEYS.values())
 CASE_KEYS = {**MOTION_KEYS, **ROLL_KEYS}
 CASE_PARAMETERS = (*MOTION_PARAMETERS, *ROLL_PARAMETERS)
 LOAD_KEYS = {"pressure_kpa", "deflection_mm", "sample", "tree", "rise", "roll", *CASE_KEYS}
-#: [loads.roll]: the road travel of every roll (mm) and the free-rolling radius
-ROLL_DEFAULTS = {"distance_mm": 150.0, "rolling_radius_mm": "free"}
+#: [loads.roll]: the road travel of every roll (mm), the free-rolling radius and how
+#: many states along each roll are stored experiments (issue 45)
+ROLL_DEFAULTS = {"distance_mm": 150.0, "rolling_radius_mm": "free", "states": 1}
+#: The most states one roll may keep (a 2000 mm roll's are then 10 mm apart)
+MAX_ROLL_STATES = 200
 
 
 @dataclass(frozen=True)
 class Rolling:
-    """``[loads.roll]`` of a rolling study: how far every roll goes (mm) and the
-    free-rolling radius (mm; None: found for each experiment)."""
+    """``[loads.roll]`` of a rolling study: how far every roll goes (mm), the
+    free-rolling radius (mm; None: found for each experiment) and ``states``: how many
+    states along each roll are experiments of their own, evenly spaced in travel, the
+    last at the roll's end (issue 45: a roll is a load path; 1 keeps the end alone)."""
 
     distance: float = 150.0
     rolling_radius: float | None = None
+    states: int = 1
+
+    @property
+    def travels(self) -> tuple[float, ...]:
+        """Road travel (mm) of each stored state, increasing, the last ``distance``."""
+        return tuple(round(self.distance * k / self.states, 9)
+                     for k in range(1, self.states + 1))
+
 MAX_KPA = 1000 * MAX_PRESSURE_MPA
 
 
@@ -276,10 +289,11 @@ def _loads(data: Any, model: ModelSpec):
             raise fail("loads.pressure_kpa", "is required for the inflated full model")
         pressures = (0.0,)
     pressures = pressures or ()
-    _check_count(pressures, deflections, sampling, motions=motions)
     given = {name for name, _ in motions} | sampled
     rolling = (_rolling(t.get("roll", {}), given, model)
                if "roll" in t or given & set(ROLL_PARAMETERS) else None)
+    _check_count(pressures, deflections, sampling, motions=motions,
+                 states=rolling.states if rolling else 1)
     return pressures, deflections, sampling, motions, _rise(t, "loads"), rolling
 
 
@@ -303,7 +317,12 @@ def _rolling(data: Any, given: set[str], model: ModelSpec) -> Rolling:
     if radius != "free":
         low, high = ROLLING_RADIUS_MM
         radius = scalars.number(radius, "loads.roll.rolling_radius_mm", low=low, high=high)
-    return Rolling(float(distance), None if radius == "free" else float(radius))
+    states = scalars.integer(t.get("states", ROLL_DEFAULTS["states"]), "loads.roll.states",
+                             low=1, high=MAX_ROLL_STATES)
+    if distance / states < ROLL_MM[0]:
+        raise fail("loads.roll.states", f"{states} states of a {distance:g} mm roll lie "
+                   f"closer than {ROLL_MM[0]:g} mm: keep at most {int(distance // ROLL_MM[0])}")
+    return Rolling(float(distance), None if radius == "free" else float(radius), states)
 
 
 def _rise(t: dict, where: str) -> str:
@@ -312,10 +331,12 @@ def _rise(t: dict, where: str) -> str:
 
 
 def _check_count(pressures: tuple, deflections: tuple, sampling: Sampling | None,
-                 models: ModelsSpec | None = None, motions: tuple = ()) -> None:
+                 models: ModelsSpec | None = None, motions: tuple = (),
+                 states: int = 1) -> None:
     """At most :data:`jobs.validate.limits.EXPERIMENTS` experiments, counted as
     :func:`jobs.expand.load_cases` will make them: the grid, or each design point with
-    every listed value of the loads it does not sample."""
+    every listed value of the loads it does not sample; times the ``states`` each roll
+    keeps."""
     sampled = {name for name, _, _ in sampling.ranges} if sampling else set()
     factors = [(f"a design of {sampling.n} points", sampling.n)] if sampling else []
     factors += [(f"{len(values)} {name}{'s' * (len(values) != 1)}", len(values))
@@ -324,6 +345,8 @@ def _check_count(pressures: tuple, deflections: tuple, sampling: Sampling | None
                 if name not in sampled and values]
     if models is not None:
         factors.insert(0, (f"{models.rows} models ({models.method} design)", models.rows))
+    if states > 1:
+        factors.append((f"{states} states per roll", states))
     count = 1
     for _, n in factors:
         count *= n

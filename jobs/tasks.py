@@ -18,6 +18,7 @@ import dataclasses
 from dataclasses import dataclass
 
 import storage
+from farm.errors import SolverError
 from farm.experiment import run_load_path
 from farm.specs import LoadPath, ModelSpec, SolverSettings
 from jobs.expand import Experiment, PathPlan
@@ -53,27 +54,57 @@ class PathOutcome:
     ccx_runs: int = 0
 
 
-def _guarded_path(task: PathTask, exps: list[Experiment], should_stop, retry: bool):
-    # the path's road motion (combined loads; None: vertical) acts on the whole path
-    path = LoadPath(tuple(e.deflection for e in exps), exps[0].pressure, exps[0].motion)
-    if path.motion is not None and path.motion.moves and len(exps) != 1:
+def load_path(task: PathTask, exps: list[Experiment]) -> LoadPath:
+    """The load path that solves ``exps`` (some or all of ``task.path``'s): its
+    deflections under its road motion (combined loads; None: vertical), which acts on
+    the whole path. A roll (issue 45) is the task's whole roll with every state of it,
+    whichever are still to do (:func:`_kept` picks those): its output times set ccx's
+    increments, so a state's values never depend on which others a run still needs."""
+    motion = exps[0].motion
+    if motion is not None and motion.rolls:
+        states = [e.motion for e in task.path.experiments if e.motion is not None]
+        whole = states[-1]
+        return LoadPath((exps[0].deflection,), exps[0].pressure, whole,
+                        tuple(m.roll / whole.roll for m in states))
+    if motion is not None and motion.moves and len(exps) != 1:
         raise ValueError("a path with a road shift holds one experiment (jobs.expand.plan)")
+    return LoadPath(tuple(e.deflection for e in exps), exps[0].pressure, motion)
+
+
+def _guarded_path(task: PathTask, exps: list[Experiment], should_stop, retry: bool):
+    path = load_path(task, exps)
 
     def solve(settings: SolverSettings) -> Solved:
-        r = run_load_path(task.model, path, settings, should_stop=should_stop)
+        try:
+            r = run_load_path(task.model, path, settings, should_stop=should_stop)
+        except SolverError as e:  # a roll that stopped: the states it reached
+            if isinstance(e.partial, tuple):
+                raise e.with_partial(_kept(task, exps, e.partial)) from e
+            raise
         # With a shift the path's states are its deflections (unshifted) and then the
         # shift's ramp; the experiment is the last state (jobs.expand.plan gives such a
-        # path one deflection). Otherwise one state per deflection.
-        states = r.measurements[-len(exps):]
+        # path one deflection). A roll: one state per state of the task's roll.
+        # Otherwise one state per deflection.
+        states = (_kept(task, exps, r.measurements) if path.motion and path.motion.rolls
+                  else r.measurements[-len(exps):])
         return Solved(states, r.solve_seconds, r.ccx_runs, r.increments)
 
     return guarded(solve, task.settings, retry=retry)
 
 
+def _kept(task: PathTask, exps: list[Experiment], states: tuple) -> tuple:
+    """Of a roll's states (the first of ``task.path``'s, in order), those of ``exps``,
+    up to the first that was not reached."""
+    wanted = {e.id for e in exps}
+    return tuple(m for e, m in zip(task.path.experiments, states, strict=False)
+                 if e.id in wanted)
+
+
 def solve_experiments(task: PathTask, exps: list[Experiment], should_stop) -> PathOutcome:
     """Solve the experiments as one path; split it if it fails for a solver outcome."""
     result = _guarded_path(task, exps, should_stop, task.retry_smaller_increments)
-    if isinstance(result, Failed) and result.retry_smaller and len(exps) > 1:
+    rolls = exps[0].motion is not None and exps[0].motion.rolls  # keeps what it reached
+    if isinstance(result, Failed) and result.retry_smaller and len(exps) > 1 and not rolls:
         # each deflection on its own, with the study's settings and no second retry
         results = [_guarded_path(task, [x], should_stop, False) for x in exps]
         return _combine(task, [write_outcome(task, [x], r) for x, r in zip(exps, results,
@@ -82,6 +113,13 @@ def solve_experiments(task: PathTask, exps: list[Experiment], should_stop) -> Pa
 
 
 def write_outcome(task: PathTask, exps: list[Experiment], result) -> PathOutcome:
+    if isinstance(result, Failed) and result.partial is not None:
+        # a roll that stopped (issue 45): the states it reached are experiments done
+        k = len(result.partial.measurements)
+        done = write_outcome(task, exps[:k], result.partial)
+        rest = write_outcome(task, exps[k:], dataclasses.replace(
+            result, reason=f"{_stopped(exps[k - 1])}: {result.reason}", partial=None))
+        return _combine(task, [done, rest])
     if isinstance(result, Failed):
         for x in exps:
             storage.write_failure(task.store, task.group, x.id, result.reason, {})
@@ -96,6 +134,13 @@ def write_outcome(task: PathTask, exps: list[Experiment], result) -> PathOutcome
             **m.patch_values()})  # contact patch, inflation growth (issue 24)
     return PathOutcome(task.path.key, done=tuple(x.id for x in exps),
                        solve_seconds=result.solve_seconds, ccx_runs=result.ccx_runs)
+
+
+def _stopped(last: Experiment) -> str:
+    """What a roll that stopped kept, for the reason of the states it did not reach."""
+    travel = last.motion.roll if last.motion is not None else float("nan")
+    return (f"partial roll: stopped after the state at {travel:g} mm of travel (stored, "
+            f"{last.id}) and before this one")
 
 
 def _combine(task: PathTask, parts: list[PathOutcome]) -> PathOutcome:

@@ -252,6 +252,10 @@ def _check_known(
     restore: list[tuple[str, np.ndarray, np.ndarray]] = []
     for name, a in values.items():
         stored = read(array(g, name))[slots] if name in g else np.full(len(rows), np.nan)
+        if name in ID_PARAMETERS:
+            # the id fixes it: a slot reserved before the parameter existed keeps NaN
+            # (its checksum's label was made without it), and agrees with any value
+            stored = np.where(np.isnan(stored), a[rows], stored)
         if name in COMBINED_PARAMETERS:
             # a vertical experiment reserved before its group became a combined one has
             # no friction, shift or tilt stored (NaN): it is the case where all are 0
@@ -284,6 +288,12 @@ def _check_known(
             )
     for name, where, value in restore:
         array(g, name).set_coordinate_selection(where, value)
+
+
+#: Parameters that an experiment's id already fixes: a roll's ``travel`` (issue 45) is its
+#: ``RoadMotion.roll``, part of every rolling id. A slot reserved before the parameter
+#: existed keeps NaN there (its checksum was labelled without it) instead of a conflict.
+ID_PARAMETERS = ("travel",)
 
 
 def _signed(g: zarr.Group, ids: list[str], slots: np.ndarray,

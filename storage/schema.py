@@ -143,6 +143,7 @@ KNOWN_PARAMETER_UNITS = {
     "tilt": "deg",
     "slip_ratio": "1",
     "slip_angle": "deg",
+    "travel": "mm",
 }
 #: The combined-load parameters (farm.specs.RoadMotion's fields, store units above):
 #: reserving any of them makes a group a combined one (:data:`COMBINED_VARIABLES`).
@@ -156,6 +157,8 @@ COMBINED_LONG_NAMES = {
     # rolling (issue 30): a combined group whose experiments roll instead of sliding
     "slip_ratio": "longitudinal slip kappa (SAE) of the roll: > 0 drives, < 0 brakes",
     "slip_angle": "slip angle of the roll: between the wheel plane and its travel",
+    # issue 45: every state along a roll is an experiment of its own
+    "travel": "road travel of the roll from rest at this state",
 }
 
 RESULT_VARIABLES = (

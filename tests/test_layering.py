@@ -27,7 +27,9 @@ ALLOWED = {
 # The virtual sensor (analysis.sensor) computes T2Cam's CST strain with the very function
 # that defines the stored ``surface_strain``: a pure-numpy module that imports nothing of
 # the farm (checked below), so the arrow costs analysis no gmsh or solver import.
-SHARED = {"analysis": {"farm.measure.surface", "farm.measure", "farm"}}
+# The road's axes of a tilted road (issue 45: forces as TYDEX reads them) are shared the
+# same way: farm.measure.axes, pure numpy, the one definition for `farm roll` and analysis.
+SHARED = {"analysis": {"farm.measure.surface", "farm.measure.axes", "farm.measure", "farm"}}
 # ``python -m farm`` runs the CLI: a program's entry point, imported by nothing.
 ENTRY_POINTS = {"farm.__main__": {"tyre_farm_cli"}}
 

@@ -116,6 +116,10 @@ Scheduler = Annotated[
     typer.Option(help=ANALYSE_SCHEDULER_HELP, callback=check_scheduler),
 ]
 Json = Annotated[bool, typer.Option("--json", help=JSON_HELP)]
+Axes = Annotated[
+    str, typer.Option("--axes", help="Axes of the forces and moments learned and reported: "
+                      "wheel (the store's) or road (x, y in the road plane, z its normal: "
+                      "TYDEX, ISO 8855; differs where the road is tilted).")]
 
 
 def load_selection(store: str, options: list[str] | None, group: str | None, pressure: float | None,
@@ -383,7 +387,9 @@ def combined(
                      "both (displacement + strain) [default: those the group has]."),
     ] = None,
     test_fraction: Annotated[
-        float, typer.Option(help="Share of the experiments held out for testing (seeded).")
+        float, typer.Option(
+            help="Share of the load paths held out for testing (seeded; a roll's states "
+                 "together).")
     ] = 0.25,
     folds: Annotated[
         int, typer.Option(help="Folds of the CV on the training part that chooses each "
@@ -396,6 +402,7 @@ def combined(
     draws: Annotated[
         int, typer.Option(help="Noise draws per held-out experiment (test set, CV folds).")
     ] = 10,
+    axes: Axes = "wheel",
     scheduler: Scheduler = None,
     storage_option: StorageOption = None,
     as_json: Json = False,
@@ -410,9 +417,10 @@ def combined(
         if max_components < 1:
             raise ParameterError(f"--max-components must be at least 1, got {max_components}")
         _draws_at_least_one(draws)
+        _axes(axes)
     folder = _out(out, "combined")
     with dask_scheduler(scheduler):
-        ds = load_selection(store, storage_option, group, pressure, None)
+        ds = in_axes(load_selection(store, storage_option, group, pressure, None), axes)
         _done(
             _study("combined").run(
                 ds,
@@ -426,6 +434,19 @@ def combined(
             ),
             as_json,
         )
+
+
+def _axes(axes: str) -> str:
+    if axes not in ("wheel", "road"):  # analysis.axes.AXES, not imported before it is used
+        raise ParameterError(f"--axes must be wheel or road, got {axes!r}")
+    return axes
+
+
+def in_axes(ds, axes: str):
+    """:func:`analysis.axes.in_axes` (imported when an analysis runs)."""
+    from analysis.axes import in_axes as turned
+
+    return turned(ds, axes)
 
 
 def _draws_at_least_one(draws: int) -> int:
@@ -465,7 +486,9 @@ def sensor(
                           "(Gaussian process on the PLS scores).")
     ] = "plsr,gp",
     test_fraction: Annotated[
-        float, typer.Option(help="Share of the experiments held out for testing (seeded).")
+        float, typer.Option(
+            help="Share of the load paths held out for testing (seeded; a roll's states "
+                 "together).")
     ] = 0.25,
     folds: Annotated[int, typer.Option(help="Folds of the grouped CV on the training part.")] = 5,
     draws: Annotated[
@@ -473,6 +496,7 @@ def sensor(
     ] = 3,
     seed: Annotated[int, typer.Option(help="Seed of the split, folds and noise.")] = 0,
     max_components: Annotated[int, typer.Option(help="Largest PLS count the CV tries.")] = 10,
+    axes_: Axes = "wheel",
     scheduler: Scheduler = None,
     storage_option: StorageOption = None,
     as_json: Json = False,
@@ -498,9 +522,10 @@ def sensor(
         if folds < 2:
             raise ParameterError(f"--folds must be at least 2, got {folds}")
         _draws_at_least_one(draws)
+        _axes(axes_)
     folder = _out(out, "sensor")
     with dask_scheduler(scheduler):
-        ds = load_selection(store, storage_option, group, pressure, None)
+        ds = in_axes(load_selection(store, storage_option, group, pressure, None), axes_)
         _done(_study("sensor").run(ds, folder, sensor=spec, learner_names=names,
                                    test_fraction=test_fraction, folds=folds, draws=draws,
                                    max_components=max_components, seed=seed, **axes),

@@ -19,6 +19,7 @@ from rich.table import Table
 from farm.ccx.progress import SolverProgress, reporting
 from farm.ccx.runner import find_ccx
 from farm.errors import SpecError
+from farm.measure.axes import in_road_axes
 from farm.mesh import mesh_for
 from farm.presets import describe_model, mesh_name
 from farm.solve.rolling import RolledState, free_rolling_radius, inflated_radius, solve_roll
@@ -121,9 +122,13 @@ def _checked(spec, kpa: float, deflection: float, samples: int, threads: int,
     return SolverSettings(threads=threads, timeout=timeout), fixed
 
 
-def _row(s: RolledState) -> dict:
+def _row(s: RolledState, tilt: float = 0.0) -> dict:
+    """One state: forces and moments in the wheel's axes and, beside them, the road's
+    (:mod:`farm.measure.axes`; the same where the road is not tilted)."""
     return {"travel_mm": s.travelled, "spin_deg": math.degrees(s.spin),
             "force_n": s.force.tolist(), "moment_nm": (s.moment / 1e3).tolist(),
+            "force_road_axes_n": in_road_axes(s.force, tilt).tolist(),
+            "moment_road_axes_nm": (in_road_axes(s.moment, tilt) / 1e3).tolist(),
             "stick_nodes": int((s.contact_status == 1).sum()),
             "slip_nodes": int((s.contact_status == 2).sum())}
 
@@ -131,7 +136,7 @@ def _row(s: RolledState) -> dict:
 def _document(spec, kpa, deflection, motion: Roll, states, radius0, found) -> dict:
     return {"model": spec.to_dict(), "pressure_kpa": kpa, "deflection_mm": deflection,
             "roll": dataclasses.asdict(motion), "inflated_radius_mm": radius0,
-            "free_rolling": found, "states": [_row(s) for s in states]}
+            "free_rolling": found, "states": [_row(s, motion.tilt) for s in states]}
 
 
 def _print(motion: Roll, kpa, deflection, states, radius0, found) -> None:
@@ -139,11 +144,16 @@ def _print(motion: Roll, kpa, deflection, states, radius0, found) -> None:
              f"{motion.friction:g}, kappa {motion.slip_ratio:g}, slip angle "
              f"{motion.slip_angle:g} deg, tilt {motion.tilt:g} deg")
     table = Table(title=title)
+    # a tilted road: the road's axes (TYDEX, ISO 8855) beside the wheel's
+    road = ("Fy road N", "Fz road N", "Mz road N m") if motion.tilt else ()
     cols = ("travel mm", "spin deg", "Fx N", "Fy N", "Fz N", "Mx N m", "My N m", "Mz N m",
-            "stick", "slip")
+            *road, "stick", "slip")
     rows = [(f"{r['travel_mm']:.1f}", f"{r['spin_deg']:.2f}",
              *(f"{v:.1f}" for v in r["force_n"]), *(f"{v:.2f}" for v in r["moment_nm"]),
-             str(r["stick_nodes"]), str(r["slip_nodes"])) for r in map(_row, states)]
+             *((f"{r['force_road_axes_n'][1]:.1f}", f"{r['force_road_axes_n'][2]:.1f}",
+                f"{r['moment_road_axes_nm'][2]:.2f}") if road else ()),
+             str(r["stick_nodes"]), str(r["slip_nodes"]))
+            for r in (_row(s, motion.tilt) for s in states)]
     for i, col in enumerate(cols):
         table.add_column(col, justify="right", min_width=max(len(r[i]) for r in rows))
     for row in rows:
@@ -151,5 +161,7 @@ def _print(motion: Roll, kpa, deflection, states, radius0, found) -> None:
     table.caption = (f"r_e {motion.rolling_radius:.2f} mm"
                      + (f" (free rolling, {len(found['tried'])} rolls)" if found else "")
                      + f"; inflated radius {radius0:.2f} mm, loaded {radius0 - deflection:.2f}"
-                     " mm; forces of the road on the tyre, moments about the contact centre")
+                     " mm; forces of the road on the tyre, moments about the contact centre"
+                     + ("; wheel axes, and the road's (x, y in its plane, z its normal)"
+                        if road else ""))
     Console().print(table, crop=False)

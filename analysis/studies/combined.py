@@ -47,6 +47,7 @@ from analysis.errors import (
     TooFewExperimentsError,
 )
 from analysis.render import markdown, plots
+from analysis.splits import grouped_split, path_groups
 from analysis.studies.common import Report
 
 #: load parameters of a combined-load group (docs/combined-loads.md, RoadMotion.to_dict)
@@ -100,13 +101,11 @@ def check_combined(ds: xr.Dataset) -> list[str]:
     return varying
 
 
-def split(n: int, test_fraction: float, seed: int) -> tuple[np.ndarray, np.ndarray]:
-    """Seeded random (train, test) positions; the test set holds round(n x fraction) >= 1."""
-    if not 0.0 < test_fraction < 1.0:
-        raise ParameterError(f"test fraction must be in (0, 1), got {test_fraction!r}")
-    perm = np.random.default_rng(seed).permutation(n)
-    n_test = min(max(1, round(n * test_fraction)), n - 1)
-    return np.sort(perm[n_test:]), np.sort(perm[:n_test])
+def split(ds: xr.Dataset, test_fraction: float, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """Seeded random (train, test) positions of ``ds``'s experiments that hold out whole
+    load paths (:func:`analysis.splits.grouped_split`: the states of one roll together;
+    every other experiment alone, as before): round(paths x fraction) >= 1 of them."""
+    return grouped_split(path_groups(ds), test_fraction, seed)
 
 
 def field_matrix(ds: xr.Dataset, var: str) -> np.ndarray:
@@ -160,7 +159,7 @@ def run(
     sets = _input_sets(ds, inputs)
     targets = _targets(ds)
     setup = _Setup(train, test, folds, max_components, draws, seed, methods,
-                   targets["nodal"][0].shape[1] // 3)
+                   targets["nodal"][0].shape[1] // 3, path_groups(ds))
     tread = data.tread_index(ds)
     report.csv("pca", _pca_table(ds, sets, varying))
     results = _Results()
@@ -186,6 +185,7 @@ class _Setup:
     seed: int
     methods: Sequence[str]
     tread_nodes: int  # M: the nodal map's columns are Fx, Fy, Fz of M nodes each
+    groups: np.ndarray | None = None  # (K,) load path of each experiment (analysis.splits)
 
 
 @dataclass
@@ -227,7 +227,7 @@ def _checked_split(ds: xr.Dataset, test_fraction: float, folds: int,
                    seed: int) -> tuple[np.ndarray, np.ndarray]:
     """:func:`split`, refused when the training part is too small for ``folds``-fold CV."""
     K = ds.sizes["experiment"]
-    train, test = split(K, test_fraction, seed)
+    train, test = split(ds, test_fraction, seed)
     need = max(folds, 3)
     if train.size < need or train.size - int(np.ceil(train.size / folds)) - 1 < 1:
         raise TooFewExperimentsError(
@@ -293,10 +293,11 @@ def _study_input_set(ds: xr.Dataset, name: str, targets: dict, setup: _Setup,
 def _choose_counts(X, Y, sigmas: dict, x_blocks, y_blocks, setup: _Setup) -> dict:
     """(training, method, scenario) -> (chosen count, CV table): trained noise-free, and
     again on the same noise in training (issue 25: as measured data have it)."""
+    train = setup.train
     cv_args = dict(methods=setup.methods, folds=setup.folds,
                    max_components=setup.max_components, draws=setup.draws, seed=setup.seed,
-                   x_blocks=x_blocks, y_blocks=y_blocks)
-    train = setup.train
+                   x_blocks=x_blocks, y_blocks=y_blocks,
+                   groups=None if setup.groups is None else setup.groups[train])
     chosen = {("noise-free", *k): v for k, v in cross_validate(
         X[train], Y[train], sigmas=sigmas, **cv_args).items()}
     noisy_sigmas = {s: v for s, v in sigmas.items() if np.any(v > 0)}

@@ -32,6 +32,7 @@ from analysis.errors import MissingVariableError, ParameterError, TooFewExperime
 from analysis.render import markdown, plots
 from analysis.sensor import InnerSurface, SensorSpec, VirtualSensor
 from analysis.sensor.spec import NOISE_FIELDS
+from analysis.splits import path_groups
 from analysis.studies.combined import TOTALS, check_combined, split, totals
 from analysis.studies.common import Report
 
@@ -58,6 +59,7 @@ class Setup:
     folds: int
     max_components: int
     seed: int
+    groups: np.ndarray  # (K,) load path of each experiment (analysis.splits.path_groups)
 
 
 def targets(ds: xr.Dataset) -> np.ndarray:
@@ -111,9 +113,9 @@ def run(
         raise ParameterError(f"draws must be at least 1, got {draws}")
     for name in learner_names:
         learners.learner(name)  # unknown names fail here, before any work
-    train, test = split(K, test_fraction, seed)
+    train, test = split(ds, test_fraction, seed)  # whole rolls (issue 45)
     setup = Setup(train, test, tuple(learner_names), tuple(inputs), draws, folds,
-                  max_components, seed)
+                  max_components, seed, path_groups(ds))
     surface = InnerSurface.from_dataset(ds)
     U = displacements(ds)
     report = Report(Path(out))
@@ -146,7 +148,8 @@ def _one_sensor(virtual: VirtualSensor, U: np.ndarray, Y: np.ndarray, setup: Set
     rows = []
     for training, n in trainings.items():
         Xf, _ = measured_features(virtual, clean[setup.train], n, rng, setup.inputs)
-        groups = np.tile(np.arange(setup.train.size), max(n, 1))
+        # a CV fold keeps an experiment's noisy draws, and a roll's states, together
+        groups = np.tile(setup.groups[setup.train], max(n, 1))
         Yf = np.tile(Y[setup.train], (max(n, 1), 1))
         for name in setup.learners:
             model = learners.learner(name, max_components=setup.max_components,

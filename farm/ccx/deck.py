@@ -421,11 +421,12 @@ def static_step_lines(period: float, settings: SolverSettings,
 FRICTION_CUTBACKS = 10
 
 
-def friction_controls_lines() -> list[str]:
+def friction_controls_lines(grow_after: int = 4) -> list[str]:
     """Step option: ccx's default time incrementation controls (I0, IR, IP, IC, IL, IG,
-    IS, IA = 4, 8, 9, 16, 10, 4, -, 5) with IA raised to :data:`FRICTION_CUTBACKS`."""
+    IS, IA = 4, 8, 9, 16, 10, 4, -, 5) with IA raised to :data:`FRICTION_CUTBACKS` and IG
+    set to ``grow_after`` (:attr:`farm.specs.SolverSettings.grow_after`)."""
     return ["*CONTROLS, PARAMETERS=TIME INCREMENTATION",
-            f"4, 8, 9, 16, 10, 4, , {FRICTION_CUTBACKS}"]
+            f"4, 8, 9, 16, 10, {grow_after}, , {FRICTION_CUTBACKS}"]
 
 
 #: ccx's field convergence controls R_n and C_n (residual force over the average force,

@@ -357,7 +357,13 @@ def run_ccx(
     run = CcxRun(command, workdir, jobname, returncode, seconds, outcome, tail,
                  increments, cutbacks, tuple(progress.marks))
     if check and outcome is not Outcome.CONVERGED:
-        reached = _sta_rows(workdir / f"{jobname}.sta")
-        raise SolverError(outcome.value, list(command), returncode, tail, HINTS.get(outcome, ""),
-                          reached[-1] if reached else 0.0)
+        raise failure(run)
     return run
+
+
+def failure(run: CcxRun) -> SolverError:
+    """The :class:`SolverError` of a run that did not converge (``run_ccx(check=True)``
+    raises it), with the step time of its last converged increment."""
+    reached = _sta_rows(run.file("sta"))
+    return SolverError(run.outcome.value, list(run.command), run.returncode, run.output_tail,
+                       HINTS.get(run.outcome, ""), reached[-1] if reached else 0.0)

@@ -17,12 +17,13 @@ from collections.abc import Callable
 
 import numpy as np
 
+from farm.errors import SolverError
 from farm.measure.patch import tread_areas
 from farm.mesh.tyremesh import TyreMesh
 from farm.solve.rolling import (
     RolledState,
     on_grid,
-    roll_to_end,
+    roll_path,
     turn_matrix,
     turned_strain,
 )
@@ -91,11 +92,29 @@ def camera_state(rolled: RolledState, mesh: TyreMesh) -> SolvedState:
 def rolling_solution(spec: ModelSpec, mesh: TyreMesh, path: LoadPath,
                      settings: SolverSettings,
                      should_stop: Callable[[], bool] | None = None) -> PathSolution:
-    """A rolling experiment (``path.motion.rolls``) as a load path of one state: the end
-    of the roll (:func:`farm.solve.rolling.roll_to_end`) read by the camera
-    (:func:`camera_state`), with the path's motion; seconds and ccx runs include a
-    free-radius search."""
-    end, seconds, runs, increments = roll_to_end(spec, mesh, path, settings, should_stop)
-    seen = dataclasses.replace(camera_state(end, mesh), motion=path.motion,
-                               solve_seconds=seconds)
-    return PathSolution(end.reference, (seen,), seconds, runs, increments)
+    """A rolling path (``path.motion.rolls``): one state per fraction of the roll
+    (``path.motion_fractions``; the end alone by default) from
+    :func:`farm.solve.rolling.roll_path`, each read by the camera (:func:`camera_state`)
+    and carrying its own motion, a roll of its travel (issue 45: a state is labelled by
+    how far the road had travelled); seconds and ccx runs include a free-radius search.
+    A roll that stops raises its :class:`~farm.errors.SolverError` with the states it
+    reached read the same way, as a path solution (``partial``)."""
+    assert path.motion is not None
+    try:
+        rolled, seconds, runs, increments = roll_path(spec, mesh, path, settings, should_stop)
+    except SolverError as e:
+        if not isinstance(e.partial, tuple):
+            raise
+        reached: tuple[RolledState, ...] = e.partial  # before it stopped: a solution of those
+        raise e.with_partial(PathSolution(
+            reached[0].reference, tuple(_seen(s, mesh, path) for s in reached),
+            max(s.solved.solve_seconds for s in reached), 1, 0)) from e
+    states = tuple(_seen(s, mesh, path) for s in rolled)
+    return PathSolution(rolled[0].reference, states, seconds, runs, increments)
+
+
+def _seen(rolled: RolledState, mesh: TyreMesh, path: LoadPath) -> SolvedState:
+    """A rolled state as the camera sees it, with the motion of a roll of its travel."""
+    assert path.motion is not None
+    motion = dataclasses.replace(path.motion, roll=path.motion.roll * rolled.fraction)
+    return dataclasses.replace(camera_state(rolled, mesh), motion=motion)

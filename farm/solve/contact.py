@@ -28,7 +28,8 @@ import numpy as np
 
 from farm.ccx import deck as D
 from farm.ccx.frd import FrdFile, read_frd
-from farm.ccx.runner import CcxRun, ccx_version, run_ccx, scratch_dir
+from farm.ccx.outcome import Outcome
+from farm.ccx.runner import CcxRun, ccx_version, failure, run_ccx, scratch_dir
 from farm.errors import ResultsError, SolverError
 from farm.mesh.tyremesh import HEX_FACES, REGIONS, TyreMesh
 from farm.solve.entries import read_entry, write_entry
@@ -57,6 +58,28 @@ def run_deck(deck: str, settings: SolverSettings, should_stop,
         run = run_ccx(deck, workdir, jobname=jobname, threads=settings.threads,
                       timeout=settings.timeout, should_stop=should_stop)
         return run, read_frd(run.file("frd"))
+
+
+def run_deck_keeping(deck: str, settings: SolverSettings, should_stop, jobname: str,
+                     ) -> tuple[CcxRun, FrdFile | None, SolverError | None]:
+    """:func:`run_deck` for a path that keeps what it reached when it stops (a roll,
+    issue 45): (run, frd, None) when it converged; (run, the ``.frd`` as far as ccx
+    wrote it or None where nothing can be read, the error) when it did not. A
+    cancellation still raises: there is nothing to keep for a job being stopped."""
+    with scratch_dir(keep=settings.keep_scratch, prefix=f"{jobname}-") as workdir:
+        run = run_ccx(deck, workdir, jobname=jobname, threads=settings.threads,
+                      timeout=settings.timeout, should_stop=should_stop, check=False)
+        if run.outcome is Outcome.CONVERGED:
+            return run, read_frd(run.file("frd")), None
+        error = failure(run)
+        if run.outcome is Outcome.CANCELLED:
+            raise error
+        try:
+            # a diverged run's last output (its residuals) is set apart by the reader
+            frd: FrdFile | None = read_frd(run.file("frd"), allow_truncated=True)
+        except ResultsError:
+            frd = None
+        return run, frd, error
 
 
 def inflate(spec: ModelSpec, mesh: TyreMesh, pressure: float, settings: SolverSettings,
@@ -219,7 +242,7 @@ def _combined_deck(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: So
     lam = motion.stick_slope if motion.stick_slope is not None else D.stick_slope(spec.contact)
     out_times = ([1.0] if spec.inflated else []) + times
     period = t0 + (2.0 if motion.moves else 1.0)
-    controls = D.friction_controls_lines() if motion.friction > 0 else []
+    controls = D.friction_controls_lines(settings.grow_after) if motion.friction > 0 else []
     outputs = D.output_lines(time_points=True, contact=True)
     rest: list[str] = []
     if split is not None:  # loads, boundaries and amplitudes carry over into the new step

@@ -41,7 +41,7 @@ from farm.mesh.tyremesh import TyreMesh
 from farm.solve.contact import (
     TILT_TIME,
     combined_state,
-    run_deck,
+    run_deck_keeping,
     slave_faces,
     tilted_gap,
     touch_height,
@@ -162,7 +162,7 @@ def roll_deck(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: floa
         amplitudes, rim_amplitudes, D.time_points_lines(sorted({1.0, 2.0, *times})),
         D.measured_set_lines((*D.written_sets(mesh), "ROAD")),
         D.static_step_lines(2.0 + duration, _capped(settings, roll)),
-        D.friction_controls_lines() if roll.friction > 0 else [],
+        D.friction_controls_lines(settings.grow_after) if roll.friction > 0 else [],
         rim, boundary, D.cavity_pressure_lines(mesh, pressure, "INFLATE"),
         D.output_lines(time_points=True, contact=True), ["*END STEP"],
     )
@@ -314,6 +314,8 @@ def solve_roll(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: flo
 def _roll_run(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: float,
               roll: Roll, settings: SolverSettings, fractions: Sequence[float],
               should_stop: Callable[[], bool] | None) -> tuple[CcxRun, list[RolledState]]:
+    """Solve the roll; its states at ``fractions``. A roll that stops raises its
+    :class:`SolverError` holding the states it reached (``partial``, issue 45)."""
     if not spec.inflated or spec.road != "contact":
         raise SpecError("rolling needs the inflated full model with the contact road "
                         "(model kind 'full', road 'contact')")
@@ -323,34 +325,57 @@ def _roll_run(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: floa
     solved = turned_mesh(mesh, start)
     deck, times, road, z_start = roll_deck(spec, solved, deflection, pressure, roll,
                                            settings, touch_z, fractions)
-    try:
-        run, frd = run_deck(deck, settings, should_stop, "roll")
-    except SolverError as e:
-        raise (e.located(_stage(e.reached, deflection, roll)) if e.reached is not None
-               else e) from e
+    run, frd, error = run_deck_keeping(deck, settings, should_stop, "roll")
     # the contact centre: under the wheel centre, on the road plane at the deflection
     centre_z = z_start + tilted_gap(spec, roll.tilt) + deflection
     faces = slave_faces(mesh)
     motion = RoadMotion(friction=roll.friction, tilt=roll.tilt, rise="normal")
     still = RoadMotion(friction=roll.friction)
-    reference = combined_state(frd, solved, faces, road, 1.0, 0.0, np.nan, still)
-    return run, [_rolled(combined_state(frd, solved, faces, road, t, deflection, centre_z,
-                                         motion, run.seconds_to(t)), reference, mesh, roll,
-                         f, start)
-                 for t, f in zip(times, fractions, strict=True)]
+
+    def states(at: Sequence[tuple[float, float]]) -> list[RolledState]:
+        assert frd is not None
+        reference = combined_state(frd, solved, faces, road, 1.0, 0.0, np.nan, still)
+        return [_rolled(combined_state(frd, solved, faces, road, t, deflection, centre_z,
+                                       motion, run.seconds_to(t)), reference, mesh, roll,
+                        f, start)
+                for t, f in at]
+
+    if error is None:
+        return run, states(list(zip(times, fractions, strict=True)))
+    if error.reached is not None:
+        error = error.located(_stage(error.reached, deflection, roll))
+    raise error.with_partial(tuple(_reached(states, times, fractions, frd, error)) or None)
 
 
-def roll_to_end(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: SolverSettings,
+def _reached(states: Callable[[Sequence[tuple[float, float]]], list[RolledState]],
+             times: Sequence[float], fractions: Sequence[float], frd: object,
+             error: SolverError) -> list[RolledState]:
+    """The states a stopped roll converged at before it stopped, in order; none where
+    its ``.frd`` cannot be read or lacks them (the roll then keeps nothing)."""
+    reached = error.reached or 0.0
+    at = [(t, f) for t, f in zip(times, fractions, strict=True) if t <= reached + 1e-9]
+    if frd is None or not at:
+        return []
+    try:
+        return states(at)
+    except ResultsError:
+        return []
+
+
+def roll_path(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: SolverSettings,
                 should_stop: Callable[[], bool] | None = None,
-                ) -> tuple[RolledState, float, int, int]:
-    """A rolling experiment (``path.motion.rolls``): its state at the roll's end, and the
-    solver seconds, ccx runs and increments it took.
+                ) -> tuple[list[RolledState], float, int, int]:
+    """A rolling path (``path.motion.rolls``): its states at ``path.motion_fractions``
+    of the roll (the roll's end alone by default; issue 45: every state a study keeps),
+    and the solver seconds, ccx runs and increments it took. The roll always goes to its
+    end: a state's values do not depend on which others are kept.
 
     A free rolling radius (``motion.rolling_radius`` None) is found first
     (:func:`cached_free_radius`: a few rolls of :func:`free_roll_mm` at kappa = 0, or
     none when another experiment found it); the seconds and runs count those rolls too.
     The experiment's own roll is always a run of its own, even where a search roll had
-    the same distance and slip. The camera's view of the state is
+    the same distance and slip. A roll that stops raises its :class:`SolverError` with
+    the states it reached (``partial``). The camera's view of the states is
     :func:`farm.measure.camera.rolling_solution`'s.
     """
     motion = path.motion
@@ -368,18 +393,30 @@ def roll_to_end(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: Solve
         spent, runs = sum(t.seconds for t in tried), len(tried)
         increments = sum(t.increments for t in tried)
     try:
-        run, [end] = _roll_run(spec, mesh, deflection, path.pressure, motion.as_roll(radius),
-                               settings, (1.0,), should_stop)
+        run, states = _roll_run(spec, mesh, deflection, path.pressure,
+                                motion.as_roll(radius), settings, path.motion_fractions,
+                                should_stop)
     except SolverError as e:
+        if isinstance(e.partial, tuple):  # the rolled states it reached
+            e = e.with_partial(tuple(_after(s, spent) for s in e.partial))
         if motion.rolling_radius is not None:
-            raise
+            raise e from None
         # what the search found is kept (and cached: a retry rolls at once)
         raise e.noting(f"The free-rolling radius found before the roll: {radius:.3f} mm "
                        f"({runs} rolls, {spent:.0f} s; 0 rolls: cached)") from e
-    return end, spent + run.seconds, runs + 1, increments + run.increments
+    return ([_after(s, spent) for s in states], spent + run.seconds, runs + 1,
+            increments + run.increments)
 
 
-#: Road travel (mm) of the rolls that look for a free-rolling radius (roll_to_end): at
+def _after(state: RolledState, seconds: float) -> RolledState:
+    """``state`` with ``seconds`` (a free-radius search's) added to what reaching it
+    cost: a state's ``solve_seconds`` is the solver time its experiment took."""
+    solved = dataclasses.replace(state.solved,
+                                 solve_seconds=seconds + state.solved.solve_seconds)
+    return dataclasses.replace(state, solved=solved)
+
+
+#: Road travel (mm) of the rolls that look for a free-rolling radius (roll_path): at
 #: least one element pitch of the coarse meshes (158 mm at 16 round) past their roll-in.
 FREE_ROLL_MM = 400.0
 

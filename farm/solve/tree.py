@@ -123,8 +123,8 @@ def _pressure_lines(spec: ModelSpec, mesh: TyreMesh, pressure: float) -> list[st
     return D.cavity_pressure_lines(mesh, pressure, None) if spec.inflated else []
 
 
-def _controls(motion: RoadMotion) -> list[str]:
-    return D.friction_controls_lines() if motion.friction > 0 else []
+def _controls(motion: RoadMotion, settings: SolverSettings) -> list[str]:
+    return D.friction_controls_lines(settings.grow_after) if motion.friction > 0 else []
 
 
 def trunk_deck(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: SolverSettings,
@@ -142,7 +142,8 @@ def trunk_deck(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: Solver
     road = road_of(spec, mesh, z_start)
     steps: list[str] = []
     for k, (before, d) in enumerate(itertools.pairwise(path.deflections)):
-        steps += [*D.static_step_lines(1.0, settings, first=D.STEP_DWELL), *_controls(motion),
+        steps += [*D.static_step_lines(1.0, settings, first=D.STEP_DWELL),
+                  *_controls(motion, settings),
                   *D.road_step_lines(road, (gap + before, (0.0, 0.0)), (gap + d, (0.0, 0.0)),
                                      motion.tilt, motion.rise, f"RISE{k + 2}"),
                   *_pressure_lines(spec, mesh, path.pressure),
@@ -354,7 +355,7 @@ def branch_deck(spec: ModelSpec, mesh: TyreMesh, trunk: Trunk, level: int,
     d = trunk.path.deflections[level]
     return "\n".join([
         *D.restart_lines(read=True, write=False),
-        *D.static_step_lines(1.0, settings, first=D.STEP_DWELL), *_controls(motion),
+        *D.static_step_lines(1.0, settings, first=D.STEP_DWELL), *_controls(motion, settings),
         *D.road_step_lines(road, (gap + d, (0.0, 0.0)), (gap + d, shift), motion.tilt,
                            motion.rise, "SLIDE"),
         *_pressure_lines(spec, mesh, trunk.path.pressure),

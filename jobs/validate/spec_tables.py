@@ -20,7 +20,8 @@ from jobs.validate.limits import MESH_NODES
 from jobs.validate.scalars import boolean, integer, number, table
 
 SOLVER_KEYS = {"timeout_s", "threads", "initial_increment", "min_increment", "max_increment",
-               "max_increments", "max_path_length", "retry_smaller_increments", "split_rise"}
+               "max_increments", "max_path_length", "retry_smaller_increments", "split_rise",
+               "grow_after"}
 
 
 def model(data: Any, where: str = "model") -> ModelSpec:
@@ -69,7 +70,7 @@ def solver(data: Any, where: str = "solver") -> SolverTable:
     if "timeout_s" in t:
         kwargs["timeout"] = number(t["timeout_s"], f"{where}.timeout_s", low=TIMEOUT_S[0],
                                    high=TIMEOUT_S[1])
-    for k in ("threads", "max_increments"):
+    for k in ("threads", "max_increments", "grow_after"):
         if k in t:
             kwargs[k] = integer(t[k], f"{where}.{k}", low=1)
     for k in ("initial_increment", "min_increment", "max_increment"):

@@ -8,6 +8,8 @@ import pytest
 from analysis import data
 from analysis.combined import BlockRegression, BlockScaler, cross_validate, latent_count
 from analysis.errors import NoVarianceError, ParameterError, TooFewExperimentsError
+from analysis.splits import folds as path_folds
+from analysis.splits import grouped_split, path_groups
 from analysis.studies import combined
 from tests.synthetic import make_combined_store, make_store
 
@@ -148,7 +150,7 @@ def test_linear_forces_are_recovered_exactly(tmp_path):
     lin = data.load(tmp_path / "lin.zarr")
     X = np.asarray(data.inputs(lin, "displacement").compute())
     Y = np.asarray(lin["total_force"].values)
-    train, test = combined.split(30, 0.25, 0)
+    train, test = combined.split(lin, 0.25, 0)
     model = BlockRegression("plsr", 4, None, [1, 1, 1]).fit(X[train], Y[train])
     err = np.abs(model.predict(X[test]) - Y[test])
     assert err[:, :2].max() < 1e-6 * np.abs(Y[:, :2]).max()  # Fx, Fy: exactly linear
@@ -158,12 +160,44 @@ def test_linear_forces_are_recovered_exactly(tmp_path):
 
 
 def test_split_is_seeded_and_disjoint():
-    tr, te = combined.split(20, 0.25, 3)
+    singles = np.arange(20)
+    tr, te = grouped_split(singles, 0.25, 3)
     assert len(te) == 5 and len(tr) == 15 and not set(tr) & set(te)
-    assert np.array_equal(te, combined.split(20, 0.25, 3)[1])
-    assert not np.array_equal(te, combined.split(20, 0.25, 4)[1])
+    assert np.array_equal(te, grouped_split(singles, 0.25, 3)[1])
+    assert not np.array_equal(te, grouped_split(singles, 0.25, 4)[1])
+    # one experiment per path: the experiment split of before, to the index
+    perm = np.random.default_rng(3).permutation(20)
+    assert np.array_equal(te, np.sort(perm[:5])) and np.array_equal(tr, np.sort(perm[5:]))
     with pytest.raises(ParameterError):
-        combined.split(20, 1.0, 0)
+        grouped_split(singles, 1.0, 0)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_a_split_or_a_fold_never_splits_a_roll(seed):
+    """Issue 45: the states of one roll (one group) are held out, or folded, whole."""
+    groups = np.repeat(np.arange(12), 4)  # 12 rolls of 4 states each
+    tr, te = grouped_split(groups, 0.25, seed)
+    assert len(te) == 12 and not set(groups[tr]) & set(groups[te])
+    assert sorted([*tr, *te]) == list(range(48))
+    for train, test in path_folds(groups[tr], 3, seed):
+        assert not set(groups[tr][train]) & set(groups[tr][test])
+    with pytest.raises(ParameterError, match="load paths"):
+        path_folds(groups[:8], 3, seed)  # two rolls cannot make three folds
+
+
+def test_the_states_of_one_roll_are_one_load_path():
+    """path_groups: experiments differing in travel alone share a group; without a
+    travel parameter every experiment is its own."""
+    import xarray as xr
+
+    def ds(**params):
+        return xr.Dataset(coords={k: ("experiment", np.asarray(v, dtype=float))
+                                  for k, v in params.items()})
+
+    rolls = ds(deflection=[15] * 6, pressure=[0.2] * 6,
+               slip_angle=[2, 2, 2, -2, -2, 0], travel=[50, 100, 150, 50, 100, 150])
+    assert path_groups(rolls).tolist() == [0, 0, 0, 1, 1, 2]
+    assert path_groups(ds(deflection=[10, 10, 20], pressure=[0.2] * 3)).tolist() == [0, 1, 2]
 
 
 def test_vertical_only_group_is_refused_in_one_line(tmp_path):

@@ -87,6 +87,9 @@ def test_friction_deck_has_the_coulomb_card_and_a_motion_ramp():
     assert "*TIME POINTS, NAME=OUT\n1\n2\n2.5\n3\n" in deck
     assert "\n0.25, 3, 1e-05, 0.5\n*CONTROLS, PARAMETERS=TIME INCREMENTATION\n" \
         f"4, 8, 9, 16, 10, 4, , {D.FRICTION_CUTBACKS}\n" in deck  # more cutbacks, in the step
+    growing = path_deck(COARSE, mesh, _path(RoadMotion(0.5, 0, 10.0, 0), (0.5, 1.0)),
+                        dataclasses.replace(SETTINGS, grow_after=10), -400.0)[0]
+    assert f"4, 8, 9, 16, 10, 10, , {D.FRICTION_CUTBACKS}\n" in growing  # IG (issue 45)
     frictionless = path_deck(COARSE, mesh, _path(RoadMotion(0.0, 0, 10.0, 0)), SETTINGS,
                              -400.0)[0]
     assert "*CONTROLS" not in frictionless and "ROAD_MOVE" in frictionless

@@ -371,13 +371,13 @@ def test_a_failed_roll_keeps_its_free_rolling_radius(monkeypatch, tmp_path, coar
                                                         slip_ratio=0.01))
     for tries, note in ((1, "403.500 mm (3 rolls, 90 s"), (1, "403.500 mm (0 rolls")):
         with pytest.raises(SolverError, match="increment_below_minimum") as failed:
-            rolling.roll_to_end(spec, mesh, path, SolverSettings())
+            rolling.roll_path(spec, mesh, path, SolverSettings())
         assert note in str(failed.value) and len(searches) == tries
     # another slip ratio at the same slip angle shares the search; another angle does not
     other = LoadPath((DEFLECTION,), PRESSURE, RoadMotion(friction=MU, roll=200.0,
                                                          slip_angle=1.0))
     with pytest.raises(SolverError):
-        rolling.roll_to_end(spec, mesh, other, SolverSettings())
+        rolling.roll_path(spec, mesh, other, SolverSettings())
     assert len(searches) == 2
 
 
@@ -421,16 +421,25 @@ def test_a_rolling_motion_is_a_roll_and_keeps_other_ids():
         RoadMotion(friction=0.5, roll=80.0, slip_angle=45.0)
 
 
+# two element pitches of the coarse model at 2 degrees of slip angle: whole pitches, so
+# that the camera's re-read tread forces balance the road's reaction exactly
+TWO_PITCHES = RoadMotion(friction=MU, roll=2 * (2 * np.pi / 16) * R_E, slip_angle=2.0,
+                         rolling_radius=R_E)
+
+
+@pytest.fixture(scope="module")
+def two_pitches(coarse):
+    """The roll of TWO_PITCHES as a load path of one experiment, its end."""
+    return run_load_path(coarse[0], LoadPath((DEFLECTION,), PRESSURE, TWO_PITCHES))
+
+
 @pytest.mark.ccx
-def test_a_rolling_load_path_is_measured_in_the_camera_frame(coarse):
+def test_a_rolling_load_path_is_measured_in_the_camera_frame(coarse, two_pitches):
     """run_load_path with a rolling motion: one experiment, the roll's end seen by the
     camera, whose tread forces balance the road's reaction (exactly at a whole number
     of element pitches; the coarse grid is uniform) and whose motion is the path's."""
     spec, _ = coarse
-    pitch = 2 * np.pi / 16
-    motion = RoadMotion(friction=MU, roll=2 * pitch * R_E, slip_angle=2.0,
-                        rolling_radius=R_E)
-    result = run_load_path(spec, LoadPath((DEFLECTION,), PRESSURE, motion))
+    motion, result = TWO_PITCHES, two_pitches
     [m] = result.measurements
     assert m.motion == motion and result.ccx_runs == 1 and m.solve_seconds > 0
     fz = m.road_reaction[2]
@@ -444,6 +453,46 @@ def test_a_rolling_load_path_is_measured_in_the_camera_frame(coarse):
     assert m.loaded_radius == pytest.approx(r - DEFLECTION, abs=1e-9)
     values = m.patch_values()
     assert (values["rolling_radius"], values["loaded_radius"]) == (R_E, m.loaded_radius)
+
+
+def _rms(a: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(np.square(a))))
+
+
+@pytest.mark.ccx
+def test_a_roll_keeps_a_state_per_fraction_and_stops_keeping_what_it_reached(
+        coarse, two_pitches):
+    """Issue 45, a roll is a load path: one run keeps a state at each fraction, each
+    labelled by its travel (a roll of that travel); its end is the one-state roll's end
+    (the extra output time changes ccx's increments: forces within 0.5 % of |F|, the
+    camera field within 1 % of its RMS). A roll stopped before its end (too few
+    increments allowed) raises with the states it reached, equal to the whole run's."""
+    spec, _ = coarse
+    path = LoadPath((DEFLECTION,), PRESSURE, TWO_PITCHES, (0.5, 1.0))
+    result = run_load_path(spec, path)
+    half, end = result.measurements
+    assert (half.motion.roll, end.motion) == (TWO_PITCHES.roll / 2, TWO_PITCHES)
+    assert result.ccx_runs == 1 and 0 < half.solve_seconds < end.solve_seconds
+    for m in (half, end):  # one and two whole pitches: balanced, Fy against the travel
+        fz = m.road_reaction[2]
+        np.testing.assert_allclose(m.total_force, m.road_reaction, atol=0.02 * fz)
+        assert fz > 1000.0 and m.road_reaction[1] < 0
+    assert abs(half.road_reaction[1]) < abs(end.road_reaction[1])  # Fy builds up
+    [alone] = two_pitches.measurements
+    size = np.linalg.norm(alone.road_reaction)
+    np.testing.assert_allclose(end.road_reaction, alone.road_reaction, atol=5e-3 * size)
+    assert _rms(end.displacement - alone.displacement) <= 0.01 * _rms(alone.displacement)
+
+    stopping = SolverSettings(max_increments=result.increments - 12)
+    with pytest.raises(SolverError, match="max_increments") as stopped:
+        run_load_path(spec, path, stopping)
+    error = stopped.value
+    assert "in the roll" in error.where and isinstance(error.partial, tuple)
+    [kept] = error.partial  # the state at one pitch, not the end
+    assert kept.motion == half.motion
+    for name in ("displacement", "strain", "road_reaction", "reaction_force"):
+        np.testing.assert_allclose(getattr(kept, name), getattr(half, name), rtol=1e-9,
+                                   atol=1e-9, err_msg=name)
 
 
 @pytest.mark.slow

@@ -7,6 +7,7 @@ the store."""
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -49,7 +50,8 @@ def test_slip_keys_make_every_case_a_roll(tmp_path):
     assert len(paths) == 4 and all(len(p.experiments) == 1 for p in paths)  # a roll a path
     params = parameters(experiments(paths), study.combined, True)
     assert set(params) == {"deflection", "pressure", "friction", "shift_x", "shift_y", "tilt",
-                           "slip_ratio", "slip_angle"}
+                           "slip_ratio", "slip_angle", "travel"}
+    assert params["travel"].tolist() == [150.0] * 4  # the end of each roll, by default
     assert sorted(params["slip_angle"].tolist()) == [-2.0, -2.0, 2.0, 2.0]
     assert not params["shift_x"].any()
 
@@ -148,3 +150,78 @@ def test_quick_rolling_study_end_to_end(tmp_path, counting_ccx, capsys):
     _check_store(path)
     main(["sweep", "resume", str(path), "--workers", "1"])
     assert ccx_runs(counting_ccx) == runs
+
+
+def test_a_roll_s_states_are_experiments_labelled_by_their_travel(tmp_path):
+    """Issue 45: ``[loads.roll] states`` makes every state along a roll an experiment of
+    its own, in one path, with the id a roll of its travel from rest has; the default
+    keeps the end alone (the ids of before); the count is checked with the states."""
+    loads = "friction = [0.6]\nslip_angle_deg = [-2, 2]\n[loads.roll]\ndistance_mm = 90\n"
+    study = parse_study(_rolling(tmp_path, loads + "states = 3\n"))
+    paths = plan(study, SOLVER)
+    assert len(paths) == 2 and all(len(p.experiments) == 3 for p in paths)
+    travels = [e.motion.roll for e in paths[0].experiments]
+    assert travels == [30.0, 60.0, 90.0]
+    assert parameters(list(paths[0].experiments), True, True)["travel"].tolist() == travels
+    from_rest = parse_study(_rolling(tmp_path, loads.replace("90", "60")))
+    assert ({e.id for e in experiments(plan(from_rest, SOLVER))}
+            <= {e.id for e in experiments(paths)})
+    alone = parse_study(_rolling(tmp_path, loads))  # states = 1: the end, as before
+    assert [len(p.experiments) for p in plan(alone, SOLVER)] == [1, 1]
+    for bad, match in (("states = 0", "loads.roll.states"), ("states = 91", "closer than 1 mm"),
+                       ("states = 2.5", "loads.roll.states")):
+        with pytest.raises(StudyError, match=match):
+            parse_study(_rolling(tmp_path, loads + bad + "\n"))
+
+
+def _stored(study, ids: list[str]) -> dict[str, object]:
+    import storage
+
+    ds = storage.open_dataset(study.store, study.group_name)
+    index = {e: k for k, e in enumerate(ds["experiment"].values.tolist())}
+    return {e: ds.isel(experiment=index[e]) for e in ids}
+
+
+@pytest.mark.ccx
+def test_a_roll_that_stops_keeps_the_states_it_reached_and_resume_rolls_for_the_rest(
+        tmp_path):
+    """A roll of two states that runs out of increments between them (no retry): the
+    state it reached is stored done, equal to a whole run's, the other failed with a
+    reason naming where the roll stopped; run again with enough increments, the task
+    rolls to the end and stores the missing state alone, as the whole run has it."""
+    import storage
+    from jobs.storeio import ensure_group
+    from jobs.tasks import PathTask, run_path
+
+    def task_of(where: Path, solver: str = "") -> tuple:
+        loads = ("friction = [0.6]\nslip_angle_deg = [2]\n[loads.roll]\ndistance_mm = 160\n"
+                 "rolling_radius_mm = 403.8\nstates = 2\n")
+        study = parse_study(_rolling(where, loads) + solver)
+        [path] = plan(study, SOLVER)
+        ensure_group(study, SOLVER)
+        exps = list(path.experiments)
+        storage.reserve(study.store, study.group_name, [e.id for e in exps],
+                        parameters(exps, True, True))
+        return study, PathTask(path, study.model, study.settings, study.store,
+                               study.group_name, retry_smaller_increments=False)
+
+    whole, task = task_of(tmp_path / "whole")
+    assert len(run_path(task).done) == 2
+    ids = [e.id for e in task.path.experiments]
+    # 118 increments for the whole path with ccx 2.20 (the roll's last 40 mm take 12)
+    stopped, short = task_of(tmp_path / "stopped", "[solver]\nmax_increments = 104\n")
+    out = run_path(short)
+    assert out.done == (ids[0],) and [e for e, _ in out.failed] == [ids[1]]
+    reason = out.failed[0][1]
+    assert reason.startswith("partial roll: stopped after the state at 80 mm") and (
+        "max_increments" in reason and "in the roll at 15 mm, after" in reason)
+    ds = storage.open_dataset(stopped.store, stopped.group_name)
+    assert ds["travel"].values.tolist() == [80.0, 160.0]
+    assert ds["status"].values.tolist() == [storage.DONE, storage.FAILED]
+    again = run_path(dataclasses.replace(short, settings=whole.settings))
+    assert again.skipped == (ids[0],) and again.done == (ids[1],)
+    a, b = _stored(whole, ids), _stored(stopped, ids)
+    for e in ids:  # the kept state as the whole run's; the resumed one too (same deck)
+        for name in ("displacement", "strain", "road_reaction", "reaction_force"):
+            np.testing.assert_allclose(b[e][name].values, a[e][name].values, rtol=1e-9,
+                                       atol=1e-9, err_msg=f"{e} {name}")

@@ -264,6 +264,8 @@ def test_mesh_node_bound_counts_what_the_mesher_makes(monkeypatch):
     (("[solver]", "[solver]\ntimeout_s = 1e-9"), "solver.timeout_s: must be in [1, 604800]"),
     (("[solver]", "[solver]\nmin_increment = 1e-300"), "solver.min_increment must be >= 1e-12"),
     (("[solver]", "[solver]\nmax_increments = 9223372036854775807"), "solver.max_increments"),
+    (("[solver]", "[solver]\ngrow_after = 17"), "solver.grow_after must be an integer in "
+     "[1, 16]"),
     (("start = 5", "start = 5e-324"), "loads.deflection_mm: must be > 0, got 5e-324 (rounds to 0"),
     (('store = "', 'store = "~no_such_user_x/'), "study.store: cannot resolve the path"),
     (('store = "', 'store = "a\\u0000b'), "study.store: must be a directory path or URL"),

@@ -170,3 +170,25 @@ def test_worker_handle_opened_before_the_group_became_combined(store, group):
     assert np.array_equal(ds["contact_status"].values[1], _combined("c1")["contact_status"])
     assert (ds["contact_status"].values[0] == -1).all()
     assert storage.verify(store).ok
+
+
+def test_a_rolling_group_from_before_states_takes_travel_without_a_conflict(store, group):
+    """Issue 45: a rolling group reserved before ``travel`` existed is resumed by a study
+    that keeps a roll's states: its done slot keeps NaN travel and verifies as before, the
+    new states get their travel, and a conflicting travel is still refused."""
+    roll = {"deflection": 15.0, "pressure": 0.2, **_motion(1, shift_x=0.0, shift_y=0.0,
+                                                             tilt=0.0),
+            "slip_ratio": 0.01, "slip_angle": 2.0}
+    storage.reserve(store, group, ["end"], roll)
+    storage.write_experiment(store, group, "end", {**make_result("end", N_INNER, N_TREAD),
+                                                   **_combined("end")}, make_info("end"))
+    storage.reserve(store, group, ["half", "end"], {**roll, "travel": [80.0, 160.0]})
+    ds = storage.open_dataset(store, group)
+    travel = dict(zip(ds["experiment"].values.tolist(), ds["travel"].values.tolist(),
+                      strict=True))
+    assert travel["half"] == 80.0 and np.isnan(travel["end"])
+    assert ds["travel"].attrs["units"] == "mm"
+    assert storage.verify(store, group).ok
+    storage.reserve(store, group, ["half"], {**roll, "travel": 80.0})  # as reserved
+    with pytest.raises(storage.ParameterConflictError, match="travel"):
+        storage.reserve(store, group, ["half"], {**roll, "travel": 60.0})

@@ -200,7 +200,8 @@ def test_noise_chooses_components_by_cross_validation(thesis_store, tmp_path):
 def test_analysis_never_imports_farm_or_jobs():
     """Layering rule (docs/architecture.md): analysis (studies and report included) reads the store
     only: no import of farm or jobs, in its source or at run time - except the pure-numpy
-    farm.measure.surface (tests/test_layering.py's SHARED), which loads nothing else of farm."""
+    farm.measure.surface and farm.measure.axes (tests/test_layering.py's SHARED), which load
+    nothing else of farm."""
     from tests.test_layering import SHARED
 
     forbidden = ("farm", "jobs", "tyre_farm_cli")

@@ -51,6 +51,8 @@ def test_option_errors_are_raised_before_reading(stores, tmp_path):
         _run("combined", stores, "--group", "combined", "--test-fraction", 1.5, "--out", tmp_path)
     with pytest.raises(ParameterError, match="--folds must be at least 2"):
         _run("combined", stores, "--group", "combined", "--folds", 1, "--out", tmp_path)
+    with pytest.raises(ParameterError, match="--axes must be wheel or road"):
+        _run("combined", stores, "--group", "combined", "--axes", "tyre", "--out", tmp_path)
     with pytest.raises(NoVarianceError, match="not a combined-load selection"):
         _run("combined", stores, "--group", "vertical", "--out", tmp_path)
 
@@ -64,3 +66,11 @@ def test_console_prints_one_line_and_exits_non_zero(stores, tmp_path, capsys):
     with pytest.raises(SystemExit) as info:
         main(["analyse", "combined", str(stores), "--folds", "0", "--out", str(tmp_path)])
     assert info.value.code == 2
+
+
+def test_road_axes_turn_the_learned_forces_of_tilted_experiments(stores, tmp_path):
+    """--axes road (issue 45): the same analysis on the forces in the road's axes; the
+    summary says so."""
+    _run("combined", stores, "--group", "combined", "--out", tmp_path / "road", "--folds", 3,
+         "--draws", 2, "--max-components", 6, "--axes", "road")
+    assert "road's axes" in (tmp_path / "road" / "summary.md").read_text()

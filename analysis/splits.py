@@ -1,0 +1,89 @@
+"""Held-out splits and folds that never split a load path (issue 45).
+
+A rolling study keeps every state along a roll as an experiment of its own (``[loads.roll]
+states``; its ``travel`` parameter says how far the road had gone). Neighbouring states of
+one roll are nearly the same tyre: a model tested on one of them after training on its
+neighbour is tested on what it has seen. So the states of one roll form one *group*,
+and a held-out set or a CV fold takes a roll whole or not at all (grouped splits, as
+scikit-learn's ``GroupKFold``). Experiments of other groups (standing, sliding, rolls
+that keep their end alone) are each a group of their own, and for them every split
+here is the ungrouped split of before, to the index.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import xarray as xr
+from sklearn.model_selection import GroupKFold, KFold
+
+import storage
+from analysis.errors import ParameterError
+
+#: In-memory datasets without the store's parameter marks: their load-case names
+LOAD_PARAMETERS = ("deflection", "pressure", "friction", "shift_x", "shift_y", "tilt",
+                   "slip_ratio", "slip_angle")
+#: The parameter that tells the states of one roll apart: the rest of the load case
+#: is the roll's own (jobs.expand.parameters)
+TRAVEL = "travel"
+
+
+def path_groups(ds: xr.Dataset) -> np.ndarray:
+    """Group label of each experiment, (K,) int: experiments whose load cases differ in
+    ``travel`` alone are states of one roll and share a label; any other experiment
+    has a label of its own. Labels number the groups in order of first appearance."""
+    K = ds.sizes["experiment"]
+    if TRAVEL not in ds.variables or K == 0:
+        return np.arange(K)
+    names = [n for n in storage.parameters(ds) if n != TRAVEL] or [
+        n for n in LOAD_PARAMETERS if n in ds.variables]
+    cases = np.column_stack([np.round(np.asarray(ds[n].values, dtype=float), 9)
+                             for n in names])
+    _, first, labels = np.unique(cases, axis=0, return_index=True, return_inverse=True)
+    order = np.argsort(np.argsort(first))  # relabel by first appearance
+    return order[labels.ravel()]
+
+
+def grouped_split(groups: np.ndarray, test_fraction: float,
+                  seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """Seeded random (train, test) positions that hold out whole groups: round(groups
+    x fraction) of them (at least one, never all). With one experiment per group it is
+    the experiment split of before: the same positions for the same seed.
+
+    Parameters
+    ----------
+    groups : (K,) array of group labels (:func:`path_groups`).
+    test_fraction : share of the groups held out, in (0, 1).
+    seed : the permutation's seed.
+
+    Returns
+    -------
+    train, test : sorted int arrays of positions, together 0 .. K - 1.
+    """
+    if not 0.0 < test_fraction < 1.0:
+        raise ParameterError(f"test fraction must be in (0, 1), got {test_fraction!r}")
+    groups = np.asarray(groups)
+    labels = np.unique(groups)
+    n = labels.size
+    if n < 2:
+        raise ParameterError(f"a held-out split needs at least two load paths, the "
+                             f"selection has {n}: run more load cases")
+    perm = np.random.default_rng(seed).permutation(n)
+    n_test = min(max(1, round(n * test_fraction)), n - 1)
+    held = np.isin(groups, labels[perm[:n_test]])
+    return np.flatnonzero(~held), np.flatnonzero(held)
+
+
+def folds(groups: np.ndarray, n_folds: int, seed: int | None) -> list[tuple[np.ndarray,
+                                                                            np.ndarray]]:
+    """``n_folds`` (train, test) CV folds that keep each group whole: shuffled
+    ``KFold`` (the folds of before) where every group is one experiment, ``GroupKFold``
+    otherwise."""
+    groups = np.asarray(groups)
+    dummy = np.zeros(groups.size)
+    if np.unique(groups).size == groups.size:
+        return list(KFold(n_folds, shuffle=seed is not None, random_state=seed).split(dummy))
+    if np.unique(groups).size < n_folds:
+        raise ParameterError(f"{n_folds} CV folds need at least {n_folds} load paths, the "
+                             f"training part has {np.unique(groups).size}: lower --folds "
+                             "or run more load cases")
+    return list(GroupKFold(n_folds).split(dummy, groups=groups))

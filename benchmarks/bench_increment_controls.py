@@ -1,0 +1,118 @@
+"""ccx's increment growth (IG of ``*CONTROLS, TIME INCREMENTATION``) on frictional paths,
+side by side in one run (issue 45: increments that grow).
+
+    .venv/bin/python benchmarks/bench_increment_controls.py [--grow 4,8,12] [--mesh PRESET]
+        [--materials NAME] [--cases roll,roll-mu1,slide] [--repeat R]
+
+ccx grows an increment only after two in a row that converged within IG iterations (its
+default 4); contact under friction takes 5-9, so after a cutback its increments stay
+small. Each case is solved with every ``--grow`` value (``farm.specs.SolverSettings.
+grow_after``), the values alternating, the inflation cached before timing:
+
+- ``roll``: 160 mm at 2 degrees of slip angle, mu 0.6, 200 kPa, 15 mm, 8 states;
+- ``roll-mu1``: 160 mm at kappa 0.02 and 3 degrees, mu 1.0 (the corner where rolls
+  failed), 8 states;
+- ``slide``: a lateral slide of 4 mm at mu 0.9, 80 kPa, 20 mm, five fractions of it.
+
+Printed per case and value: ccx seconds and increments, and against the first value at
+every stored state the largest force difference (% of |F|) and the camera's (or the
+standing tyre's) displacement field difference (% of its RMS); "same" where every state
+is within the issue's rule (0.5 % and 1 %). Nothing is asserted (noisy machines); a
+failed solve is printed with its reason.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import time
+
+import numpy as np
+
+from farm.errors import SolverError
+from farm.experiment import PathResult, run_load_path
+from farm.mesh import mesh_for
+from farm.presets import default_model
+from farm.solve.contact import touch_height
+from farm.specs import LoadPath, MeshDensity, RoadMotion, SolverSettings
+
+COARSE = MeshDensity(tread=4, sidewall=2, bead=1, circumferential=16)
+EIGHTHS = tuple(k / 8 for k in range(1, 9))
+CASES = {
+    "roll": LoadPath((15.0,), 0.2, RoadMotion(friction=0.6, roll=160.0, slip_angle=2.0,
+                                              rolling_radius=403.8), EIGHTHS),
+    "roll-mu1": LoadPath((15.0,), 0.2, RoadMotion(friction=1.0, roll=160.0, slip_ratio=0.02,
+                                                  slip_angle=3.0, rolling_radius=403.8),
+                         EIGHTHS),
+    "slide": LoadPath((20.0,), 0.08, RoadMotion(friction=0.9, shift_y=4.0),
+                      (0.2, 0.4, 0.6, 0.8, 1.0)),
+}
+
+
+def _args() -> argparse.Namespace:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--grow", default="4,8,12", help="IG values, the first the reference")
+    p.add_argument("--mesh", default="", help="a mesh preset (default: the coarse model)")
+    p.add_argument("--materials", default="table-3.1")
+    p.add_argument("--cases", default=",".join(CASES))
+    p.add_argument("--repeat", type=int, default=1)
+    return p.parse_args()
+
+
+def _rms(x: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(np.square(x))))
+
+
+def _compare(ref: PathResult, other: PathResult) -> tuple[float, float]:
+    """Largest force and field differences over the states, in % of |F| and of RMS."""
+    force = field = 0.0
+    for a, b in zip(ref.measurements, other.measurements, strict=True):
+        size = np.linalg.norm(a.road_reaction if a.road_reaction is not None
+                              else a.total_force)
+        fa = a.road_reaction if a.road_reaction is not None else a.total_force
+        fb = b.road_reaction if b.road_reaction is not None else b.total_force
+        force = max(force, 100 * float(np.abs(fb - fa).max()) / size)
+        field = max(field, 100 * _rms(b.displacement - a.displacement) / _rms(a.displacement))
+    return force, field
+
+
+def main() -> None:
+    a = _args()
+    spec = default_model("full", mesh=a.mesh or COARSE, materials=a.materials)
+    grows = [int(v) for v in a.grow.split(",")]
+    print(f"{spec.mesh}, {a.materials}; IG values {grows} (the first the reference), "
+          f"{a.repeat} run(s) each")
+    for name in a.cases.split(","):
+        path = CASES[name]
+        touch_height(spec, mesh_for(spec), path.pressure, SolverSettings())  # cached
+        results: dict[int, PathResult | None] = {}
+        times: dict[int, list[float]] = {g: [] for g in grows}
+        for _ in range(a.repeat):
+            for g in grows:
+                settings = dataclasses.replace(SolverSettings(), grow_after=g)
+                start = time.perf_counter()
+                try:
+                    results[g] = run_load_path(spec, path, settings)
+                    times[g].append(results[g].solve_seconds)
+                except SolverError as e:
+                    results[g] = None
+                    print(f"  {name} IG={g}: FAILED after {time.perf_counter() - start:.0f} s:"
+                          f" {str(e)[:200]}")
+        ref = results[grows[0]]
+        for g in grows:
+            r = results[g]
+            if r is None or not times[g]:
+                continue
+            line = (f"  {name:9} IG={g:2}: {min(times[g]):7.1f} s of ccx (best of "
+                    f"{len(times[g])}), {r.increments:4} increments")
+            if ref is not None and g != grows[0]:
+                force, field = _compare(ref, r)
+                speed = min(times[grows[0]]) / min(times[g])
+                same = "same" if force <= 0.5 and field <= 1.0 else "NOT the same"
+                line += (f"; {speed:.2f}x faster; forces {force:.3f} % of |F|, field "
+                         f"{field:.3f} % of RMS: {same}")
+            print(line, flush=True)
+
+
+if __name__ == "__main__":
+    main()
