@@ -1,13 +1,18 @@
-"""ccx's increment growth (IG of ``*CONTROLS, TIME INCREMENTATION``) on frictional paths,
-side by side in one run (issue 45: increments that grow).
+"""Increment controls on frictional paths, side by side in one run (issue 45: increments
+that grow).
 
-    .venv/bin/python benchmarks/bench_increment_controls.py [--grow 4,8,12] [--mesh PRESET]
-        [--materials NAME] [--cases roll,roll-mu1,slide] [--repeat R]
+    .venv/bin/python benchmarks/bench_increment_controls.py [--vary grow|roll-unit]
+        [--values 4,8,12] [--mesh PRESET] [--materials NAME] [--cases roll,roll-mu1,slide]
+        [--repeat R]
 
-ccx grows an increment only after two in a row that converged within IG iterations (its
-default 4); contact under friction takes 5-9, so after a cutback its increments stay
-small. Each case is solved with every ``--grow`` value (``farm.specs.SolverSettings.
-grow_after``), the values alternating, the inflation cached before timing:
+``--vary grow`` (default): ccx grows an increment only after two in a row that converged
+within IG iterations (its default 4); contact under friction takes 5-9, so after a
+cutback its increments stay small. The values are IG (``farm.specs.SolverSettings.
+grow_after``). ``--vary roll-unit``: the road travel (mm) that lasts one unit of step
+time in a roll (``farm.solve.rolling.ROLL_UNIT_MM``): a roll's increments are capped at
+5 mm of travel, a cap in step time that also holds for the inflation and the rise before
+it, so the shorter the unit the fewer increments those take (rolls only). Each case is
+solved with every value, the values alternating, the inflation cached before timing:
 
 - ``roll``: 160 mm at 2 degrees of slip angle, mu 0.6, 200 kPa, 15 mm, 8 states;
 - ``roll-mu1``: 160 mm at kappa 0.02 and 3 degrees, mu 1.0 (the corner where rolls
@@ -33,6 +38,7 @@ from farm.errors import SolverError
 from farm.experiment import PathResult, run_load_path
 from farm.mesh import mesh_for
 from farm.presets import default_model
+from farm.solve import rolling
 from farm.solve.contact import touch_height
 from farm.specs import LoadPath, MeshDensity, RoadMotion, SolverSettings
 
@@ -51,7 +57,8 @@ CASES = {
 
 def _args() -> argparse.Namespace:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--grow", default="4,8,12", help="IG values, the first the reference")
+    p.add_argument("--vary", choices=("grow", "roll-unit"), default="grow")
+    p.add_argument("--values", default="4,8,12", help="the values, the first the reference")
     p.add_argument("--mesh", default="", help="a mesh preset (default: the coarse model)")
     p.add_argument("--materials", default="table-3.1")
     p.add_argument("--cases", default=",".join(CASES))
@@ -79,31 +86,35 @@ def _compare(ref: PathResult, other: PathResult) -> tuple[float, float]:
 def main() -> None:
     a = _args()
     spec = default_model("full", mesh=a.mesh or COARSE, materials=a.materials)
-    grows = [int(v) for v in a.grow.split(",")]
-    print(f"{spec.mesh}, {a.materials}; IG values {grows} (the first the reference), "
+    grows = [float(v) for v in a.values.split(",")]
+    print(f"{spec.mesh}, {a.materials}; {a.vary} values {grows} (the first the reference), "
           f"{a.repeat} run(s) each")
     for name in a.cases.split(","):
         path = CASES[name]
         touch_height(spec, mesh_for(spec), path.pressure, SolverSettings())  # cached
-        results: dict[int, PathResult | None] = {}
-        times: dict[int, list[float]] = {g: [] for g in grows}
+        results: dict[float, PathResult | None] = {}
+        times: dict[float, list[float]] = {g: [] for g in grows}
         for _ in range(a.repeat):
             for g in grows:
-                settings = dataclasses.replace(SolverSettings(), grow_after=g)
+                settings = SolverSettings()
+                if a.vary == "grow":
+                    settings = dataclasses.replace(settings, grow_after=int(g))
+                else:
+                    rolling.ROLL_UNIT_MM = g
                 start = time.perf_counter()
                 try:
                     results[g] = run_load_path(spec, path, settings)
                     times[g].append(results[g].solve_seconds)
                 except SolverError as e:
                     results[g] = None
-                    print(f"  {name} IG={g}: FAILED after {time.perf_counter() - start:.0f} s:"
+                    print(f"  {name} {g:g}: FAILED after {time.perf_counter() - start:.0f} s:"
                           f" {str(e)[:200]}")
         ref = results[grows[0]]
         for g in grows:
             r = results[g]
             if r is None or not times[g]:
                 continue
-            line = (f"  {name:9} IG={g:2}: {min(times[g]):7.1f} s of ccx (best of "
+            line = (f"  {name:9} {g:5g}: {min(times[g]):7.1f} s of ccx (best of "
                     f"{len(times[g])}), {r.increments:4} increments")
             if ref is not None and g != grows[0]:
                 force, field = _compare(ref, r)

@@ -496,6 +496,10 @@ def sensor(
     ] = 3,
     seed: Annotated[int, typer.Option(help="Seed of the split, folds and noise.")] = 0,
     max_components: Annotated[int, typer.Option(help="Largest PLS count the CV tries.")] = 10,
+    repeats: Annotated[
+        int, typer.Option(help="Grouped splits (seeds SEED, SEED+1, ...): every figure a mean "
+                          "over them, with its spread (issue 46 asks for at least 5).")
+    ] = 1,
     axes_: Axes = "wheel",
     scheduler: Scheduler = None,
     storage_option: StorageOption = None,
@@ -523,12 +527,15 @@ def sensor(
             raise ParameterError(f"--folds must be at least 2, got {folds}")
         _draws_at_least_one(draws)
         _axes(axes_)
+        if not 1 <= repeats <= 100:
+            raise ParameterError(f"--repeats must be in [1, 100], got {repeats}")
     folder = _out(out, "sensor")
     with dask_scheduler(scheduler):
         ds = in_axes(load_selection(store, storage_option, group, pressure, None), axes_)
         _done(_study("sensor").run(ds, folder, sensor=spec, learner_names=names,
                                    test_fraction=test_fraction, folds=folds, draws=draws,
-                                   max_components=max_components, seed=seed, **axes),
+                                   max_components=max_components, seed=seed,
+                                   repeats=repeats, **axes),
               as_json)
 
 

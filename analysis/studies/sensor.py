@@ -101,8 +101,15 @@ def run(
     draws: int = 3,
     max_components: int = 10,
     seed: int = 0,
+    repeats: int = 1,
 ) -> Report:
-    """Run the sensor study on one loaded group; tables, figures and summary in ``out``."""
+    """Run the sensor study on one loaded group; tables, figures and summary in ``out``.
+
+    ``repeats`` grouped splits (seeds ``seed`` .. ``seed + repeats - 1``; issue 46: a
+    held-out error is a mean and a spread over repeated splits, never one split): every
+    figure and table shows the mean over them, ``errors.csv`` the mean with its spread
+    (``rmse_pct_std``, ``rmse_pct_min``, ``rmse_pct_max``) and ``errors_by_split.csv``
+    every split's rows."""
     varying = check_combined(ds)
     Y = targets(ds)
     K = Y.shape[0]
@@ -111,11 +118,16 @@ def run(
                                      f"experiments ({folds} CV folds), the selection has {K}")
     if draws < 1:
         raise ParameterError(f"draws must be at least 1, got {draws}")
+    if not (isinstance(repeats, int) and 1 <= repeats <= MAX_REPEATS):
+        raise ParameterError(f"repeats must be an integer in [1, {MAX_REPEATS}], got "
+                             f"{repeats!r}")
     for name in learner_names:
         learners.learner(name)  # unknown names fail here, before any work
-    train, test = split(ds, test_fraction, seed)  # whole rolls (issue 45)
-    setup = Setup(train, test, tuple(learner_names), tuple(inputs), draws, folds,
-                  max_components, seed, path_groups(ds))
+    groups = path_groups(ds)
+    setups = [Setup(*split(ds, test_fraction, seed + r),  # whole rolls (issue 45)
+                    tuple(learner_names), tuple(inputs), draws, folds, max_components,
+                    seed + r, groups) for r in range(repeats)]
+    setup = setups[0]
     surface = InnerSurface.from_dataset(ds)
     U = displacements(ds)
     report = Report(Path(out))
@@ -124,12 +136,15 @@ def run(
         virtual = VirtualSensor(spec, surface)
         points.append({"axis": axis, **spec.to_dict(),
                        "points": int(np.prod(virtual.layout.xyz.shape[:2]))})
-        rows += _one_sensor(virtual, U, Y, setup, k, axis)
-    errors = pd.DataFrame(rows)
+        for r, one in enumerate(setups):
+            rows += [{**row, "split": r} for row in _one_sensor(virtual, U, Y, one, k, axis)]
+    by_split = pd.DataFrame(rows)
+    errors = over_splits(by_split)
     report.csv("errors", errors)
+    report.csv("errors_by_split", by_split)
     report.csv("sensors", pd.DataFrame(points))
     figures = _figures(report, errors, sensor)
-    _summary(report, ds, sensor, errors, setup, varying, figures)
+    _summary(report, ds, sensor, errors, setup, varying, figures, repeats)
     return report
 
 
@@ -164,6 +179,38 @@ def _one_sensor(virtual: VirtualSensor, U: np.ndarray, Y: np.ndarray, setup: Set
                              "rmse": float(rmse[j]), "range": float(span[j]),
                              "rmse_pct_range": _pct(rmse[j], span[j])})
     return rows
+
+
+#: The most repeated splits one study may take (each refits every learner and sensor)
+MAX_REPEATS = 100
+
+
+def over_splits(by_split: pd.DataFrame) -> pd.DataFrame:
+    """Per-split error rows (a ``split`` column) -> one row per sensor, training, learner
+    and target: ``rmse``, ``range``, ``rmse_pct_range`` and ``n_components`` their means
+    over the splits, with ``rmse_pct_std`` (0 for one split), ``rmse_pct_min``,
+    ``rmse_pct_max`` and ``splits``."""
+    values = ["rmse", "range", "rmse_pct_range", "n_components", "split"]
+    keys = [c for c in by_split.columns if c not in values]
+    grouped = by_split.groupby(keys, sort=False, dropna=False)
+    out = grouped[["rmse", "range", "rmse_pct_range", "n_components"]].mean()
+    pct = grouped["rmse_pct_range"]
+    out["rmse_pct_std"] = pct.std(ddof=0)
+    out["rmse_pct_min"], out["rmse_pct_max"] = pct.min(), pct.max()
+    out["splits"] = grouped["split"].nunique()
+    return out.reset_index()
+
+
+def spread_table(errors: pd.DataFrame) -> pd.DataFrame:
+    """The base sensor's held-out % of range as "mean ± std (min-max)" over the splits,
+    one row per target, one column per learner (trained on measurements)."""
+    base = measured(errors[errors["axis"] == "base"])
+    cells = {(t, lrn): f"{g['rmse_pct_range'].iat[0]:.2f} ± {g['rmse_pct_std'].iat[0]:.2f} "
+                       f"({g['rmse_pct_min'].iat[0]:.2f}-{g['rmse_pct_max'].iat[0]:.2f})"
+             for (t, lrn), g in base.groupby(["target", "learner"])}
+    learners_ = sorted({lrn for _, lrn in cells})
+    return pd.DataFrame([{"target": t, **{lrn: cells.get((t, lrn), "") for lrn in learners_}}
+                         for t in TARGETS if any((t, lrn) in cells for lrn in learners_)])
 
 
 def measured_features(virtual: VirtualSensor, clean: np.ndarray, draws: int,
@@ -276,20 +323,30 @@ def findings(errors: pd.DataFrame) -> list[str]:
 
 
 def _summary(report: Report, ds: xr.Dataset, sensor: SensorSpec, errors: pd.DataFrame,
-             setup: Setup, varying: list[str], figures: list[Path]) -> None:
+             setup: Setup, varying: list[str], figures: list[Path], repeats: int = 1) -> None:
+    paths = len(set(setup.groups.tolist()))
+    held = (f"{setup.train.size} for training, {setup.test.size} held out (seed "
+            f"{setup.seed})" if repeats == 1 else
+            f"{repeats} grouped splits (seeds {setup.seed}-{setup.seed + repeats - 1}; the "
+            f"first: {setup.train.size} for training, {setup.test.size} held out), every "
+            "figure a mean over them")
     lines = [
         "# Identifiability vs the sensor (issue 27)", "",
-        f"Group {ds.attrs.get('group', '?')!r}: {ds.sizes['experiment']} done experiments, "
-        f"varying {', '.join(varying)}; {setup.train.size} for training, {setup.test.size} "
-        f"held out (seed {setup.seed}); inputs {', '.join(setup.inputs)}; {setup.draws} "
+        f"Group {ds.attrs.get('group', '?')!r}: {ds.sizes['experiment']} done experiments "
+        f"in {paths} load paths (a roll's states are one; a split holds out whole paths), "
+        f"varying {', '.join(varying)}; {held}; inputs {', '.join(setup.inputs)}; "
+        f"{setup.draws} "
         "noisy measurements per experiment; learners "
         f"{', '.join(setup.learners)} (PLSR count by {setup.folds}-fold grouped CV).", "",
         f"Base sensor `{sensor.name}`: " + ", ".join(
             f"{k} {v}" for k, v in sensor.to_dict().items() if k != "name"), "",
         "## Findings (held-out RMSE, % of each total's range)", "", *findings(errors), "",
         "## Base sensor", "", markdown.table(best_table(errors)), "",
+        *(["Over the splits, mean ± standard deviation (min-max), % of range:", "",
+           markdown.table(spread_table(errors)), ""] if repeats > 1 else []),
         "Below, models are trained on noisy measurements (noise-free only where the sensor "
-        "has no noise); `errors.csv` holds every row.", "",
+        "has no noise); `errors.csv` holds every row (`errors_by_split.csv`: each split's).",
+        "",
     ]
     for axis in AXIS_COLUMNS:
         if (errors["axis"] == axis).any():

@@ -68,6 +68,32 @@ def test_sensor_study_writes_errors_per_window_noise_spacing(stores, tmp_path):
     summary = (tmp_path / "summary.md").read_text()
     assert "published anchor" in summary and "Varying the window" in summary
     assert (tmp_path / "error_vs_window.png").stat().st_size > 0
+    assert (errors["splits"] == 1).all() and (errors["rmse_pct_std"] == 0).all()
+
+
+def test_repeated_grouped_splits_give_a_mean_and_its_spread(stores, tmp_path):
+    """--repeats (issue 46): each split is its own seed; errors.csv is their mean, with
+    the spread that one split hides."""
+    code, _out, err = _cli(["analyse", "sensor", stores / "a.zarr", "--out", tmp_path,
+                           "--sensor", SENSOR, "--windows", "360", "--noises", "0.2",
+                           "--spacings", "20", "--learners", "plsr", "--folds", 4,
+                           "--draws", 2, "--repeats", 3, "--seed", 7])
+    assert code in (0, None), err
+    by_split = pd.read_csv(tmp_path / "errors_by_split.csv")
+    errors = pd.read_csv(tmp_path / "errors.csv")
+    assert sorted(by_split["split"].unique()) == [0, 1, 2] and (errors["splits"] == 3).all()
+    for _, row in errors.iterrows():
+        same = by_split[(by_split["target"] == row["target"])
+                        & (by_split["training"] == row["training"])
+                        & (by_split["axis"] == row["axis"])]
+        assert row["rmse_pct_range"] == pytest.approx(same["rmse_pct_range"].mean())
+        assert row["rmse_pct_min"] <= row["rmse_pct_range"] <= row["rmse_pct_max"]
+    assert (errors["rmse_pct_std"] > 0).any()  # the splits differ: one would hide that
+    summary = (tmp_path / "summary.md").read_text()
+    assert "3 grouped splits (seeds 7-9" in summary and " ± " in summary
+    code, _out, err = _cli(["analyse", "sensor", stores / "a.zarr", "--out", tmp_path / "x",
+                           "--repeats", 0])
+    assert code == 2 and "--repeats must be in [1, 100]" in err
 
 
 def test_fit_checks_its_intervals_on_held_out_experiments(model):
