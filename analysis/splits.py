@@ -87,3 +87,30 @@ def folds(groups: np.ndarray, n_folds: int, seed: int | None) -> list[tuple[np.n
                              f"training part has {np.unique(groups).size}: lower --folds "
                              "or run more load cases")
     return list(GroupKFold(n_folds).split(dummy, groups=groups))
+
+
+def edge_split(ds: xr.Dataset, parameters: list[str], fraction: float,
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """(train, test) positions that hold out the design's edges (issue 46): a load path
+    is at an edge when any of ``parameters`` lies within the outer ``fraction`` of that
+    parameter's range (at its lowest or highest end); the model trains on the interior.
+    ``travel`` never counts (a roll's states are one path).
+
+    Raises :class:`ParameterError` when the edges or the interior are empty.
+    """
+    if not 0.0 < fraction < 0.5:
+        raise ParameterError(f"the edge fraction must be in (0, 0.5), got {fraction!r}")
+    groups = path_groups(ds)
+    edge = np.zeros(ds.sizes["experiment"], dtype=bool)
+    for name in (p for p in parameters if p != TRAVEL):
+        v = np.asarray(ds[name].values, dtype=float)
+        low, high = np.nanmin(v), np.nanmax(v)
+        margin = fraction * (high - low)
+        edge |= (v <= low + margin) | (v >= high - margin)
+    edge = np.isin(groups, groups[edge])  # a path at an edge is held out whole
+    if edge.all() or not edge.any():
+        raise ParameterError(
+            f"holding out the outer {fraction:g} of the ranges of {', '.join(parameters)} "
+            f"leaves {'no interior to train on' if edge.all() else 'no edge case'}: give "
+            "another --edges fraction")
+    return np.flatnonzero(~edge), np.flatnonzero(edge)

@@ -500,6 +500,11 @@ def sensor(
         int, typer.Option(help="Grouped splits (seeds SEED, SEED+1, ...): every figure a mean "
                           "over them, with its spread (issue 46 asks for at least 5).")
     ] = 1,
+    edges: Annotated[
+        float, typer.Option(help="Also train on the interior and test on the load paths with "
+                            "a varying parameter in this outer fraction of its range, in "
+                            "[0, 0.5) [default: 0, no edge check].")
+    ] = 0.0,
     axes_: Axes = "wheel",
     scheduler: Scheduler = None,
     storage_option: StorageOption = None,
@@ -529,13 +534,15 @@ def sensor(
         _axes(axes_)
         if not 1 <= repeats <= 100:
             raise ParameterError(f"--repeats must be in [1, 100], got {repeats}")
+        if not 0.0 <= edges < 0.5:  # NaN fails too
+            raise ParameterError(f"--edges must be in [0, 0.5), got {edges}")
     folder = _out(out, "sensor")
     with dask_scheduler(scheduler):
         ds = in_axes(load_selection(store, storage_option, group, pressure, None), axes_)
         _done(_study("sensor").run(ds, folder, sensor=spec, learner_names=names,
                                    test_fraction=test_fraction, folds=folds, draws=draws,
                                    max_components=max_components, seed=seed,
-                                   repeats=repeats, **axes),
+                                   repeats=repeats, edges=edges, **axes),
               as_json)
 
 

@@ -32,7 +32,7 @@ from analysis.errors import MissingVariableError, ParameterError, TooFewExperime
 from analysis.render import markdown, plots
 from analysis.sensor import InnerSurface, SensorSpec, VirtualSensor
 from analysis.sensor.spec import NOISE_FIELDS
-from analysis.splits import path_groups
+from analysis.splits import edge_split, path_groups
 from analysis.studies.combined import TOTALS, check_combined, split, totals
 from analysis.studies.common import Report
 
@@ -102,6 +102,7 @@ def run(
     max_components: int = 10,
     seed: int = 0,
     repeats: int = 1,
+    edges: float = 0.0,
 ) -> Report:
     """Run the sensor study on one loaded group; tables, figures and summary in ``out``.
 
@@ -109,7 +110,12 @@ def run(
     held-out error is a mean and a spread over repeated splits, never one split): every
     figure and table shows the mean over them, ``errors.csv`` the mean with its spread
     (``rmse_pct_std``, ``rmse_pct_min``, ``rmse_pct_max``) and ``errors_by_split.csv``
-    every split's rows."""
+    every split's rows.
+
+    ``edges`` > 0 (issue 46: check the design's edges): the base sensor once more,
+    trained on the interior and tested on the load paths with a varying parameter in
+    the outer ``edges`` of its range (:func:`analysis.splits.edge_split`);
+    ``errors_edges.csv`` and the summary's "At the design's edges"."""
     varying = check_combined(ds)
     Y = targets(ds)
     K = Y.shape[0]
@@ -143,8 +149,17 @@ def run(
     report.csv("errors", errors)
     report.csv("errors_by_split", by_split)
     report.csv("sensors", pd.DataFrame(points))
+    edge = None
+    if edges > 0:
+        inner, outer = edge_split(ds, varying, edges)
+        at_edges = replace(setup, train=inner, test=outer)
+        edge = pd.DataFrame(_one_sensor(VirtualSensor(sensor, surface), U, Y, at_edges, 0,
+                                        "base"))
+        report.csv("errors_edges", edge)
+        edge.attrs.update(fraction=edges, train=inner.size, test=outer.size,
+                          paths=len(set(groups[outer].tolist())))
     figures = _figures(report, errors, sensor)
-    _summary(report, ds, sensor, errors, setup, varying, figures, repeats)
+    _summary(report, ds, sensor, errors, setup, varying, figures, repeats, edge)
     return report
 
 
@@ -322,8 +337,22 @@ def findings(errors: pd.DataFrame) -> list[str]:
     return out
 
 
+def _edges(edge: pd.DataFrame | None) -> list[str]:
+    """The summary's section on the design's edges (none without ``edges``)."""
+    if edge is None:
+        return []
+    a = edge.attrs
+    return ["## At the design's edges", "",
+            f"Trained on the interior ({a['train']} experiments), tested on the "
+            f"{a['test']} experiments of the {a['paths']} load paths with a varying "
+            f"parameter in the outer {a['fraction']:g} of its range (`errors_edges.csv`): "
+            "what a model does at and just beyond the edges of what it was trained on.", "",
+            markdown.table(best_table(edge)), ""]
+
+
 def _summary(report: Report, ds: xr.Dataset, sensor: SensorSpec, errors: pd.DataFrame,
-             setup: Setup, varying: list[str], figures: list[Path], repeats: int = 1) -> None:
+             setup: Setup, varying: list[str], figures: list[Path], repeats: int = 1,
+             edge: pd.DataFrame | None = None) -> None:
     paths = len(set(setup.groups.tolist()))
     held = (f"{setup.train.size} for training, {setup.test.size} held out (seed "
             f"{setup.seed})" if repeats == 1 else
@@ -344,6 +373,7 @@ def _summary(report: Report, ds: xr.Dataset, sensor: SensorSpec, errors: pd.Data
         "## Base sensor", "", markdown.table(best_table(errors)), "",
         *(["Over the splits, mean ± standard deviation (min-max), % of range:", "",
            markdown.table(spread_table(errors)), ""] if repeats > 1 else []),
+        *_edges(edge),
         "Below, models are trained on noisy measurements (noise-free only where the sensor "
         "has no noise); `errors.csv` holds every row (`errors_by_split.csv`: each split's).",
         "",

@@ -96,6 +96,36 @@ def test_repeated_grouped_splits_give_a_mean_and_its_spread(stores, tmp_path):
     assert code == 2 and "--repeats must be in [1, 100]" in err
 
 
+def test_the_edges_of_the_design_are_checked_on_their_own(stores, tmp_path):
+    """--edges (issue 46): trained on the interior, tested on the paths with a varying
+    parameter in the outer part of its range; an edge case is never trained on."""
+    from analysis import data
+    from analysis.splits import edge_split
+    from analysis.studies.combined import varying_parameters
+
+    code, _out, err = _cli(["analyse", "sensor", stores / "a.zarr", "--out", tmp_path,
+                           "--sensor", SENSOR, "--windows", "360", "--noises", "0.2",
+                           "--spacings", "20", "--learners", "plsr", "--folds", 3,
+                           "--draws", 2, "--edges", 0.1])
+    assert code in (0, None), err
+    edge = pd.read_csv(tmp_path / "errors_edges.csv")
+    assert set(edge["target"]) == {"Fx", "Fy", "Fz", "Mz"} and (edge["rmse"] > 0).all()
+    assert "At the design's edges" in (tmp_path / "summary.md").read_text()
+    ds = data.load(str(stores / "a.zarr"))
+    names = varying_parameters(ds)
+    train, test = edge_split(ds, names, 0.1)
+    for name in names:  # every training case lies inside the trimmed box
+        v = np.asarray(ds[name].values, dtype=float)
+        low, high = v.min(), v.max()
+        inside = v[train]
+        margin = 0.1 * (high - low)
+        assert (inside > low + margin).all() and (inside < high - margin).all()
+    assert test.size and train.size and not set(train) & set(test)
+    code, _out, err = _cli(["analyse", "sensor", stores / "a.zarr", "--out", tmp_path / "x",
+                           "--edges", 0.5])
+    assert code == 2 and "--edges must be in [0, 0.5)" in err
+
+
 def test_fit_checks_its_intervals_on_held_out_experiments(model):
     path, doc = model
     check = pd.DataFrame(doc["check"])
