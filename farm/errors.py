@@ -116,5 +116,6 @@ class SolverError(FarmError, RuntimeError):
                            self.reached, self.where, reached)
 
     def __reduce__(self):  # keep the fields when the error crosses a process boundary
+        # (not ``partial``: the states stay with the worker that stores them)
         return (type(self), (self.outcome, self.command, self.returncode, self.tail,
                              self.hint, self.reached, self.where))
