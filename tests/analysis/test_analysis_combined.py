@@ -8,8 +8,8 @@ import pytest
 from analysis import data
 from analysis.combined import BlockRegression, BlockScaler, cross_validate, latent_count
 from analysis.errors import NoVarianceError, ParameterError, TooFewExperimentsError
+from analysis.splits import edge_split, grouped_split, path_groups
 from analysis.splits import folds as path_folds
-from analysis.splits import grouped_split, path_groups
 from analysis.studies import combined
 from tests.synthetic import make_combined_store, make_store
 
@@ -240,3 +240,27 @@ def test_a_rolling_group_predicts_its_slip_ratio_and_slip_angle(tmp_path):
     assert set(rows["unit"]) == {"1", "deg"}
     assert (rows["rmse_pct_range"] < 5.0).all(), rows
     assert "slip_angle" in (out / "summary.md").read_text()
+
+
+def test_the_edge_split_holds_out_whole_paths_at_any_face_of_the_box():
+    """analysis.splits.edge_split (issue 46): a path is at an edge when any varying
+    parameter is within the outer fraction of its range; a roll goes whole, by any of
+    its states' parameters but travel; no interior (or no edge) is one clear error."""
+    import xarray as xr
+
+    angle = [0.0, 0.0, 2.0, 2.0, 1.0, 1.0, -2.0, 0.5]
+    ratio = [0.0, 0.0, 0.0, 0.0, 0.01, 0.01, 0.0, -0.01]
+    travel = [50.0, 100.0] * 4
+    ds = xr.Dataset(coords={"slip_angle": ("experiment", angle),
+                            "slip_ratio": ("experiment", ratio),
+                            "travel": ("experiment", travel)})
+    train, test = edge_split(ds, ["slip_angle", "slip_ratio", "travel"], 0.1)
+    # edges: angle 2 (paths 1), -2 (path 3, one state), ratio +-0.01 (paths 2, 3's last)
+    assert train.tolist() == [0, 1] and test.tolist() == [2, 3, 4, 5, 6, 7]
+    with pytest.raises(ParameterError, match="no edge case"):
+        edge_split(ds, ["travel"], 0.1)  # travel never counts: nothing at an edge
+    two = xr.Dataset(coords={"slip_angle": ("experiment", [0.0, 2.0, 0.0])})
+    with pytest.raises(ParameterError, match="no interior"):
+        edge_split(two, ["slip_angle"], 0.1)
+    with pytest.raises(ParameterError, match=r"\(0, 0.5\)"):
+        edge_split(ds, ["slip_angle"], 0.5)
