@@ -82,3 +82,35 @@ def test_outcome_owns_the_policy():
     assert {o for o in Outcome if o.transient} == {Outcome.TIMEOUT, Outcome.CANCELLED}
     assert not Outcome.CONVERGED.retry_smaller and Outcome.CRASH.retry_smaller
     assert not any(o.retry_smaller and o.transient for o in Outcome)
+
+
+@pytest.mark.parametrize("reached", [(2, 1), (1, 2), (0, 0)])
+def test_a_path_that_stops_keeps_the_states_of_the_try_that_got_furthest(reached):
+    """Issue 45: a roll that stops carries the states it reached (SolverError.partial,
+    measurements by then); after the retry the failure keeps the longer of the two tries'
+    states, with both runs counted and the last kept state's seconds; none: no partial."""
+    import numpy as np
+
+    from farm.measure.measurement import Measurement
+
+    def state(k: int) -> Measurement:
+        z = np.zeros((2, 3))
+        return Measurement(10.0, 0.2, z, z, z, z, np.zeros(3), np.zeros(3), np.zeros(3), 1,
+                           float(k + 1))
+
+    calls = []
+
+    def solve(settings):
+        states = tuple(state(k) for k in range(reached[len(calls)]))
+        calls.append(settings)
+        raise SolverError("increment_below_minimum", ["ccx", "-i", "roll"], 201, "tail",
+                          reached=2.5, partial=states or None)
+
+    result = guarded(solve, SolverSettings())
+    assert isinstance(result, Failed) and len(calls) == 2
+    if max(reached) == 0:
+        assert result.partial is None
+        return
+    assert len(result.partial.measurements) == max(reached)
+    assert result.partial.ccx_runs == 2
+    assert result.partial.solve_seconds == float(max(reached))
