@@ -36,6 +36,12 @@ A study names a store, a model and its load cases::
     # shift_y_mm = [-5, 5]            #   x and y after the deflection (mm), its tilt
     # tilt_deg = [-4, 4]              #   about x (degrees): docs/combined-loads.md
 
+    # a rolling study (issue 30; slip_ratio / slip_angle_deg as lists or ranges)
+    # [loads.roll]
+    # distance_mm = 150               # road travel of every roll
+    # rolling_radius_mm = "free"      # or mm
+    # states = 1                      # states kept along each roll (issue 45)
+
     # or a nested design solved as load-path trees (jobs/nested.py, issue 29)
     # [loads.tree]
     # trunks = 8                      # pressure, friction, tilt: once per trunk
@@ -45,6 +51,7 @@ A study names a store, a model and its load cases::
     [solver]                          # optional, as farm.specs.SolverSettings
     timeout_s = 1800
     max_path_length = 0               # split load paths longer than this (0: never)
+    # grow_after = 4                  # ccx's IG on frictional paths (issue 45)
 
     [models]                          # optional: a design over [model]'s fields
     method = "sobol"                  # grid | lhs | sobol | morris (jobs/design.py)
