@@ -15,7 +15,7 @@ import numpy as np
 import xarray as xr
 
 from analysis.errors import ParameterError
-from farm.measure.axes import road_axes
+from farm.measure.axes import in_road_axes as turned_vectors
 
 AXES = ("wheel", "road")
 #: experiment-wise vectors (component last) that are forces or moments about the
@@ -33,17 +33,15 @@ def in_axes(ds: xr.Dataset, axes: str) -> xr.Dataset:
 def in_road_axes(ds: xr.Dataset) -> xr.Dataset:
     """``ds`` with :data:`VECTORS` in the road's axes of each experiment's ``tilt`` (0 or
     absent: the wheel's, unchanged); ``attrs["axes"] = "road"``."""
-    K = ds.sizes["experiment"]
     tilt = (np.nan_to_num(np.asarray(ds["tilt"].values, dtype=float))
-            if "tilt" in ds.variables else np.zeros(K))
-    turn = xr.DataArray(np.stack([road_axes(float(t)) for t in tilt]) if K else
-                        np.zeros((0, 3, 3)), dims=("experiment", "road_axis", "component"))
+            if "tilt" in ds.variables else np.zeros(ds.sizes["experiment"]))
     out = ds.copy()
     for name in VECTORS:
         if name not in ds:
             continue
         v = ds[name].sel(component=["x", "y", "z"])
-        turned = xr.dot(turn, v.drop_vars("component"), dim="component")
-        turned = turned.rename(road_axis="component").assign_coords(component=["x", "y", "z"])
-        out[name] = turned.transpose(*ds[name].dims).assign_attrs(ds[name].attrs)
+        dims = [d for d in v.dims if d != "component"] + ["component"]
+        turned = turned_vectors(np.asarray(v.transpose(*dims).values, dtype=float), tilt)
+        out[name] = (v.transpose(*dims).copy(data=turned).transpose(*ds[name].dims)
+                     .assign_attrs(ds[name].attrs))
     return out.assign_attrs(axes="road")

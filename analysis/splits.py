@@ -19,9 +19,6 @@ from sklearn.model_selection import GroupKFold, KFold
 import storage
 from analysis.errors import ParameterError
 
-#: In-memory datasets without the store's parameter marks: their load-case names
-LOAD_PARAMETERS = ("deflection", "pressure", "friction", "shift_x", "shift_y", "tilt",
-                   "slip_ratio", "slip_angle")
 #: The parameter that tells the states of one roll apart: the rest of the load case
 #: is the roll's own (jobs.expand.parameters)
 TRAVEL = "travel"
@@ -34,8 +31,11 @@ def path_groups(ds: xr.Dataset) -> np.ndarray:
     K = ds.sizes["experiment"]
     if TRAVEL not in ds.variables or K == 0:
         return np.arange(K)
+    # the store marks its parameters; an in-memory dataset: its other per-experiment
+    # coordinates
     names = [n for n in storage.parameters(ds) if n != TRAVEL] or [
-        n for n in LOAD_PARAMETERS if n in ds.variables]
+        str(n) for n, c in ds.coords.items() if c.dims == ("experiment",)
+        and n not in (TRAVEL, "experiment")]
     cases = np.column_stack([np.round(np.asarray(ds[n].values, dtype=float), 9)
                              for n in names])
     _, first, labels = np.unique(cases, axis=0, return_index=True, return_inverse=True)

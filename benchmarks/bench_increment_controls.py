@@ -74,11 +74,9 @@ def _compare(ref: PathResult, other: PathResult) -> tuple[float, float]:
     """Largest force and field differences over the states, in % of |F| and of RMS."""
     force = field = 0.0
     for a, b in zip(ref.measurements, other.measurements, strict=True):
-        size = np.linalg.norm(a.road_reaction if a.road_reaction is not None
-                              else a.total_force)
-        fa = a.road_reaction if a.road_reaction is not None else a.total_force
-        fb = b.road_reaction if b.road_reaction is not None else b.total_force
-        force = max(force, 100 * float(np.abs(fb - fa).max()) / size)
+        fa, fb = (m.road_reaction if m.road_reaction is not None else m.total_force
+                  for m in (a, b))
+        force = max(force, 100 * float(np.abs(fb - fa).max()) / np.linalg.norm(fa))
         field = max(field, 100 * _rms(b.displacement - a.displacement) / _rms(a.displacement))
     return force, field
 

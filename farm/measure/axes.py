@@ -15,21 +15,22 @@ from __future__ import annotations
 import numpy as np
 
 
-def road_axes(tilt_deg: float) -> np.ndarray:
-    """(3, 3): the road's x, y and z axes (rows) in the wheel's axes, for a road turned
-    by ``tilt_deg`` degrees about +x."""
-    t = np.radians(tilt_deg)
-    return np.array([[1.0, 0.0, 0.0],
-                     [0.0, np.cos(t), np.sin(t)],
-                     [0.0, -np.sin(t), np.cos(t)]])
+def road_axes(tilt_deg: float | np.ndarray) -> np.ndarray:
+    """(..., 3, 3): the road's x, y and z axes (rows) in the wheel's axes, for a road
+    turned by ``tilt_deg`` degrees about +x (a scalar, or one tilt per leading entry)."""
+    t = np.radians(np.asarray(tilt_deg, dtype=float))
+    c, s, one, zero = np.cos(t), np.sin(t), np.ones_like(t), np.zeros_like(t)
+    return np.stack([np.stack([one, zero, zero], axis=-1),
+                     np.stack([zero, c, s], axis=-1),
+                     np.stack([zero, -s, c], axis=-1)], axis=-2)
 
 
 def in_road_axes(vectors: np.ndarray, tilt_deg: float | np.ndarray) -> np.ndarray:
     """Wheel-axes vectors (..., 3) (forces, or moments about the contact centre, which
     lies on the road) in the road's axes; ``tilt_deg`` a scalar or one per leading row
-    (K,) for vectors (K, 3)."""
+    (K,) for vectors (K, 3) or (K, n, 3)."""
     v = np.asarray(vectors, dtype=float)
-    tilt = np.asarray(tilt_deg, dtype=float)
-    if tilt.ndim == 0:
-        return v @ road_axes(float(tilt)).T
-    return np.einsum("kij,kj->ki", np.stack([road_axes(float(t)) for t in tilt]), v)
+    r = road_axes(tilt_deg)
+    if r.ndim == 3 and v.ndim == 3:  # one tilt per row of (K, n, 3)
+        return np.einsum("kij,knj->kni", r, v)
+    return np.einsum("...ij,...j->...i", r, v)

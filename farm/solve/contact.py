@@ -53,19 +53,21 @@ def road_gap(spec: ModelSpec) -> float:
 
 
 def run_deck(deck: str, settings: SolverSettings, should_stop,
-           jobname: str) -> tuple[CcxRun, FrdFile]:
-    with scratch_dir(keep=settings.keep_scratch, prefix=f"{jobname}-") as workdir:
-        run = run_ccx(deck, workdir, jobname=jobname, threads=settings.threads,
-                      timeout=settings.timeout, should_stop=should_stop)
-        return run, read_frd(run.file("frd"))
+             jobname: str) -> tuple[CcxRun, FrdFile]:
+    run, frd, error = run_deck_keeping(deck, settings, should_stop, jobname, keep=False)
+    if error is not None:
+        raise error
+    assert frd is not None
+    return run, frd
 
 
-def run_deck_keeping(deck: str, settings: SolverSettings, should_stop, jobname: str,
-                     ) -> tuple[CcxRun, FrdFile | None, SolverError | None]:
-    """:func:`run_deck` for a path that keeps what it reached when it stops (a roll,
-    issue 45): (run, frd, None) when it converged; (run, the ``.frd`` as far as ccx
-    wrote it or None where nothing can be read, the error) when it did not. A
-    cancellation still raises: there is nothing to keep for a job being stopped."""
+def run_deck_keeping(deck: str, settings: SolverSettings, should_stop, jobname: str, *,
+                     keep: bool = True) -> tuple[CcxRun, FrdFile | None, SolverError | None]:
+    """Run ``deck`` in a scratch directory: (run, frd, None) when it converged; with
+    ``keep`` (a roll, issue 45: it keeps what it reached when it stops), (run, the
+    ``.frd`` as far as ccx wrote it or None where nothing can be read, the error) when it
+    did not; without, (run, None, the error), the ``.frd`` unread. A cancellation
+    raises: there is nothing to keep for a job being stopped."""
     with scratch_dir(keep=settings.keep_scratch, prefix=f"{jobname}-") as workdir:
         run = run_ccx(deck, workdir, jobname=jobname, threads=settings.threads,
                       timeout=settings.timeout, should_stop=should_stop, check=False)
@@ -74,6 +76,8 @@ def run_deck_keeping(deck: str, settings: SolverSettings, should_stop, jobname: 
         error = failure(run)
         if run.outcome is Outcome.CANCELLED:
             raise error
+        if not keep:
+            return run, None, error
         try:
             # a diverged run's last output (its residuals) is set apart by the reader
             frd: FrdFile | None = read_frd(run.file("frd"), allow_truncated=True)

@@ -197,6 +197,10 @@ def test_the_states_of_one_roll_are_one_load_path():
     rolls = ds(deflection=[15] * 6, pressure=[0.2] * 6,
                slip_angle=[2, 2, 2, -2, -2, 0], travel=[50, 100, 150, 50, 100, 150])
     assert path_groups(rolls).tolist() == [0, 0, 0, 1, 1, 2]
+    # the analyses' split (combined, sensor, fit) holds out whole rolls, whatever the seed
+    for seed in range(6):
+        train, test = combined.split(rolls, 0.34, seed)
+        assert not set(path_groups(rolls)[train]) & set(path_groups(rolls)[test])
     assert path_groups(ds(deflection=[10, 10, 20], pressure=[0.2] * 3)).tolist() == [0, 1, 2]
 
 
