@@ -27,8 +27,10 @@ carcass cords (``theta = 90``) need none of this: they lie on the meridional edg
 Opt-in (issue 24, docs/reinforcement.md): ``belt_layout = "cords"`` lays each belt ply
 along its own cord direction (:mod:`farm.ccx.belt_cords`), which restores the pair's
 shear stiffness and puts the belts outboard of the cavity when the wall is layered;
-``tension_only = True`` lets the cords go slack in compression. At their defaults both
-fields are absent from :meth:`Reinforcement.canonical`, so every existing id stays.
+``tension_only = True`` lets the cords go slack in compression; ``belt_depth`` (issue 44)
+puts belts along their cords at a stated fraction of the wall from the cavity face,
+with any number of elements through it. At their defaults the three fields are absent
+from :meth:`Reinforcement.canonical`, so every existing id stays.
 """
 
 from __future__ import annotations
@@ -109,6 +111,13 @@ class Reinforcement:
     ``belt_layout`` chooses the belt members (:data:`BELT_LAYOUTS`); ``tension_only``
     makes every cord member (carcass and belt) slack in compression (ccx ``*SPRING,
     NONLINEAR``, :mod:`farm.ccx.reinforcement`). Both are opt-in (issue 24).
+
+    ``belt_depth`` (issue 44, ``cords`` layout only): where the belts lie through the
+    wall, as a fraction of its thickness from the cavity face (0) outwards, between
+    mesh nodes or on them (:func:`farm.ccx.belt_cords.belt_surface`). ``None`` keeps
+    the placement of before the field: the cavity face on a one-element wall, half the
+    wall on an even number of layers. So 0.5 on ONE element through the wall is the
+    model of the two-layer wall with a third of its nodes (docs/mesh-convergence.md).
     """
 
     _prefix: ClassVar[str] = "reinforcement"
@@ -116,6 +125,7 @@ class Reinforcement:
     belt: Cords = field(default_factory=_steel_belts)
     belt_layout: str = "edges"
     tension_only: bool = False
+    belt_depth: float | None = None
 
     def __post_init__(self) -> None:
         for name in ("carcass", "belt"):
@@ -129,6 +139,19 @@ class Reinforcement:
         if not isinstance(self.tension_only, bool):
             raise SpecError(f"reinforcement.tension_only must be true or false, got "
                             f"{self.tension_only!r} (e.g. --set reinforcement.tension_only=true)")
+        self._check_depth()
+
+    def _check_depth(self) -> None:
+        d = self.belt_depth
+        if d is None:
+            return
+        if not (isinstance(d, int | float) and not isinstance(d, bool) and 0 <= d < 1):
+            raise SpecError(f"reinforcement.belt_depth must be a fraction of the wall in "
+                            f"[0, 1) from the cavity face (0.5: half the wall), got {d!r}")
+        if self.belt_layout != "cords":
+            raise SpecError("reinforcement.belt_depth places belts along their cords: set "
+                            "reinforcement.belt_layout=cords with it, or drop belt_depth")
+        object.__setattr__(self, "belt_depth", float(d))  # 0 and 0.0: one id
 
     def canonical(self) -> dict[str, Any]:
         """The layers as hashed in ids: the issue-24 options only when they are used, so
@@ -138,4 +161,19 @@ class Reinforcement:
             del data["belt_layout"]
         if not self.tension_only:
             del data["tension_only"]
+        if self.belt_depth is None:
+            del data["belt_depth"]
         return data
+
+    def depth_on(self, through: int) -> float:
+        """The belts' depth (fraction of the wall from the cavity face) on a wall of
+        ``through`` elements: ``belt_depth``, or the placement before it existed."""
+        if self.belt_depth is not None:
+            return self.belt_depth
+        return implied_depth(through)
+
+
+def implied_depth(through: int) -> float:
+    """Where belts along their cords lie with ``belt_depth = None``: the cavity face of
+    a one-element wall, the node layer at half a layered one (even ``through`` only)."""
+    return 0.0 if through == 1 else 0.5

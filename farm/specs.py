@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from typing import Any, ClassVar, Literal, get_args, get_type_hints
 
 from farm.errors import SpecError, shown
-from farm.reinforcement import Reinforcement
+from farm.reinforcement import Reinforcement, implied_depth
 from farm.spacing import half_steps
 
 ModelKind = Literal["reduced", "full"]
@@ -343,11 +343,12 @@ class ModelSpec:
             half_steps(self.sector_angle / 2, self.mesh.circumferential // 2,
                        self.mesh.window, self.mesh.window_elements)
         r = self.reinforcement
-        if r is not None and r.belt_layout == "cords" and self.mesh.through % 2 \
-                and self.mesh.through > 1:
+        if r is not None and r.belt_layout == "cords" and r.belt_depth is None \
+                and self.mesh.through % 2 and self.mesh.through > 1:
             # belts at depth lie at half the wall (farm.ccx.belt_cords): a node layer there
             raise SpecError(f"mesh.through must be 1 or even with belts along their cords "
-                            f"(they lie at half the wall), got {self.mesh.through}")
+                            f"(they lie at half the wall), got {self.mesh.through}; or "
+                            f"state their depth: --set reinforcement.belt_depth=0.5")
 
     @property
     def is_full(self) -> bool:
@@ -371,6 +372,11 @@ class ModelSpec:
             del data["reinforcement"]
         else:  # so do the issue-24 belt options at their defaults
             data["reinforcement"] = self.reinforcement.canonical()
+            through = self.mesh.through
+            if (through == 1 or through % 2 == 0) and data["reinforcement"].get(
+                    "belt_depth") == implied_depth(through):
+                # a stated depth the layered wall gave anyway: the same model, one id
+                del data["reinforcement"]["belt_depth"]
         data["mesh"] = self.mesh.canonical()
         data["contact"] = self.contact.canonical()
         return data

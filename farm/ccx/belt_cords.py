@@ -21,14 +21,16 @@ tolerance and the curvature of the surface. A quarter, because each ply is two
 families (:data:`FAMILIES`), for the mesh's mirror symmetries. The network then has
 the pair's A11, A22 and A66 (tests/farm/test_reinforcement_cords.py).
 
-Depth: with ``mesh.through >= 2`` (even) the belts lie on the interior node layer at
-half the wall (:mod:`farm.mesh.layers`: 10 mm out in the 20 mm tread), at their depth
-in the crown rather than on the cavity face; those nodes are not measured, so the
-members join them directly. The depth is the same for every even ``through``, so that
-refining through the wall refines the mesh, not the model (issue 44: with the belts on
-the *first* interior layer, 4 layers put them 5 mm deep where 2 put them 10 mm, and
-Fz moved -7.0 % then +2.3 %). With one element through the wall there is no such layer
-and the belts stay on the cavity face, on the twins of :mod:`farm.ccx.reinforcement`.
+Depth: the belts lie on a surface of points at a fixed fraction of the wall from the
+cavity face (:meth:`farm.reinforcement.Reinforcement.depth_on`; half the wall, 10 mm out
+in the 20 mm tread, on a layered wall by default). A point on a node layer is that
+node; between layers (``reinforcement.belt_depth`` on a one-element wall, issue 44) it
+is a node of its own, tied by ``*EQUATION`` to the two nodes of its through-wall line
+either side (the edge is straight and moves linearly, as along a row). The depth is the
+same for every number of layers, so that refining through the wall refines the mesh,
+not the model (issue 44: with the belts on the *first* interior layer, 4 layers put them
+5 mm deep where 2 put them 10 mm, and Fz moved -7.0 % then +2.3 %). Cavity-face belts
+(a one-element wall by default) join the twins of :mod:`farm.ccx.reinforcement`.
 """
 
 from __future__ import annotations
@@ -45,16 +47,43 @@ BISECTIONS = 60  # halves the column interval 60 times: far below 1e-9 of a colu
 
 
 @dataclass(frozen=True)
+class BeltSurface:
+    """Points (rows, columns) of the surface the belts lie on, each on a through-wall
+    line: ``(1 - weight) * nodes[..., 0] + weight * nodes[..., 1]`` (``weight`` 0: on
+    the node ``nodes[..., 0]``, which both columns then hold).
+
+    ``xyz`` (R, C, 3) the points; ``nodes`` (R, C, 2) node ids; ``weight`` (R, C).
+    """
+
+    xyz: np.ndarray
+    nodes: np.ndarray
+    weight: np.ndarray
+
+    @property
+    def on_nodes(self) -> bool:
+        return not self.weight.any()
+
+    def terms(self, flat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Node ids (n, 2) and their coefficients (n, 2) of the points ``flat``
+        (indices into the raveled grid)."""
+        nodes = self.nodes.reshape(-1, 2)[flat]
+        w = self.weight.ravel()[flat]
+        return nodes, np.stack([1.0 - w, w], axis=1)
+
+
+@dataclass(frozen=True)
 class BeltChords:
     """The members of both belt plies (:data:`FAMILIES`), one per row of each array.
 
-    ``start``: node id of the member's first end; ``ends`` (n, 2) and ``weight`` (n,):
-    its second end is ``(1 - weight) * ends[:, 0] + weight * ends[:, 1]``; ``ea`` its
-    axial stiffness E*A (N); ``length`` (mm); ``vectors`` (n, 2) its vector in the local
+    ``start``: the member's first end, a point of ``surface`` (index into its raveled
+    grid); ``ends`` (n, 2) and ``weight`` (n,): its second end is ``(1 - weight) *
+    ends[:, 0] + weight * ends[:, 1]``, two points of ``surface``; ``ea`` its axial
+    stiffness E*A (N); ``length`` (mm); ``vectors`` (n, 2) its vector in the local
     (circumferential, meridional) frame; ``area`` (n,) its tributary area (mm^2) and
     ``strip`` (n,) the element row it crosses.
     """
 
+    surface: BeltSurface
     start: np.ndarray
     ends: np.ndarray
     weight: np.ndarray
@@ -64,33 +93,70 @@ class BeltChords:
     area: np.ndarray
     strip: np.ndarray
 
+    def start_xyz(self) -> np.ndarray:
+        """(n, 3) where each member starts."""
+        return self.surface.xyz.reshape(-1, 3)[self.start]
 
-def belt_grid(spec: ModelSpec, mesh: TyreMesh) -> np.ndarray:
-    """Node ids (rows, columns) of the surface the belts lie on.
+    def end_xyz(self) -> np.ndarray:
+        """(n, 3) where each member ends."""
+        points, w = self.surface.xyz.reshape(-1, 3), self.weight[:, None]
+        return (1 - w) * points[self.ends[:, 0]] + w * points[self.ends[:, 1]]
 
-    The cavity grid for a one-element wall; else the interior layer ``m = through / 2``
-    (half the wall), whose node for the through-wall line from cavity node ``a`` is
-    ``n1 + 1 + (m - 1) P + rank(a)`` (``n1`` nodes of the one-element mesh, ``P``
-    lines numbered in order of their cavity node: :func:`farm.mesh.layers.split_wall`).
-    Checked against the geometry.
+    def start_nodes(self) -> np.ndarray:
+        """Node id of each member's start where the surface lies on nodes."""
+        if not self.surface.on_nodes:
+            raise MeshError("the belts lie between node layers: their starts are points")
+        return self.surface.terms(self.start)[0][:, 0]
+
+
+def belt_surface(spec: ModelSpec, mesh: TyreMesh) -> BeltSurface:
+    """The belts' surface at :meth:`~farm.reinforcement.Reinforcement.depth_on` of the
+    wall, on the through-wall lines of the cavity grid's nodes.
+
+    Layer ``j`` of the line from cavity node ``a`` is ``a`` (``j = 0``), its outer
+    node (``j = through``), else ``n1 + 1 + (j - 1) P + rank(a)`` (``n1`` nodes of the
+    one-element mesh, ``P`` lines numbered in order of their cavity node:
+    :func:`farm.mesh.layers.split_wall`). Checked against the geometry.
     """
+    assert spec.reinforcement is not None, "belts lie in reinforced models only"
     through = spec.mesh.through
+    depth = spec.reinforcement.depth_on(through)
     inner = mesh.inner_grid
-    if through == 1:
-        return inner
-    if through % 2:
-        raise MeshError(f"belts at depth lie at half the wall: mesh.through must be even, "
-                        f"got {through}")
-    m = through // 2
     order = np.unique(inner)
     first = mesh.n_nodes - (through - 1) * len(order)
-    grid = first + 1 + (m - 1) * len(order) + np.searchsorted(order, inner)
+
+    def layer(j: int) -> np.ndarray:
+        if j == 0:
+            return inner
+        if j == through:
+            return mesh.outer_grid
+        return first + 1 + (j - 1) * len(order) + np.searchsorted(order, inner)
+
+    at = depth * through
+    j = min(int(np.floor(at + 1e-9)), through - 1)
+    weight = at - j
+    if abs(weight) < 1e-9:  # on a node layer
+        below = layer(j)
+        nodes, weight = np.stack([below, below], axis=-1), 0.0
+    else:
+        nodes = np.stack([layer(j), layer(j + 1)], axis=-1)
     x_in, x_out = mesh.xyz(inner), mesh.xyz(mesh.outer_grid)
-    expected = x_in + (x_out - x_in) * (m / through)
-    if np.abs(mesh.xyz(grid) - expected).max() > 1e-6 * np.abs(x_in).max():
-        raise MeshError("the middle interior node layer is not where the layered wall "
-                        "puts it (farm.mesh.layers changed?): cannot place the belts")
-    return grid
+    expected = x_in + (x_out - x_in) * depth
+    xyz = (1 - weight) * mesh.xyz(nodes[..., 0]) + weight * mesh.xyz(nodes[..., 1])
+    if np.abs(xyz - expected).max() > 1e-6 * np.abs(x_in).max():
+        raise MeshError("the node layers are not where the layered wall puts them "
+                        "(farm.mesh.layers changed?): cannot place the belts")
+    return BeltSurface(xyz=xyz, nodes=nodes, weight=np.full(inner.shape, weight))
+
+
+def belt_grid(spec: ModelSpec, mesh: TyreMesh) -> np.ndarray:
+    """Node ids (rows, columns) of the surface the belts lie on, where it lies on a
+    node layer (the cavity grid of a one-element wall, half a layered one)."""
+    surface = belt_surface(spec, mesh)
+    if not surface.on_nodes:
+        raise MeshError("the belts lie between node layers (reinforcement.belt_depth): "
+                        "use belt_surface")
+    return surface.nodes[..., 0]
 
 
 def _tread_strips(spec: ModelSpec) -> np.ndarray:
@@ -176,12 +242,13 @@ stiffness each: +theta from the lower row towards +phi and from the upper row to
 
 
 def belt_chords(spec: ModelSpec, mesh: TyreMesh) -> BeltChords:
-    """Both plies' members over the tread rows of :func:`belt_grid`."""
+    """Both plies' members over the tread rows of :func:`belt_surface`."""
     assert spec.reinforcement is not None, "cord_lines lays belts in reinforced models only"
     belt = spec.reinforcement.belt
     stiffness = belt.modulus * 1e3 * belt.area_per_width  # N/mm, GPa -> MPa
-    grid = belt_grid(spec, mesh)
-    xyz = mesh.nodes[grid - 1]
+    surface = belt_surface(spec, mesh)
+    xyz = surface.xyz
+    flat = np.arange(xyz.shape[0] * xyz.shape[1]).reshape(xyz.shape[:2])
     parts = []
     for i in _tread_strips(spec):
         spacing = np.linalg.norm(xyz[i + 1] - xyz[i], axis=1)
@@ -193,7 +260,7 @@ def belt_chords(spec: ModelSpec, mesh: TyreMesh) -> BeltChords:
             area = spacing[cols] * width[cols]
             length = np.linalg.norm(end - xyz[a, cols], axis=1)
             # a quarter of the pair's cords per family: half a ply, half the area's cords
-            parts.append((grid[a, cols], np.stack([grid[b, lo], grid[b, hi]], axis=1),
+            parts.append((flat[a, cols], np.stack([flat[b, lo], flat[b, hi]], axis=1),
                           weight, 0.25 * stiffness * area / length, length, vectors,
                           area, np.full(len(cols), i)))
-    return BeltChords(*(np.concatenate(column) for column in zip(*parts, strict=True)))
+    return BeltChords(surface, *(np.concatenate(column) for column in zip(*parts, strict=True)))

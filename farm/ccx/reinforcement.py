@@ -164,8 +164,10 @@ def cord_lines(spec: ModelSpec, mesh: TyreMesh) -> list[str]:
     keep = ea > 0
     edges, k, length = edges[keep], ea[keep] / length[keep], length[keep]
     chords = belt_chords(spec, mesh) if reinf.belt_layout == "cords" else None
-    twinned = edges if chords is None else np.concatenate(  # cavity nodes only
-        [edges.ravel(), chords.start[np.isin(chords.start, mesh.inner_grid)]])
+    twinned = edges.ravel()
+    if chords is not None and chords.surface.on_nodes:  # cavity nodes only
+        starts = chords.start_nodes()
+        twinned = np.concatenate([twinned, starts[np.isin(starts, mesh.inner_grid)]])
     nodes = np.unique(twinned)
     first_twin = mesh.n_nodes + FIRST_ID_OFFSET
     twin = dict(zip(nodes.tolist(), range(first_twin, first_twin + len(nodes)), strict=True))
@@ -183,21 +185,49 @@ def cord_lines(spec: ModelSpec, mesh: TyreMesh) -> list[str]:
 
 def _chord_ends(mesh: TyreMesh, chords: BeltChords, twin: dict[int, int],
                 first: int) -> tuple[np.ndarray, list[str]]:
-    """Node pairs (n, 2) of the belt members and the lines of their far ends: nodes
-    ``first + k`` on the next row, each tied by an ``*EQUATION`` per dof to its two row
-    nodes (a term whose weight vanishes is left out: ccx needs nonzero coefficients).
-    A member starts at its node's twin where that node has one (the cavity face)."""
+    """Node pairs (n, 2) of the belt members and the lines of their ends.
+
+    A member starts at its node (its twin where it has one: the cavity face), or, with
+    the belts between node layers, at a node of its own per surface point (``BELT_POINTS``,
+    tied to the two nodes of its through-wall line). Its far end is a node ``BELT_ENDS``
+    on the next row, tied by an ``*EQUATION`` per dof to the nodes the two row points
+    hang on (a term whose weight vanishes is left out: ccx needs nonzero coefficients).
+    """
+    surface, lines = chords.surface, []
+    if surface.on_nodes:
+        starts = np.array([twin.get(int(s), int(s)) for s in chords.start_nodes()],
+                          dtype=np.int64)
+    else:
+        points = np.unique(chords.start)
+        nodes, coef = surface.terms(points)
+        ids = first + np.arange(len(points))
+        lines += _tied_nodes("BELT_POINTS", ids, surface.xyz.reshape(-1, 3)[points],
+                             nodes, coef)
+        starts = ids[np.searchsorted(points, chords.start)]
+        first += len(points)
     ids = first + np.arange(len(chords.start))
-    a, b, w = chords.ends[:, 0], chords.ends[:, 1], chords.weight
-    xyz = (1 - w)[:, None] * mesh.xyz(a) + w[:, None] * mesh.xyz(b)
-    lines = ["*NODE, NSET=BELT_ENDS"]
+    w = chords.weight[:, None]
+    (na, ca), (nb, cb) = surface.terms(chords.ends[:, 0]), surface.terms(chords.ends[:, 1])
+    nodes, coef = np.concatenate([na, nb], axis=1), np.concatenate([(1 - w) * ca, w * cb],
+                                                                   axis=1)
+    xyz = np.einsum("nk,nkj->nj", coef, mesh.xyz(nodes))
+    lines += _tied_nodes("BELT_ENDS", ids, xyz, nodes, coef)
+    return np.stack([starts, ids], axis=1), lines
+
+
+def _tied_nodes(name: str, ids: np.ndarray, xyz: np.ndarray, nodes: np.ndarray,
+                coef: np.ndarray) -> list[str]:
+    """Nodes ``ids`` at ``xyz`` in set ``name``, each dof an ``*EQUATION`` making it
+    ``sum(coef * nodes)`` (repeated nodes merged in order, terms under 1e-9 left out)."""
+    lines = [f"*NODE, NSET={name}"]
     lines += [f"{n}, " + ", ".join(f"{c:.12g}" for c in p) for n, p in zip(ids, xyz, strict=True)]
     lines.append("*EQUATION")
-    for n, na, nb, wb in zip(ids, a, b, w, strict=True):
-        terms = [(na, 1.0 - wb), (nb, wb)]
-        terms = [(node, c) for node, c in terms if c > 1e-9]
+    for n, row, weights in zip(ids, nodes, coef, strict=True):
+        merged: dict[int, float] = {}
+        for node, c in zip(row.tolist(), weights.tolist(), strict=True):
+            merged[node] = merged.get(node, 0.0) + c
+        terms = [(node, c) for node, c in merged.items() if c > 1e-9]
         for dof in (1, 2, 3):
             lines += [str(1 + len(terms)), f"{n}, {dof}, 1., " + ", ".join(
                 f"{node}, {dof}, {-c:.12g}" for node, c in terms)]
-    starts = np.array([twin.get(int(s), int(s)) for s in chords.start], dtype=np.int64)
-    return np.stack([starts, ids], axis=1), lines
+    return lines

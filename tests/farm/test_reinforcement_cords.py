@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from farm.ccx.belt_cords import belt_chords, belt_grid
+from farm.ccx.belt_cords import belt_chords, belt_grid, belt_surface
 from farm.ccx.reinforcement import COMPRESSION_RATIO, FIRST_ID_OFFSET, cord_lines, surface_trusses
 from farm.errors import SpecError
 from farm.experiment import run_load_path
@@ -93,9 +93,11 @@ def test_cord_members_reproduce_the_ply_pair_on_the_patch_mesh(patch):
     spec, mesh, chords = patch
     xyz = mesh.nodes[mesh.inner_grid - 1]
     target = netting_tensor(_belt_stiffness(spec), spec.reinforcement.belt.angle)
-    ends = ((1 - chords.weight)[:, None] * mesh.xyz(chords.ends[:, 0])
-            + chords.weight[:, None] * mesh.xyz(chords.ends[:, 1]))
-    start = mesh.xyz(chords.start)
+    grid = belt_grid(spec, mesh).ravel()  # members index the belts' grid of nodes
+    ends = ((1 - chords.weight)[:, None] * mesh.xyz(grid[chords.ends[:, 0]])
+            + chords.weight[:, None] * mesh.xyz(grid[chords.ends[:, 1]]))
+    start = mesh.xyz(grid[chords.start])
+    assert np.allclose(start, chords.start_xyz()) and np.allclose(ends, chords.end_xyz())
     rows = np.unique(chords.strip)
     assert len(rows) == spec.mesh.tread
     for i in rows:
@@ -145,10 +147,8 @@ def test_members_snapped_to_nodes_would_miss_the_tensor(patch):
 
 def test_members_keep_the_mirror_symmetries(patch):
     """y -> -y and x -> -x map the set of members (start, end) onto itself."""
-    _, mesh, chords = patch
-    start = mesh.xyz(chords.start)
-    end = ((1 - chords.weight)[:, None] * mesh.xyz(chords.ends[:, 0])
-           + chords.weight[:, None] * mesh.xyz(chords.ends[:, 1]))
+    _, _, chords = patch
+    start, end = chords.start_xyz(), chords.end_xyz()
     members = np.round(np.hstack([start, end]), 6)
     key = {tuple(m) for m in members}
     for flip in ([1, -1, 1], [-1, 1, 1]):
@@ -168,11 +168,12 @@ def test_belts_lie_at_half_the_wall_for_every_layered_wall(through):
     inner, outer = mesh.xyz(mesh.inner_grid), mesh.xyz(mesh.outer_grid)
     assert np.allclose(mesh.xyz(grid), 0.5 * (inner + outer))
     chords = belt_chords(spec, mesh)
-    assert not np.isin(chords.start, mesh.inner_grid).any()
+    starts = chords.start_nodes()
+    assert not np.isin(starts, mesh.inner_grid).any()
     lines = cord_lines(spec, mesh)
     springs = [x.split(",") for x in lines if x[:1].isdigit() and x.count(",") == 2]
     joined = {int(s[k]) for s in springs for k in (1, 2)}
-    assert set(chords.start.tolist()) <= joined  # interior nodes, no twins
+    assert set(starts.tolist()) <= joined  # interior nodes, no twins
 
 
 def test_one_element_wall_keeps_the_belts_on_the_cavity_twins():
@@ -295,5 +296,115 @@ def test_cord_belts_solve_and_change_the_lateral_force():
 def test_an_odd_layered_wall_with_belts_at_depth_is_refused():
     spec = default_model("full", materials="cord-reinforced",
                          mesh=dataclasses.replace(COARSE, through=3))
-    with pytest.raises(SpecError, match="must be 1 or even"):
+    with pytest.raises(SpecError, match=r"must be 1 or even.*belt_depth=0\.5"):
         _with(spec, belt_layout="cords")
+
+
+# --- a stated depth (issue 44: belts at half the wall on ONE element through it) ----------
+
+def _at_depth(through: int, depth: float | None) -> ModelSpec:
+    spec = default_model("full", materials="cord-reinforced",
+                         mesh=dataclasses.replace(COARSE, through=through))
+    return _with(spec, belt_layout="cords", belt_depth=depth)
+
+
+@pytest.mark.parametrize(("through", "depth"), [(1, 0.5), (1, 0.3), (2, 0.25), (3, 0.5),
+                                                (4, 0.6)])
+def test_a_stated_depth_puts_the_belts_there_on_any_wall(through, depth):
+    spec = _at_depth(through, depth)
+    mesh = mesh_for(spec)
+    surface = belt_surface(spec, mesh)
+    inner, outer = mesh.xyz(mesh.inner_grid), mesh.xyz(mesh.outer_grid)
+    assert np.allclose(surface.xyz, inner + depth * (outer - inner))
+    on_layer = abs(depth * through - round(depth * through)) < 1e-9
+    assert surface.on_nodes == on_layer
+    # each point hangs on its own through-wall line: two neighbouring node layers
+    (a, b) = surface.nodes[..., 0], surface.nodes[..., 1]
+    span = np.linalg.norm(mesh.xyz(b) - mesh.xyz(a), axis=-1)
+    wall = np.linalg.norm(outer - inner, axis=-1)
+    assert np.allclose(span, 0 if on_layer else wall / through)
+
+
+def test_belts_between_layers_hang_on_points_tied_to_their_line():
+    spec = _at_depth(1, 0.5)
+    mesh = mesh_for(spec)
+    lines = cord_lines(spec, mesh)
+    first = lines.index("*NODE, NSET=BELT_POINTS")
+    points = lines[first + 1: lines.index("*EQUATION", first)]
+    xyz = {int(x.split(",")[0]): np.array([float(v) for v in x.split(",")[1:]])
+           for x in points}
+    surface = belt_surface(spec, mesh)
+    chords = belt_chords(spec, mesh)
+    assert len(xyz) == len(np.unique(chords.start))
+    at = lines.index("*EQUATION", first)
+    eq = [lines[at + 1 + 2 * k: at + 3 + 2 * k] for k in range(3 * len(xyz))]
+    for count, terms in eq:  # the point, then its inner and outer node at one half each
+        assert count == "3"
+        parts = terms.split(",")
+        node, coef = int(parts[0]), [float(parts[k]) for k in (5, 8)]
+        assert coef == [-0.5, -0.5]
+        ends = mesh.xyz(np.array([int(parts[3]), int(parts[6])]))
+        assert np.allclose(xyz[node], ends.mean(axis=0))
+    assert set(np.round(surface.xyz.reshape(-1, 3)[np.unique(chords.start)], 6).ravel()) == \
+        set(np.round(np.array(list(xyz.values())), 6).ravel())
+    # the far ends hang on up to four nodes (two row points, two nodes each)
+    ends = lines[lines.index("*NODE, NSET=BELT_ENDS"):]
+    counts = {ends[i] for i in range(len(ends)) if ends[i - 1] == "*EQUATION"}
+    assert counts <= {"3", "4", "5"} and "5" in counts
+    # no member joins a cavity node or its twin: the camera's strain stays the rubber's
+    springs = [x.split(",") for x in lines if x[:1].isdigit() and x.count(",") == 2]
+    first_spring = mesh.n_elements + FIRST_ID_OFFSET
+    belt = [s for s in springs if int(s[0]) >= first_spring and int(s[1]) in xyz]
+    assert belt and all(int(s[2]) not in xyz for s in belt)
+
+
+def test_the_depth_a_layered_wall_gives_anyway_keeps_its_id_and_deck():
+    for through, depth in ((2, 0.5), (4, 0.5), (1, 0.0)):
+        stated, implied = _at_depth(through, depth), _at_depth(through, None)
+        assert content_hash(stated.to_dict()) == content_hash(implied.to_dict())
+        assert cord_lines(stated, mesh_for(stated)) == cord_lines(implied, mesh_for(implied))
+    moved = _at_depth(1, 0.5)
+    assert content_hash(moved.to_dict()) != content_hash(_at_depth(1, None).to_dict())
+    assert moved.to_dict()["reinforcement"]["belt_depth"] == 0.5
+    assert ModelSpec.from_dict(moved.to_dict()) == moved
+    assert moved.mesh_key() == _at_depth(1, None).mesh_key()
+
+
+@pytest.mark.parametrize(("fields", "match"), [
+    ({"belt_layout": "cords", "belt_depth": 1.0}, r"belt_depth must be a fraction .*\[0, 1\)"),
+    ({"belt_layout": "cords", "belt_depth": -0.1}, r"belt_depth must be a fraction"),
+    ({"belt_layout": "cords", "belt_depth": True}, r"belt_depth must be a fraction"),
+    ({"belt_layout": "cords", "belt_depth": "half"}, r"belt_depth must be a fraction"),
+    ({"belt_depth": 0.5}, r"belt_depth places belts along their cords: set "
+                          r"reinforcement\.belt_layout=cords"),
+])
+def test_a_bad_depth_is_refused_in_one_line(fields, match):
+    with pytest.raises(SpecError, match=match) as err:
+        Reinforcement(**fields)
+    assert "\n" not in str(err.value)
+
+
+@pytest.mark.ccx
+@pytest.mark.slow
+def test_belts_at_half_a_one_element_wall_solve_as_the_two_layer_wall():
+    """Issue 44, on a small windowed mesh (24 round, 4 sidewall elements per side),
+    20 mm at 200 kPa with `reinforced-converged`: belts at half the wall on ONE element
+    (points tied to the through-wall lines) give the two-layer wall's Fz and window CST
+    strain within 1 % (measured 4435.1 / 4442.3 N, 0.00648 / 0.00651), while the same
+    one-element wall with belts on the cavity face is 15 % stiffer (5088.7 N): the
+    depth is the model, the second layer only its mesh."""
+    from farm.measure.patch import window_rms
+
+    small = MeshDensity(tread=4, sidewall=4, bead=1, circumferential=24, window=32.0,
+                        window_elements=4)
+    base = default_model("full", materials="reinforced-converged", mesh=small)
+    out = {}
+    for name, through, depth in (("face", 1, 0.0), ("half, one element", 1, 0.5),
+                                 ("half, two layers", 2, 0.5)):
+        spec = _with(dataclasses.replace(base, mesh=dataclasses.replace(small, through=through)),
+                     belt_depth=depth)
+        m = run_load_path(spec, LoadPath((20.0,), 0.2), SolverSettings()).measurements[-1]
+        out[name] = (float(m.total_force[2]), window_rms(mesh_for(spec), m.surface_strain, 20.0))
+    (fz1, e1), (fz2, e2) = out["half, one element"], out["half, two layers"]
+    assert fz1 == pytest.approx(fz2, rel=0.01) and e1 == pytest.approx(e2, rel=0.01), out
+    assert out["face"][0] > 1.08 * fz2, out
