@@ -26,7 +26,8 @@ from sklearn.base import clone
 from sklearn.model_selection import GroupKFold
 
 from analysis import learners
-from analysis.errors import ParameterError, TooFewExperimentsError
+from analysis.errors import ModelFileError, ParameterError, TooFewExperimentsError
+from analysis.predict.domain import FeatureDomain, reference_checks
 from analysis.predict.intervals import ConformalIntervals
 from analysis.sensor import InnerSurface, SensorSpec, VirtualSensor
 from analysis.sensor.resample import to_layout
@@ -54,6 +55,8 @@ class ForceModel:
     inputs: tuple[str, ...] = INPUTS
     targets: tuple[str, ...] = TARGETS
     info: dict = field(default_factory=dict)
+    # the training clouds' domain (issue 47); None for a model saved before it
+    domain: FeatureDomain | None = None
 
     def __post_init__(self) -> None:
         # built once: its layout's interpolation matrix (and a correlated-noise factor)
@@ -70,9 +73,26 @@ class ForceModel:
         return X
 
     def predict_clouds(self, ref_points: np.ndarray, clouds: list[np.ndarray]) -> pd.DataFrame:
-        """One row per cloud: each target, with the lower and upper interval bounds."""
+        """One row per cloud: each target, with the lower and upper interval bounds, and
+        ``domain``: ``inside``, ``outside: <the measure over its limit>`` (its intervals
+        are then unbounded: the model does not know), or ``not checked`` (a model saved
+        before issue 47).
+
+        Raises :class:`~analysis.errors.CloudError` when the reference cloud is not this
+        tyre in the model's frame (:func:`analysis.predict.domain.reference_checks`).
+        """
+        seen = np.isfinite(ref_points).all(axis=1)
+        reference_checks(self.surface, self.virtual.layout, ref_points[seen])
         X = np.concatenate([self.features(ref_points, c) for c in clouds])
-        return self.predict_features(X)
+        with np.errstate(over="ignore", invalid="ignore"):
+            table = self.predict_features(X)
+        if self.domain is None:
+            return table.assign(domain="not checked")
+        why = self.domain.outside(X)
+        out = np.array([bool(w) for w in why])
+        for name in self.targets:
+            table.loc[out, f"{name}_lower"], table.loc[out, f"{name}_upper"] = -np.inf, np.inf
+        return table.assign(domain=["outside: " + w if w else "inside" for w in why])
 
     def predict_features(self, X: np.ndarray) -> pd.DataFrame:
         P = np.asarray(self.learner.predict(X)).reshape(X.shape[0], -1)  # type: ignore[attr-defined]
@@ -129,7 +149,8 @@ def fit(ds: xr.Dataset, sensor: SensorSpec, *, learner: str = "plsr", draws: int
     model = ForceModel(sensor, surface, estimator, intervals, tuple(inputs),
                        info={"train": train.tolist(), "test": test.tolist(),
                              "learner": learner, "draws": draws, "seed": seed,
-                             "range": np.ptp(Y, axis=0).tolist()})
+                             "range": np.ptp(Y, axis=0).tolist()},
+                       domain=FeatureDomain().fit(Xf, Xt))
     return model, _check(model, Xt, Yt, np.ptp(Y, axis=0), alpha)
 
 
@@ -173,6 +194,8 @@ def save(model: ForceModel, path, *, store: str, group: str, ids: list[str],
     payload = {"learner": model.learner, "intervals": model.intervals,
                "surface": {"xyz": s.xyz, "theta": s.theta, "s": s.s,
                            "node_index": s.node_index, "periodic": bool(s.periodic)}}
+    if model.domain is not None:
+        payload["domain"] = model.domain.to_dict()
     manifest = {"store": store, "group": group, "experiment_ids": list(ids),
                 "sensor": model.sensor.to_dict(), "inputs": list(model.inputs),
                 "targets": list(model.targets),
@@ -199,5 +222,13 @@ def load(path) -> tuple[ForceModel, dict]:
         node_index=np.asarray(s["node_index"])), s, "reference surface", where)
     extra = manifest.get("extra") or {}
     info = {**(extra.get("info") or {}), "check": extra.get("check") or []}
-    model = ForceModel(sensor, surface, learner, intervals, inputs, targets_, info)
+    domain = payload.get("domain")
+    if domain is not None:
+        domain = v.built(FeatureDomain.from_dict, domain, "feature domain", where)
+    model = ForceModel(sensor, surface, learner, intervals, inputs, targets_, info, domain)
+    features = 3 * model.virtual.layout.n_points * len(inputs)
+    if domain is not None and domain.mean_.size != features:
+        raise ModelFileError(f"{where}: its feature domain has {domain.mean_.size} features, "
+                             f"its sensor and inputs give {features}; save the model again "
+                             "with farm fit")
     return model, manifest

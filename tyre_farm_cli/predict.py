@@ -36,6 +36,9 @@ from tyre_farm_cli.analyse import (
 from tyre_farm_cli.checks import model_folder, output_folder
 from tyre_farm_cli.errors import usage
 
+OUTSIDE_EXIT = 3
+"""``farm predict``'s exit status when a cloud lies outside the model's domain (issue 47):
+the table is printed, but a script must not take its forces."""
 MAX_DRAWS = 1000  # noisy measurements per experiment: each one is a feature row in memory
 
 ModelDir = Annotated[Path, typer.Argument(help="Model folder written by `farm fit`.")]
@@ -173,16 +176,23 @@ def predict(
     table.insert(0, "cloud", [str(p) for p in clouds])
     if out is not None:
         table.to_csv(out, index=False)
+    outside = int(table["domain"].str.startswith("outside").sum())
     if as_json:
         typer.echo(json.dumps({"model": str(model), "alpha": fitted.intervals.alpha,
-                               "registration_rms_mm": rms,
-                               "predictions": table.to_dict("records")}, indent=1))
-        return
-    level = 100 * (1 - fitted.intervals.alpha)
-    typer.echo(f"model {model} (sensor {manifest['sensor'].get('name')}); intervals: "
-               f"{level:g} % conformal" + ("" if rms is None else
-                                           f"; ICP residual {rms:.3g} mm"))
-    typer.echo(table.to_string(index=False, float_format=lambda v: f"{v:.5g}"))
+                               "registration_rms_mm": rms, "outside": outside,
+                               "predictions": _finite(table).to_dict("records")},
+                              indent=1))
+    else:
+        level = 100 * (1 - fitted.intervals.alpha)
+        typer.echo(f"model {model} (sensor {manifest['sensor'].get('name')}); intervals: "
+                   f"{level:g} % conformal" + ("" if rms is None else
+                                               f"; ICP residual {rms:.3g} mm"))
+        typer.echo(table.to_string(index=False, float_format=lambda v: f"{v:.5g}"))
+    if outside:
+        typer.echo(f"{outside} of {len(table)} clouds are unlike every cloud the model was "
+                   "trained and checked on (column domain): their forces are not predictions "
+                   "and their intervals are unbounded", err=True)
+        raise typer.Exit(OUTSIDE_EXIT)
 
 
 def mismatch(
@@ -213,3 +223,10 @@ def mismatch(
     typer.echo(f"trained on {manifest.get('store')} group {manifest.get('group')!r}; "
                f"applied to {store} group {ds.attrs.get('group')!r}")
     typer.echo(table.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+
+
+def _finite(table):
+    """JSON has no infinity: an unbounded interval's end is written as null."""
+    numbers = table.select_dtypes("number").columns
+    return table.astype({c: object for c in numbers}).where(
+        ~table.isin([np.inf, -np.inf]), None)

@@ -31,7 +31,8 @@ import numpy as np
 
 from analysis.errors import CloudError
 
-__all__ = ["MAX_POINTS", "MESH_FORMATS", "TEXT_FORMATS", "read_cloud", "write_cloud"]
+__all__ = ["MAX_COORDINATE_MM", "MAX_POINTS", "MESH_FORMATS", "TEXT_FORMATS", "read_cloud",
+           "write_cloud"]
 
 #: most points :func:`read_cloud` accepts by default (a T2Cam frame has ~1e5)
 MAX_POINTS = 10_000_000
@@ -51,6 +52,11 @@ _AXIS_NAME = re.compile(r"^([xyz])(?:$|[\s_\[(])")
 
 def _fail(path: Path, what: str) -> CloudError:
     return CloudError(f"point cloud {path}: {what}")
+
+
+MAX_COORDINATE_MM = 1e4
+"""A coordinate beyond 10 m is no tyre's (the TM700 is 0.8 m across): a file with one
+is corrupt or in other units (issue 47: a coordinate of 1e300 printed Fx = 6.6e299 N)."""
 
 
 def read_cloud(path: str | os.PathLike, *, units: str = "mm",
@@ -100,7 +106,14 @@ def read_cloud(path: str | os.PathLike, *, units: str = "mm",
     if xyz.shape[0] > max_points:
         raise _fail(path, f"more than {max_points:,} points; split the cloud or pass a "
                           "larger max_points")
-    return xyz * _UNITS[units] if units != "mm" else xyz
+    xyz = xyz * _UNITS[units] if units != "mm" else xyz
+    far = np.flatnonzero(np.abs(xyz).max(axis=1, initial=0.0) > MAX_COORDINATE_MM)
+    if far.size:
+        raise _fail(path, f"point {far[0] + 1} has a coordinate of "
+                          f"{np.abs(xyz[far[0]]).max():.3g} mm: a tyre's cloud lies within "
+                          f"{MAX_COORDINATE_MM / 1000:g} m of the camera; check the file and "
+                          "its units")
+    return xyz
 
 
 def write_cloud(path: str | os.PathLike, xyz) -> Path:

@@ -87,6 +87,6 @@ def built(build: Any, value: Any, what: str, where: str) -> Any:
     into one model file error."""
     try:
         return build(value)
-    except (ParameterError, TypeError, ValueError) as exc:
+    except (ParameterError, KeyError, TypeError, ValueError) as exc:
         raise ModelFileError(f"{where}: its {what} is not valid ({exc}); save the model "
                              "again with farm fit") from None

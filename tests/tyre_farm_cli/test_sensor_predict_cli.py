@@ -359,3 +359,93 @@ def test_fit_replaces_an_earlier_model_in_its_folder(model, stores, tmp_path):
     assert code in (0, None), err
     assert sorted(p.name for p in (tmp_path / "m").iterdir()) == ["manifest.json",
                                                                   "model.skops"]
+
+
+# --- clouds that are not this tyre (issue 47) ---------------------------------------------
+
+@pytest.fixture(scope="module")
+def measured(stores, tmp_path_factory):
+    """Four genuine clouds of group a, their reference, and the paths."""
+    from analysis.predict.clouds import read_cloud
+
+    folder = tmp_path_factory.mktemp("measured")
+    code, _, err = _cli(["measure", stores / "a.zarr", "--out", folder, "--sensor", SENSOR,
+                         "--limit", 4, "--seed", 3])
+    assert code in (0, None), err
+    names = list(pd.read_csv(folder / "truth.csv")["experiment"])
+    return (read_cloud(folder / "reference.csv"),
+            [read_cloud(folder / f"{n}.csv") for n in names], folder, names)
+
+
+def _write(tmp_path, ref, clouds):
+    from analysis.predict.clouds import write_cloud
+
+    write_cloud(tmp_path / "ref.csv", ref)
+    paths = []
+    for k, c in enumerate(clouds):
+        paths.append(write_cloud(tmp_path / f"c{k}.csv", c))
+    return [tmp_path / "ref.csv", *paths]
+
+
+def test_genuine_clouds_are_inside_the_model_s_domain(model, measured, tmp_path):
+    ref, clouds, _, _ = measured
+    code, out, err = _cli(["predict", model[0], *_write(tmp_path, ref, clouds), "--json"])
+    assert code in (0, None), err
+    doc = json.loads(out)
+    assert doc["outside"] == 0
+    assert [p["domain"] for p in doc["predictions"]] == ["inside"] * len(clouds)
+
+
+@pytest.mark.parametrize(("move", "flags", "needle"), [
+    # measured on this synthetic tyre: RMS offsets 286 mm, 90 mm; after ICP the 1.5x
+    # tyre is 24 mm off, the 0.7x one 1.3 mm off but covering 77 % of the window
+    (lambda x: x + np.array([500.0, 0.0, 0.0]), [], "mm (RMS) from the model's inner surface"),
+    (lambda x: 0.7 * x, [], "mm (RMS) from the model's inner surface"),
+    (lambda x: 1.5 * x, ["--align"], "mm (RMS) from the model's inner surface"),
+    (lambda x: 0.7 * x, ["--align"], "% of the sensor's window"),
+])
+def test_a_cloud_of_another_tyre_or_frame_is_refused_in_one_line(model, measured, tmp_path,
+                                                                 move, flags, needle):
+    ref, clouds, _, _ = measured
+    paths = _write(tmp_path, move(ref), [move(c) for c in clouds])
+    code, out, err = _cli(["predict", model[0], *paths, *flags, "--out", tmp_path / "p.csv"])
+    assert code == 1 and out == "", err
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1 and needle in lines[0], err
+    assert not (tmp_path / "p.csv").exists()
+
+
+@pytest.mark.parametrize("edit", ["one", "all"])
+def test_a_coordinate_no_tyre_has_is_refused_when_read(model, measured, tmp_path, edit):
+    ref, clouds, _, _ = measured
+    bad = clouds[0].copy()
+    if edit == "one":
+        bad[3, 1] = 1e300
+    else:
+        bad *= 1e6
+    code, out, err = _cli(["predict", model[0], *_write(tmp_path, ref, [bad])])
+    assert code == 1 and out == ""
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1 and "c0.csv" in lines[0] and "within 10 m" in lines[0], err
+
+
+def test_a_deformation_unlike_every_trained_one_is_flagged_not_predicted(model, measured,
+                                                                        tmp_path):
+    """Five times the displacements of genuine clouds (far beyond the design): each
+    flagged with the measure over its limit, intervals unbounded, exit 3; the genuine
+    cloud beside them keeps its interval."""
+    from tyre_farm_cli.predict import OUTSIDE_EXIT
+
+    ref, clouds, _, _ = measured
+    far = [ref + 5.0 * (c - ref) for c in clouds[:2]]
+    paths = _write(tmp_path, ref, [clouds[2], *far])
+    code, out, err = _cli(["predict", model[0], *paths, "--json"])
+    assert code == OUTSIDE_EXIT, err
+    assert "2 of 3 clouds are unlike every cloud the model was trained" in err
+    rows = json.loads(out)["predictions"]
+    assert rows[0]["domain"] == "inside" and rows[0]["Fz_lower"] is not None
+    for row in rows[1:]:
+        assert row["domain"].startswith("outside: ") and "its limit" in row["domain"]
+        assert row["Fz_lower"] is None and row["Fz_upper"] is None  # unbounded
+    code, out, _ = _cli(["predict", model[0], *paths])  # the table says it too
+    assert code == OUTSIDE_EXIT and "outside: " in out
