@@ -31,7 +31,9 @@ def mismatch(model: ForceModel, ds: xr.Dataset, *, draws: int = 1,
     table : pandas.DataFrame
         Per target: RMSE and % of the training group's range (``model.info["range"]``),
         mean error (bias), interval coverage, and the trained model's own held-out %
-        (``model.info["check"]`` when saved with it) and the ratio of the two.
+        (``model.info["check"]`` when saved with it) and the ratio of the two; ``outside``
+        the share of the clouds the model's feature domain flags (NaN for a model saved
+        before issue 47), whatever the target.
     truth, predicted : ndarray of shape (K x draws, 4)
     """
     other = VirtualSensor(model.sensor, InnerSurface.from_dataset(ds))
@@ -45,8 +47,12 @@ def mismatch(model: ForceModel, ds: xr.Dataset, *, draws: int = 1,
         for k in range(clean.shape[0]):
             rows.append(model.features(refs[k].reshape(-1, 3), clouds[k].reshape(-1, 3)))
             truth.append(Y[k])
-    P = model.predict_features(np.concatenate(rows))
+    X = np.concatenate(rows)
+    P = model.predict_features(X)
     T = np.asarray(truth)
+    # the share of these clouds the model's domain (issue 47) would flag in farm predict
+    flagged = (float(np.mean([bool(w) for w in model.domain.outside(X)]))
+               if model.domain is not None else float("nan"))
     # % of the *training* group's range, so the growth compares like with like (a
     # small other group has a range of its own); its own range where the model has none
     span = np.asarray(model.info.get("range", np.ptp(Y, axis=0)), dtype=float)
@@ -61,5 +67,6 @@ def mismatch(model: ForceModel, ds: xr.Dataset, *, draws: int = 1,
         out.append({"target": name, "rmse": rmse, "rmse_pct_range": pct,
                     "bias": float(err.mean()), "coverage": float(np.mean(inside)),
                     "trained_heldout_pct_range": mine,
-                    "growth": pct / mine if mine and np.isfinite(mine) else float("nan")})
+                    "growth": pct / mine if mine and np.isfinite(mine) else float("nan"),
+                    "outside": flagged})
     return pd.DataFrame(out), T, P[list(model.targets)].to_numpy()

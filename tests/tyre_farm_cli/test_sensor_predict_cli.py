@@ -191,6 +191,7 @@ def test_mismatch_reports_error_growth(stores, model):
     assert list(table["target"]) == ["Fx", "Fy", "Fz", "Mz"]
     assert np.isfinite(table["rmse_pct_range"]).all()
     assert np.isfinite(table["trained_heldout_pct_range"]).all()
+    assert table["outside"].between(0.0, 1.0).all()  # the domain's flags (issue 47)
 
 
 @pytest.mark.parametrize(("argv", "needle"), [
