@@ -144,11 +144,12 @@ def predict(
         help="Also write the predictions as CSV [default: print only].")] = None,
     as_json: Json = False,
 ) -> None:
-    """Fx, Fy, Fz, Mz of measured point clouds, with conformal prediction intervals."""
+    """Fx, Fy, Fz, Mz of measured point clouds, with conformal prediction intervals.
+
+    Exit status 3 (the table printed) when a cloud lies outside what the model was
+    trained on (issue 47, docs/sensor.md)."""
     from analysis import predictor
-    from analysis.errors import CloudError
     from analysis.predict.clouds import read_cloud
-    from analysis.predict.registration import icp, read_transform
 
     with usage():
         if transform is not None and align:
@@ -156,22 +157,7 @@ def predict(
     fitted, manifest = predictor.load(model)
     ref = read_cloud(reference)
     measured = [read_cloud(p) for p in clouds]
-    for path, cloud in zip(clouds, measured, strict=True):
-        if cloud.shape != ref.shape:
-            raise CloudError(f"{path} has {cloud.shape[0]} points, the reference "
-                                     f"{reference} {ref.shape[0]}: a cloud must list the "
-                                     "reference's points in the same order")
-    rms = None
-    if transform is not None:
-        move = read_transform(transform)
-    elif align:
-        target = fitted.virtual.layout.xyz.reshape(-1, 3)
-        seen = np.isfinite(ref).all(axis=1)
-        move, rms = icp(ref[seen], target)
-    else:
-        move = None
-    if move is not None:
-        ref, measured = move.apply(ref), [move.apply(c) for c in measured]
+    ref, measured, rms = _registered(fitted, reference, ref, clouds, measured, transform, align)
     table = fitted.predict_clouds(ref, measured)
     table.insert(0, "cloud", [str(p) for p in clouds])
     if out is not None:
@@ -193,6 +179,30 @@ def predict(
                    "trained and checked on (column domain): their forces are not predictions "
                    "and their intervals are unbounded", err=True)
         raise typer.Exit(OUTSIDE_EXIT)
+
+
+def _registered(fitted, reference: Path, ref: np.ndarray, paths: list[Path],
+                measured: list[np.ndarray], transform: Path | None, align: bool):
+    """The clouds in the model's frame: moved by ``transform``, or by ICP of the
+    reference onto the model's sensor points (``align``, whose residual is returned),
+    or as given."""
+    from analysis.errors import CloudError
+    from analysis.predict.registration import icp, read_transform
+
+    for path, cloud in zip(paths, measured, strict=True):
+        if cloud.shape != ref.shape:
+            raise CloudError(f"{path} has {cloud.shape[0]} points, the reference "
+                             f"{reference} {ref.shape[0]}: a cloud must list the "
+                             "reference's points in the same order")
+    rms = None
+    if transform is not None:
+        move = read_transform(transform)
+    elif align:
+        seen = np.isfinite(ref).all(axis=1)
+        move, rms = icp(ref[seen], fitted.virtual.layout.xyz.reshape(-1, 3))
+    else:
+        return ref, measured, rms
+    return move.apply(ref), [move.apply(c) for c in measured], rms
 
 
 def mismatch(
