@@ -118,7 +118,6 @@ def calibrate(
     from farm.errors import SpecError
     from jobs.calibrate.fit import CalibrationSettings
     from jobs.calibrate.params import Parameters, default_parameters
-    from jobs.calibrate.references import MEASURED_POINTS, read_points, thesis_points, with_ratio
     from jobs.calibrate.run import run_calibration
     from jobs.validate import limits, messages, scalars
     from tyre_farm_cli.checks import output_folder
@@ -132,24 +131,7 @@ def calibrate(
         names = (tuple(s.strip() for s in parameters.split(",") if s.strip()) if parameters
                  else default_parameters(model, thickness))
         params = Parameters(names, base)
-    # the references file's content is data, not usage (exit 1, see tyre_farm_cli's docstring)
-    with usage():
-        default_points = thesis_points(model, reading)
-        for flag, on in (("--ratio", ratio), ("--measured", measured)):
-            if on and (model != "full" or references):
-                raise SpecError(f"{flag} derives a point from the thesis' full-model "
-                                "points: use it with --model full and without --references")
-        if ratio:
-            default_points = with_ratio(default_points)
-        if measured:
-            default_points = (*default_points, *MEASURED_POINTS)
-    points = read_points(references, base) if references else default_points
-    if model == "full" and not references:
-        LogLines().log(f"calibrate: the thesis' points under the {reading} reading of its "
-                       "4475.5 N point (the other: --reading "
-                       f"{'80kPa' if reading == '200kPa' else '200kPa'})"
-                       + (", with the measured stiffness ratio's derived point" if ratio else "")
-                       + (", with the measured tyre's derived point" if measured else ""))
+    points = _points(base, reading, ratio, measured, references)
     with usage():
         scalars.integer(max_evaluations, "--max-evaluations", low=2,
                         high=limits.MAX_EVALUATIONS)
@@ -170,6 +152,35 @@ def calibrate(
     else:
         _print(console, report, frames, out)
     raise typer.Exit(0 if report.ok else 1)
+
+
+def _points(base, reading: str, ratio: bool, measured: bool, references: Path | None):
+    """The reference points: the file's, or the thesis' under ``reading`` with the
+    derived ones asked for (said on a log line)."""
+    from farm.errors import SpecError
+    from jobs.calibrate.references import MEASURED_POINTS, read_points, thesis_points, with_ratio
+
+    model = base.kind
+    with usage():
+        default_points = thesis_points(model, reading)
+        for flag, on in (("--ratio", ratio), ("--measured", measured)):
+            if on and (model != "full" or references):
+                raise SpecError(f"{flag} derives a point from the thesis' full-model "
+                                "points: use it with --model full and without --references")
+        if ratio:
+            default_points = with_ratio(default_points)
+        if measured:
+            default_points = (*default_points, *MEASURED_POINTS)
+    # the references file's content is data, not usage (exit 1, see tyre_farm_cli's docstring)
+    if references:
+        return read_points(references, base)
+    if model == "full":
+        LogLines().log(f"calibrate: the thesis' points under the {reading} reading of its "
+                       "4475.5 N point (the other: --reading "
+                       f"{'80kPa' if reading == '200kPa' else '200kPa'})"
+                       + (", with the measured stiffness ratio's derived point" if ratio else "")
+                       + (", with the measured tyre's derived point" if measured else ""))
+    return default_points
 
 
 def _print(console: Console, report, frames: dict, out: Path) -> None:
