@@ -113,6 +113,22 @@ REINFORCEMENT_PRESETS["reinforced-converged"] = Reinforcement(
 # stated so that a one-element wall (`lean`) puts them there too; on `converged` the
 # id and the deck are those of before the field (ModelSpec.to_dict)
 
+# "reinforced-lean" (issue 44): reinforced-converged refitted on the `lean` mesh, where
+# that preset's fit had stopped at its budget with the measured tyre's 4195 N at -11.5 %.
+# One parameter, the level of the three fitted stiffnesses, chosen so that no 80 kPa
+# statement is off by more than 10 % (farm compare on `lean`, docs/mesh-convergence.md
+# "The refit on the lean mesh"): tread 18.66 MPa and textile carcass 7.98 GPa (x 1.09),
+# sidewall 20.0 MPa (x 1.067, at the rubber bound of jobs/calibrate/params.py). The
+# thesis model's 80 kPa points -3.7 % / +8.4 %, the measured tyre's 4195 N -9.7 %, the
+# measured stiffness ratio -2.5 %; growth at 200 kPa 4.06 mm (over the real tyre's 4 mm
+# by 0.06 mm: the stiffer rubber barely moves it, the belts set it).
+MATERIAL_PRESETS["reinforced-lean"] = {"full": Materials(
+    tread=Material(18.66, 0.49), sidewall=Material(20.0, 0.49), bead=Material(19.64, 0.49))}
+CONTACT_PRESETS["reinforced-lean"] = CONTACT_PRESETS["reinforced-calibrated"]
+REINFORCEMENT_PRESETS["reinforced-lean"] = Reinforcement(
+    carcass=dataclasses.replace(Reinforcement().carcass, modulus=7.98), belt=TEXTILE_BELTS,
+    belt_layout="cords", tension_only=True, belt_depth=0.5)
+
 DEFAULT_MESH = {
     "reduced": MeshDensity(tread=8, sidewall=5, bead=2, circumferential=20),
     "full": MeshDensity(tread=8, sidewall=5, bead=2, circumferential=40),
@@ -203,17 +219,18 @@ MATERIAL_NOTES = {
                              "points fall 15-20 % low",
     "reinforced-converged": "calibrated on the converged mesh: the thesis model's 80 kPa "
                             "points within 6 %, the measured tyre's 11.5 % low",
+    "reinforced-lean": "calibrated on the lean mesh: every 80 kPa point within 10 % "
+                       "(the measured tyre's -9.7 %), growth 4.06 mm",
 }
 MESH_NOTES = {
     "thesis": "Table 3.1's element counts, not converged",
     "patch": "converged round the tyre and across the tread but not in the sidewall, "
              "about 8-12 % stiff",
     "converged": "converged in every direction",
-    "lean": "converged in every direction with one element through the wall: with "
-            "reinforced-converged (belts at half the wall) within 1 % of converged at "
-            "half its ccx time",
+    "lean": "converged in every direction, one element through the wall: 1.7-1.8x "
+            "patch's ccx time, half converged's",
 }
-CREDIBLE = ("reinforced-converged", "converged")
+CREDIBLE = ("reinforced-lean", "lean")
 """The material and mesh presets results should use (README, "Which tyre to use")."""
 
 

@@ -65,13 +65,14 @@ def _literal(text: str) -> Any:
 
 MATERIALS_HELP = ("Material preset: table-3.1 (the thesis' Table 3.1), thesis-calibrated, "
                   "cord-reinforced, reinforced-calibrated (full model, fitted on the patch "
-                  "mesh), reinforced-converged (full model, fitted on the converged mesh: the "
-                  "one for results; docs/reinforcement.md).")
+                  "mesh), reinforced-converged (full model, fitted on the converged mesh), "
+                  "reinforced-lean (full model, fitted on the lean mesh: the one for "
+                  "results; docs/reinforcement.md).")
 MESH_HELP = ("Mesh preset: thesis (Table 3.1's element counts), patch (full model only: "
              "refined over +-32 degrees about the road), converged (full model only: patch "
              "with the sidewall and the wall's depth refined) or lean (full model only: "
-             "converged with one element through the wall, belts at depth by equations; "
-             "half the cost; docs/mesh-convergence.md).")
+             "converged with one element through the wall, belts at depth by equations, "
+             "1.7-1.8x patch's cost: the one for results; docs/mesh-convergence.md).")
 KPA_HINT_BELOW = 5.0  # no tyre is inflated to under 5 kPa; 0.08-0.4 is a pressure in MPa
 
 
