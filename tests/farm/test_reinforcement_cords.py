@@ -408,3 +408,16 @@ def test_belts_at_half_a_one_element_wall_solve_as_the_two_layer_wall():
     (fz1, e1), (fz2, e2) = out["half, one element"], out["half, two layers"]
     assert fz1 == pytest.approx(fz2, rel=0.01) and e1 == pytest.approx(e2, rel=0.01), out
     assert out["face"][0] > 1.08 * fz2, out
+
+
+def test_the_refitted_presets_state_their_depth_and_converged_keeps_its_id():
+    """reinforced-converged states belt_depth 0.5 (issue 44) so that `lean` puts the belts
+    where its fit had them; on `converged` its id is the one of before the field
+    (content_hash at 64d9957)."""
+    before = "c78f89ce42fcd66dfecf49a97c51fdf6a8834f13ff39f0daf11d2eb8dc62ee61"
+    spec = default_model("full", "reinforced-converged", mesh="converged")
+    assert content_hash(spec.to_dict()) == before
+    for materials in ("reinforced-converged", "reinforced-lean"):
+        lean = default_model("full", materials, mesh="lean")
+        assert lean.mesh.through == 1 and lean.reinforcement.belt_depth == 0.5
+        assert not belt_surface(lean, mesh_for(lean)).on_nodes
