@@ -43,20 +43,26 @@ def converge(
                                 "factors, e.g. 2,4,8 [default: 2,4; together 2]."),
     out: Path = typer.Option(Path("convergence"), "--out", help="Output folder."),
     materials: str = typer.Option("table-3.1", "--materials", help="Material preset."),
+    timeout: float = typer.Option(
+        1800.0, "--timeout", help="Wall-clock seconds per ccx run: a roll or a tilt on a "
+        "wall refined twice can need more than the default half hour."),
     scheduler: str = SCHEDULER,
     workers: int = WORKERS,
     cluster=None,
 ) -> None:
     """Solve the mesh-convergence study and write OUT/convergence.md."""
     from farm.ccx.runner import find_ccx
+    from farm.specs import TIMEOUT_S, SolverSettings
     from jobs.convergence import levels as lv
     from jobs.convergence.run import run_study
-    from jobs.validate import reading
+    from jobs.validate import reading, scalars
     from tyre_farm_cli.checks import output_folder
 
     with usage():
         check_materials(materials)
         output_folder(out, "--out")
+        scalars.number(timeout, "--timeout", low=TIMEOUT_S[0], high=TIMEOUT_S[1])
+        settings = SolverSettings(timeout=timeout)
         if directions:
             levels, sequences = lv.direction_study(
                 lv.chosen_directions(directions), mesh, quick, _factors(factors))
@@ -82,7 +88,7 @@ def converge(
                 f"{record['wall_s']:.0f} s")
 
     with cluster.client() as client:
-        records = run_study(levels, chosen, client, materials, on_record=note)
+        records = run_study(levels, chosen, client, materials, settings, on_record=note)
     _write(out, records, sequences, materials, quick)
 
 

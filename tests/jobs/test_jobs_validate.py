@@ -200,7 +200,8 @@ def test_a_study_gives_a_cordless_preset_cords_through_its_model_table(tmp_path)
         "reinforcement.tension_only=true", "reinforcement.belt.plies=3", "mesh.tread=4",
         "mesh.sidewall=2", "mesh.bead=1", "mesh.circumferential=8"])
     with pytest.raises(StudyError, match=r"model\.reinforcement\.tension: unknown key; "
-                                         r"allowed: belt, belt_depth, belt_layout, carcass, tension_only"):
+                                         r"allowed: belt, belt_depth, belt_layout, carcass, "
+                                         r"tension_only"):
         spec_tables.model({"kind": "full", "reinforcement": {"tension": True}})
 
 

@@ -93,3 +93,32 @@ def test_converge_refines_one_direction_and_judges_it_on_its_own(tmp_path, capsy
     code, _, err = _run(["converge", "--replay", "--out", str(out)], capsys)
     assert code == 0, err
     assert (out / "convergence.md").read_text() == text
+
+
+@pytest.mark.parametrize("value", ["0", "-5", "nan", "1e9"])
+def test_converge_timeout_is_range_checked_before_anything_runs(value, capsys, monkeypatch,
+                                                                 tmp_path):
+    import jobs.convergence.run
+
+    monkeypatch.setattr(jobs.convergence.run, "run_study", lambda *a, **k: pytest.fail("solved"))
+    code, out, err = _run(["converge", "--quick", "--timeout", value, "--out",
+                           str(tmp_path / "c")], capsys)
+    assert code == 2 and out == "" and err.count("\n") == 1 and "--timeout" in err, err
+    assert not (tmp_path / "c").exists()
+
+
+def test_converge_passes_its_timeout_to_every_solve(capsys, monkeypatch, tmp_path):
+    import jobs.convergence.run
+
+    seen = []
+
+    def fake(levels, cases, client, materials, settings=None, on_record=None):
+        seen.append(settings.timeout)
+        return []
+
+    monkeypatch.setattr(jobs.convergence.run, "run_study", fake)
+    monkeypatch.setattr("tyre_farm_cli.converge._write", lambda *a, **k: None)
+    code, _, err = _run(["converge", "--quick", "--timeout", "7200", "--workers", "1",
+                         "--out", str(tmp_path / "c")], capsys)
+    assert code in (0, None), err
+    assert seen == [7200.0]
