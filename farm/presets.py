@@ -244,11 +244,21 @@ def mesh_name(spec: ModelSpec) -> str | None:
 
 
 def materials_name(spec: ModelSpec) -> str | None:
-    """The material preset ``spec`` has unchanged (rubber, cords, contact), or None."""
+    """The material preset ``spec`` has unchanged (rubber, cords, contact), or None.
+
+    Compared as ids compare them (:meth:`ModelSpec.to_dict`), so that a spec read back
+    from a store is its preset's: a belt depth its wall gives anyway is not stored."""
+    canonical = spec.to_dict()
     for name, kinds in MATERIAL_PRESETS.items():
-        if (kinds.get(spec.kind) == spec.materials
-                and REINFORCEMENT_PRESETS.get(name) == spec.reinforcement
-                and CONTACT_PRESETS.get(name, ContactLaw()) == spec.contact):
+        if spec.kind not in kinds:
+            continue
+        try:
+            preset = dataclasses.replace(
+                spec, materials=kinds[spec.kind], reinforcement=REINFORCEMENT_PRESETS.get(name),
+                contact=CONTACT_PRESETS.get(name, ContactLaw()))
+        except SpecError:  # a preset this mesh cannot carry: not this spec's
+            continue
+        if preset.to_dict() == canonical:
             return name
     return None
 

@@ -167,13 +167,17 @@ class Reinforcement:
 
     def depth_on(self, through: int) -> float:
         """The belts' depth (fraction of the wall from the cavity face) on a wall of
-        ``through`` elements: ``belt_depth``, or the placement before it existed."""
-        if self.belt_depth is not None:
-            return self.belt_depth
-        return implied_depth(through)
+        ``through`` elements: ``belt_depth``, or the placement before it existed (a spec
+        refuses an odd layered wall without a stated depth: ModelSpec)."""
+        depth = self.belt_depth if self.belt_depth is not None else implied_depth(through)
+        assert depth is not None, "an odd layered wall needs a stated belt depth"
+        return depth
 
 
-def implied_depth(through: int) -> float:
+def implied_depth(through: int) -> float | None:
     """Where belts along their cords lie with ``belt_depth = None``: the cavity face of
-    a one-element wall, the node layer at half a layered one (even ``through`` only)."""
-    return 0.0 if through == 1 else 0.5
+    a one-element wall, the node layer at half an even layered one; None for an odd
+    layered wall, which has no node layer at half its depth."""
+    if through == 1:
+        return 0.0
+    return 0.5 if through % 2 == 0 else None

@@ -344,7 +344,7 @@ class ModelSpec:
                        self.mesh.window, self.mesh.window_elements)
         r = self.reinforcement
         if r is not None and r.belt_layout == "cords" and r.belt_depth is None \
-                and self.mesh.through % 2 and self.mesh.through > 1:
+                and implied_depth(self.mesh.through) is None:
             # belts at depth lie at half the wall (farm.ccx.belt_cords): a node layer there
             raise SpecError(f"mesh.through must be 1 or even with belts along their cords "
                             f"(they lie at half the wall), got {self.mesh.through}; or "
@@ -372,11 +372,10 @@ class ModelSpec:
             del data["reinforcement"]
         else:  # so do the issue-24 belt options at their defaults
             data["reinforcement"] = self.reinforcement.canonical()
-            through = self.mesh.through
-            if (through == 1 or through % 2 == 0) and data["reinforcement"].get(
-                    "belt_depth") == implied_depth(through):
-                # a stated depth the layered wall gave anyway: the same model, one id
-                del data["reinforcement"]["belt_depth"]
+            if data["reinforcement"].get("belt_depth") == implied_depth(self.mesh.through):
+                # a stated depth the wall gave anyway: the same model, one id (a spec
+                # from this dict has belt_depth None: equal ids, unequal objects)
+                data["reinforcement"].pop("belt_depth", None)
         data["mesh"] = self.mesh.canonical()
         data["contact"] = self.contact.canonical()
         return data

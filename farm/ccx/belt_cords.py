@@ -149,16 +149,6 @@ def belt_surface(spec: ModelSpec, mesh: TyreMesh) -> BeltSurface:
     return BeltSurface(xyz=xyz, nodes=nodes, weight=np.full(inner.shape, weight))
 
 
-def belt_grid(spec: ModelSpec, mesh: TyreMesh) -> np.ndarray:
-    """Node ids (rows, columns) of the surface the belts lie on, where it lies on a
-    node layer (the cavity grid of a one-element wall, half a layered one)."""
-    surface = belt_surface(spec, mesh)
-    if not surface.on_nodes:
-        raise MeshError("the belts lie between node layers (reinforcement.belt_depth): "
-                        "use belt_surface")
-    return surface.nodes[..., 0]
-
-
 def _tread_strips(spec: ModelSpec) -> np.ndarray:
     """Indices of the element rows (-y bead to +y bead) under the tread (thesis §3.2)."""
     m = spec.mesh

@@ -16,7 +16,7 @@ from farm.presets import (
     materials_name,
     mesh_name,
 )
-from farm.specs import Material
+from farm.specs import Material, ModelSpec
 from tyre_farm_cli.params import kpa_hint
 
 
@@ -59,3 +59,14 @@ def test_a_pressure_that_looks_like_mpa_gets_a_hint(kpa, hinted):
     assert bool(hint) is hinted
     if hinted:
         assert f"--pressure {kpa * 1000:g}" in hint
+
+
+def test_a_preset_read_back_from_its_stored_dict_keeps_its_name():
+    """A stated belt depth its wall gives anyway is not stored (one id per model), so the
+    spec read back has belt_depth None: still its preset's (issue 44)."""
+    spec = default_model("full", "reinforced-converged", mesh="converged")
+    back = ModelSpec.from_dict(spec.to_dict())
+    assert back.reinforcement.belt_depth is None and back != spec
+    assert materials_name(back) == materials_name(spec) == "reinforced-converged"
+    lean = default_model("full", "reinforced-lean", mesh="lean")
+    assert materials_name(ModelSpec.from_dict(lean.to_dict())) == "reinforced-lean"

@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from farm.ccx.belt_cords import belt_chords, belt_grid, belt_surface
+from farm.ccx.belt_cords import belt_chords, belt_surface
 from farm.ccx.reinforcement import COMPRESSION_RATIO, FIRST_ID_OFFSET, cord_lines, surface_trusses
 from farm.errors import SpecError
 from farm.experiment import run_load_path
@@ -32,6 +32,13 @@ IDS_BEFORE = {
     "patch": "b680caa3b4efe3d6e8ffb42603fc6035c031e9ecb408f74788e9581657eb22b7",
 }
 COARSE_DECK_BEFORE = "097d4353cc48eb42002abc709d53e1c077762c971137b69bc6471e2731a9c243"
+
+
+def _grid(spec: ModelSpec, mesh) -> np.ndarray:
+    """Node ids (rows, columns) of a belt surface that lies on a node layer."""
+    surface = belt_surface(spec, mesh)
+    assert surface.on_nodes
+    return surface.nodes[..., 0]
 
 
 def _with(spec: ModelSpec, **fields) -> ModelSpec:
@@ -93,7 +100,7 @@ def test_cord_members_reproduce_the_ply_pair_on_the_patch_mesh(patch):
     spec, mesh, chords = patch
     xyz = mesh.nodes[mesh.inner_grid - 1]
     target = netting_tensor(_belt_stiffness(spec), spec.reinforcement.belt.angle)
-    grid = belt_grid(spec, mesh).ravel()  # members index the belts' grid of nodes
+    grid = _grid(spec, mesh).ravel()  # members index the belts' grid of nodes
     ends = ((1 - chords.weight)[:, None] * mesh.xyz(grid[chords.ends[:, 0]])
             + chords.weight[:, None] * mesh.xyz(grid[chords.ends[:, 1]]))
     start = mesh.xyz(grid[chords.start])
@@ -164,7 +171,7 @@ def test_belts_lie_at_half_the_wall_for_every_layered_wall(through):
                          mesh=dataclasses.replace(COARSE, through=through))
     spec = _with(spec, belt_layout="cords")
     mesh = mesh_for(spec)
-    grid = belt_grid(spec, mesh)
+    grid = _grid(spec, mesh)
     inner, outer = mesh.xyz(mesh.inner_grid), mesh.xyz(mesh.outer_grid)
     assert np.allclose(mesh.xyz(grid), 0.5 * (inner + outer))
     chords = belt_chords(spec, mesh)
@@ -180,7 +187,7 @@ def test_one_element_wall_keeps_the_belts_on_the_cavity_twins():
     spec = _with(default_model("full", materials="cord-reinforced", mesh=COARSE),
                  belt_layout="cords")
     mesh = mesh_for(spec)
-    assert np.array_equal(belt_grid(spec, mesh), mesh.inner_grid)
+    assert np.array_equal(_grid(spec, mesh), mesh.inner_grid)
     lines = cord_lines(spec, mesh)
     springs = [x.split(",") for x in lines if x[:1].isdigit() and x.count(",") == 2]
     ends = {int(s[k]) for s in springs for k in (1, 2)}
