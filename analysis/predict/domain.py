@@ -53,27 +53,33 @@ cloud's footprint (a layout point farther than two of the cloud's point spacings
 every cloud point, in (crown arc length, s), is bare: its values would be extrapolated)."""
 
 
-def surface_offset(surface: InnerSurface, ref_points: np.ndarray) -> float:
-    """RMS distance (mm) of reference points (M, 3) from ``surface`` at their own
-    surface coordinates; ``inf`` where they are too large to place."""
+def _coordinates(surface: InnerSurface, ref_points: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """(theta, s) of the points, NaN where they are too large to place."""
     from analysis.sensor.resample import surface_coordinates
 
     with np.errstate(over="ignore", invalid="ignore"):
-        theta, s = surface_coordinates(surface, ref_points)
-        if not (np.isfinite(theta).all() and np.isfinite(s).all()):
-            return float("inf")
+        return surface_coordinates(surface, ref_points)
+
+
+def surface_offset(surface: InnerSurface, ref_points: np.ndarray,
+                   coordinates: tuple[np.ndarray, np.ndarray] | None = None) -> float:
+    """RMS distance (mm) of reference points (M, 3) from ``surface`` at their own
+    surface coordinates (given, or computed); ``inf`` where they are too large to place."""
+    theta, s = coordinates or _coordinates(surface, ref_points)
+    if not (np.isfinite(theta).all() and np.isfinite(s).all()):
+        return float("inf")
+    with np.errstate(over="ignore", invalid="ignore"):
         offset = ref_points - face_weights(surface, theta, s) @ surface.node_xyz
         rms = float(np.sqrt(np.mean(np.sum(offset**2, axis=1))))
     return rms if np.isfinite(rms) else float("inf")
 
 
-def coverage(surface: InnerSurface, layout: Layout, ref_points: np.ndarray) -> float:
+def coverage(surface: InnerSurface, layout: Layout, ref_points: np.ndarray,
+             coordinates: tuple[np.ndarray, np.ndarray] | None = None) -> float:
     """Share of ``layout``'s points within two point spacings of the reference cloud,
     both in (arc length at the crown's radius, s)."""
-    from analysis.sensor.resample import surface_coordinates
-
-    with np.errstate(over="ignore", invalid="ignore"):
-        theta, s = surface_coordinates(surface, ref_points)
+    theta, s = coordinates or _coordinates(surface, ref_points)
     R = surface.crown_radius
     known = np.column_stack([R * theta, s])
     known = known[np.isfinite(known).all(axis=1)]
@@ -90,14 +96,15 @@ def coverage(surface: InnerSurface, layout: Layout, ref_points: np.ndarray) -> f
 def reference_checks(surface: InnerSurface, layout: Layout, ref_points: np.ndarray) -> dict:
     """The reference cloud's offset and coverage; raises :class:`CloudError` naming the
     measure that failed, its value, its limit and the likely fix."""
-    offset = surface_offset(surface, ref_points)
+    coordinates = _coordinates(surface, ref_points)  # placed once for both measures
+    offset = surface_offset(surface, ref_points, coordinates)
     if not offset <= MAX_OFFSET_MM:
         raise CloudError(
             f"the reference cloud lies {offset:.4g} mm (RMS) from the model's inner surface, "
             f"a cloud of this tyre within {MAX_OFFSET_MM:g} mm: it is another tyre or not in "
             "the model's frame; register it (--align, or --transform) or use a model "
             "trained on this tyre")
-    covered = coverage(surface, layout, ref_points)
+    covered = coverage(surface, layout, ref_points, coordinates)
     if covered < MIN_COVERAGE:
         raise CloudError(
             f"the reference cloud covers {100 * covered:.0f} % of the sensor's window (at "
