@@ -164,10 +164,18 @@ def connect(scheduler: str | None = None, workers: int | None = None,
     if address is None:
         security = tls.cluster_security() if tls is not None else None
         # the settings are read while the cluster runs, not only when it starts
+        from jobs.worker_log import WorkerLog, log_path, name_the_log
+
+        path = log_path()
         with dask.config.set(with_farm_page(EMBEDDED_CONFIG)), \
                 _embedded(workers or default_workers(), dashboard, security) as cluster, \
                 Client(cluster) as client:
-            yield client
+            client.register_plugin(WorkerLog(path))
+            try:
+                yield client
+            except Exception as e:
+                name_the_log(e, path)
+                raise
         return
     _check_address(address)
     check_address(address, tls)
@@ -217,7 +225,8 @@ def _embedded(workers: int, dashboard: str, security: Any = None):
         warnings.filterwarnings("ignore", message=r"Port \d+ is already in use",
                                 category=UserWarning)
         return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                            dashboard_address=dashboard, host="127.0.0.1", silence_logs=40,
+                            dashboard_address=dashboard, host="127.0.0.1",
+                            silence_logs=logging.CRITICAL,  # to a file: jobs.worker_log
                             security=security)
 
 

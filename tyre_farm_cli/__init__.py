@@ -166,7 +166,7 @@ def _main(args: list[str], debug: bool) -> None:
     except USER_ERRORS as e:
         if debug:
             raise
-        fail(str(e), code=exit_code(e))
+        fail("; ".join([str(e), *getattr(e, "__notes__", ())]), code=exit_code(e))
     except Exception as e:
         # Click's usage errors (typer vendors click as typer._click in recent versions,
         # so match the interface rather than a class).

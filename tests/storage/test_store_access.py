@@ -6,6 +6,7 @@ read as damage ("the store is damaged ... run verify --repair"); a full disk was
 """
 
 import errno
+from pathlib import Path
 
 import pytest
 
@@ -65,17 +66,14 @@ def test_an_object_store_without_credentials_is_one_line(command, capsys, monkey
     assert "s3://no-such-bucket/x.zarr" in err and "no credentials" in err
 
 
-@pytest.fixture
-def tiny_disk(tmp_path):
-    """A 64 KiB tmpfs: a store on it fills the disk while its group is being made."""
+def _mounted_tmpfs(mount, size: str):
     import os
     import subprocess
 
-    mount = tmp_path / "tiny"
     mount.mkdir()
     if os.geteuid() != 0:
         pytest.skip("mounting a tmpfs needs root (CI runs as root)")
-    made = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(mount)],
+    made = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(mount)],
                           capture_output=True, text=True, check=False)
     if made.returncode != 0:
         pytest.skip(f"cannot mount a tmpfs here: {made.stderr.strip()}")
@@ -83,14 +81,31 @@ def tiny_disk(tmp_path):
     subprocess.run(["umount", str(mount)], check=False)
 
 
+@pytest.fixture
+def tiny_disk(tmp_path):
+    """A 64 KiB tmpfs: a store on it fills the disk while its group is being made."""
+    yield from _mounted_tmpfs(tmp_path / "tiny", "64k")
+
+
+@pytest.fixture
+def small_disk(tmp_path):
+    """A 400 KiB tmpfs: the group of the coarse reduced model fits, its results do not."""
+    yield from _mounted_tmpfs(tmp_path / "small", "400k")
+
+
+def _tiny_study(tmp_path, store, loads: str):
+    study = tmp_path / "study.toml"
+    study.write_text(f'[study]\nname = "tiny"\nstore = "{store}"\n[model]\nkind = "reduced"\n'
+                     "[model.mesh]\ntread = 4\nsidewall = 2\nbead = 1\ncircumferential = 8\n"
+                     f"[loads]\n{loads}\n[solver]\nmax_path_length = 1\n")
+    return study
+
+
 def test_a_full_disk_is_one_line_and_the_half_made_group_is_named(tiny_disk, tmp_path,
                                                                    capsys, monkeypatch):
     monkeypatch.setenv("FARM_CACHE_DIR", str(tmp_path / "cache"))
-    study = tmp_path / "study.toml"
     store = tiny_disk / "s.zarr"
-    study.write_text(f'[study]\nname = "tiny"\nstore = "{store}"\n[model]\nkind = "reduced"\n'
-                     "[model.mesh]\ntread = 4\nsidewall = 2\nbead = 1\ncircumferential = 8\n"
-                     "[loads]\ndeflection_mm = [10, 20]\n")
+    study = _tiny_study(tmp_path, store, "deflection_mm = [10, 20]")
     with pytest.raises(SystemExit) as info:
         main(["sweep", "submit", str(study), "--workers", "1"])
     err = capsys.readouterr().err
@@ -100,3 +115,25 @@ def test_a_full_disk_is_one_line_and_the_half_made_group_is_named(tiny_disk, tmp
         main(["sweep", "verify", str(store)])
     out = capsys.readouterr().out
     assert info.value.code == 1 and "creation never finished" in out, out
+
+
+@pytest.mark.ccx
+def test_a_disk_full_mid_sweep_is_one_line_naming_the_worker_log(small_disk, tmp_path,
+                                                                 capsys, monkeypatch):
+    """Issue 50: a full disk mid-sweep printed 82 lines, ten worker tracebacks, before
+    the one-line error. The workers' records go to a log file the error names."""
+    monkeypatch.setenv("FARM_CACHE_DIR", str(tmp_path / "cache"))
+    study = _tiny_study(tmp_path, small_disk / "s.zarr",
+                        "deflection_mm = { start = 2, stop = 40, step = 1 }")
+    with pytest.raises(SystemExit) as info:
+        main(["sweep", "submit", str(study), "--workers", "2"])
+    err = capsys.readouterr().err
+    errors = [line for line in err.splitlines() if line.startswith("farm: error:")]
+    assert info.value.code == 1 and len(errors) == 1, err
+    assert "Traceback" not in err and "Compute Failed" not in err, err
+    assert "No space left on device" in errors[0]
+    log = errors[0].rsplit("worker log: ", 1)[1].strip()
+    assert log.startswith(str(tmp_path / "cache" / "logs"))
+    text = Path(log).read_text()
+    assert "Compute Failed" in text and "No space left on device" in text
+    assert err.count("\n") <= 8, err  # the progress lines and the error
