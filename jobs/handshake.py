@@ -55,6 +55,43 @@ def _check_listening(address: str, timeout: float) -> None:
     socket.create_connection((host, port), timeout=timeout).close()  # OSError: unreachable
 
 
+def _who_answers(address: str, error: BaseException, first: str | None = None) -> str:
+    """What answers at ``address`` instead of Dask, in words: its first line when a plain
+    request gets one (an HTTP server or proxy, an SSH server's banner), else the error
+    Dask's reader raised. Dask read an HTTP reply's first bytes as a frame length, "Unable
+    to allocate 3.07 EiB" (issue 50: on a network whose proxy answers for every address,
+    an unroutable host looked like that)."""
+    first = _first_line(address) if first is None else first
+    if first.startswith("HTTP/"):
+        return (f"an HTTP server answers there, {first!r}: a web service or a proxy; "
+                "behind a proxy an unreachable host can look like this")
+    if first.startswith("SSH-"):
+        return f"an SSH server answers there, {first!r}"
+    if first:
+        return f"it answered {first!r}"
+    return f"{type(error).__name__}{': ' + str(error)[:120] if str(error) else ''}"
+
+
+def _first_line(address: str, timeout: float = 2.0) -> str:
+    """The first line (at most 60 characters) a plain TCP peer at ``address`` sends after
+    an HTTP request; empty when it sends none or is not plain TCP."""
+    scheme, _, rest = address.partition("://")
+    if scheme != "tcp":
+        return ""
+    from distributed.comm.addressing import parse_host_port
+
+    try:
+        host, port = parse_host_port(rest)
+        with socket.create_connection((host, port), timeout=timeout) as sock:
+            sock.settimeout(timeout)
+            sock.sendall(b"GET / HTTP/1.0\r\nHost: " + host.encode() + b"\r\n\r\n")
+            data = sock.recv(256)
+    except (OSError, ValueError):
+        return ""
+    line = data.split(b"\n", 1)[0].decode("ascii", "replace").strip()
+    return "".join(c if c.isprintable() else "?" for c in line)[:60]
+
+
 def check_scheduler(address: str, timeout: float, connection_args: dict[str, Any] | None = None
                     ) -> dict[str, Any]:
     """The scheduler's identity; raises :class:`ClusterError` within about ``timeout``
@@ -70,13 +107,15 @@ def check_scheduler(address: str, timeout: float, connection_args: dict[str, Any
         try:
             reply = future.result(timeout + 5.0)
         except (TimeoutError, concurrent.futures.TimeoutError) as e:
-            raise ClusterError(f"{address} accepted no Dask handshake within {timeout:g} s: "
-                               f"{HINT}") from e
+            first = _first_line(address, min(timeout, 2.0))
+            said = f" ({_who_answers(address, e, first)})" if first else ""
+            raise ClusterError(f"{address} accepted no Dask handshake within {timeout:g} s"
+                               f"{said}: {HINT}") from e
         except OSError:  # the caller says "cannot reach" with its own hints (TLS ...)
             raise
         except Exception as e:  # whatever the bytes were, they were not Dask's
-            raise ClusterError(f"{address} does not speak Dask's protocol ({type(e).__name__}"
-                               f"{': ' + str(e)[:120] if str(e) else ''}): {HINT}") from e
+            raise ClusterError(f"{address} does not speak Dask's protocol "
+                               f"({_who_answers(address, e)}): {HINT}") from e
     if not (isinstance(reply, dict) and reply.get("type") == "Scheduler"):
         kind = reply.get("type") if isinstance(reply, dict) else type(reply).__name__
         raise ClusterError(f"{address} answered as {kind!r}, not as a Dask scheduler: {HINT}")

@@ -56,6 +56,32 @@ def http_port():
     server.server_close()
 
 
+@pytest.fixture
+def banner_port():
+    """A service that greets every connection with a banner line (as SSH does)."""
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(8)
+    stop = threading.Event()
+
+    def serve():
+        server.settimeout(0.2)
+        while not stop.is_set():
+            try:
+                conn = server.accept()[0]
+            except OSError:
+                continue
+            with conn:
+                conn.sendall(b"SSH-2.0-OpenSSH_9.2\r\n" + b"\xff" * 64)
+
+    thread = threading.Thread(target=serve, daemon=True)
+    thread.start()
+    yield server.getsockname()[1]
+    stop.set()
+    thread.join()
+    server.close()
+
+
 def _free_port():
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -73,6 +99,22 @@ def test_an_http_server_is_not_a_scheduler(http_port):
     with pytest.raises(ClusterError, match=f"127.0.0.1:{http_port}") as info:
         check_scheduler(f"tcp://127.0.0.1:{http_port}", 2.0)
     assert "not its dashboard" in str(info.value) and "\n" not in str(info.value)
+
+
+def test_an_http_server_is_named_not_read_as_a_frame_length(http_port):
+    """Issue 50: an HTTP reply read as a frame length was "MemoryError: Unable to
+    allocate 3.07 EiB"; the line says what answers instead."""
+    with pytest.raises(ClusterError) as info:
+        check_scheduler(f"tcp://127.0.0.1:{http_port}", 2.0)
+    line = str(info.value)
+    assert "an HTTP server answers there, 'HTTP/1" in line, line
+    assert "EiB" not in line and "MemoryError" not in line
+
+
+def test_another_service_is_quoted(banner_port):
+    with pytest.raises(ClusterError) as info:
+        check_scheduler(f"tcp://127.0.0.1:{banner_port}", 2.0)
+    assert "an SSH server answers there, 'SSH-2.0-OpenSSH_9.2'" in str(info.value)
 
 
 def test_nothing_listening_is_said_at_once():
