@@ -169,3 +169,16 @@ def consolidate(store: Store) -> None:
         # false), which other readers ignore; nothing in storage/ depends on it.
         warnings.filterwarnings("ignore", message="Consolidated metadata is currently not")
         zarr.consolidate_metadata(store)
+
+
+_CRC_MISMATCH = "Stored and computed checksum do not match"  # zarr's Crc32cCodec
+
+
+def short_error(e: BaseException) -> str:
+    """``Type: message`` of a read or decode error on one line (at most 160 characters
+    of message); a chunk whose CRC32C fails is said so, not as zarr's "checksum" (the
+    farm's checksums are the experiments', :mod:`storage.checksum`)."""
+    text = " ".join(str(e).split())
+    if text.startswith(_CRC_MISMATCH):
+        return "its CRC32C does not match: a byte of the chunk changed"
+    return f"{type(e).__name__}: {text[:160]}"

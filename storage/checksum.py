@@ -33,6 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from storage._zarr import short_error
 from storage.schema import (
     CHECKED_NAMES,
     COMBINED_NAMES,
@@ -217,12 +218,8 @@ def _read_block(slots: Slots, block: list[int]):
             try:
                 one[n] = np.asarray(slots.read(n, k, k + 1))[0]
             except Exception as e:  # any codec or I/O error of one chunk
-                unreadable[k] = f"its {n!r} chunk does not decode ({type(e).__name__}: {_short(e)})"
+                unreadable[k] = f"its {n!r} chunk does not decode ({short_error(e)})"
                 break
         else:
             rows[k] = one
     return rows, unreadable
-
-
-def _short(e: BaseException) -> str:
-    return " ".join(str(e).split())[:160]

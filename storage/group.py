@@ -64,8 +64,29 @@ def create_array(g: zarr.Group, var: Variable, shape: tuple[int, ...]) -> zarr.A
         fill_value=var.fill,
         dimension_names=var.dims,
         attributes=var.attrs,
-        compressors="auto" if var.compressed else None,
+        compressors=_codecs(var),
     )
+
+
+def _codecs(var: Variable) -> Any:
+    """A worker variable's chunks (one experiment each) end in their CRC32C (issue 50): a
+    changed byte fails that chunk's read, so verify knows which chunk was damaged, and a
+    lost checksum no longer makes an experiment's intact data suspect
+    (:mod:`storage.verify`: such a slot is signed again, not solved again). Client
+    variables hold many experiments per chunk (one flipped byte would make every load
+    case of the chunk unreadable); their slots are guarded by the checksums' labels.
+    Compressed as zarr's "auto" would (zstd level 0), where the variable is."""
+    from zarr.codecs import Crc32cCodec, ZstdCodec
+
+    if var.writer != "worker":
+        return "auto" if var.compressed else None
+    return (ZstdCodec(level=0), Crc32cCodec()) if var.compressed else (Crc32cCodec(),)
+
+
+def crc_guarded(a: zarr.Array) -> bool:
+    """Whether ``a``'s chunks carry a CRC32C (arrays made since issue 50)."""
+    codecs = getattr(a.metadata, "codecs", ())  # zarr v2 metadata has none
+    return any(type(c).__name__ == "Crc32cCodec" for c in codecs)
 
 
 OUR_NAMES = frozenset(FIXED_VARIABLES) | frozenset(KNOWN_PARAMETER_UNITS)

@@ -23,6 +23,9 @@ Per experiment group, :func:`verify` checks that
   pending experiments and, if asked, failed ones: a new value would be skipped by
   every client that does not know it); ``error`` keeps the why;
 - a pending slot whose checksum verifies it done (or failed) gets that status back;
+- a done slot whose checksum chunk alone is lost or fails its CRC32C is signed again
+  when its chunks prove its data intact (:mod:`storage.resign`), not solved again; a
+  chunk failing its CRC32C in a slot marked pending is removed;
 - ids swapped between slots go back where their checksums were signed (when the failing
   slots' ids are a permutation of each other and every one then verifies, data included);
 - a done or failed slot without an id (its ids chunk is lost) goes back to pending:
@@ -60,11 +63,20 @@ from zarr.abc.store import Store
 from zarr.storage import LocalStore
 
 import storage.identity as identity
-from storage._zarr import delete_key, dimension_names, get_bytes, list_dir, read, set_bytes
+from storage._zarr import (
+    delete_key,
+    dimension_names,
+    get_bytes,
+    list_dir,
+    read,
+    set_bytes,
+    short_error,
+)
 from storage.checksum import Slots, check, label_digest, split
 from storage.errors import GroupNotFoundError, NotAStoreError, StoreError, verify_hint
 from storage.group import unfinished_groups
 from storage.paths import LOCK_NAME, StoreLike, describe, names_the_store, open_store, publish
+from storage.resign import drop_unreadable, signed_again
 from storage.schema import (
     CHECKED_NAMES,
     CLIENT_CHUNK,
@@ -292,7 +304,7 @@ def _root(zs: Store) -> tuple[dict | None, list[Damage]]:
             raise ValueError("not a group's metadata")
     except ValueError as e:
         return None, [Damage("", "zarr.json", f"the store's root metadata does not decode "
-                                              f"({_short(e)})")]
+                                              f"({short_error(e)})")]
     return doc, []
 
 
@@ -355,7 +367,7 @@ def _repair_root(zs: Store, root_damage: list[Damage], restored: bool) -> list[s
             publish(zs)
             done.append("consolidated metadata rebuilt")
         except Exception as e:  # other metadata is still damaged
-            done.append(f"consolidated metadata NOT rebuilt ({_short(e)})")
+            done.append(f"consolidated metadata NOT rebuilt ({short_error(e)})")
     return done
 
 
@@ -375,6 +387,7 @@ class _GroupCheck:
         self.keep: set[int] = set()  # slots repair leaves as they are (load case lost)
         self.undecodable: dict[str, list[str]] = {}  # array -> keys of chunks that do not decode
         self.relabel: dict[int, str] = {}  # slot -> the id its checksum was signed with
+        self.resign: dict[int, str] = {}  # slot -> its checksum, signed again (intact data)
 
     def report(self, reserved: int = 0, checked: int = 0, unverifiable: int = 0) -> GroupReport:
         return GroupReport(self.group, reserved, checked, unverifiable, tuple(self.damage),
@@ -439,7 +452,7 @@ class _GroupCheck:
 
     def _restore(self, path: str, key: str, error: BaseException) -> bool:
         if get_bytes(self.zs, key) is not None:
-            self.key_damage(key, f"the metadata does not decode ({_short(error)})")
+            self.key_damage(key, f"the metadata does not decode ({short_error(error)})")
         elif path != self.group and not list_dir(self.zs, path):
             self.key_damage(path, "the array is missing (deleted?)")
         else:
@@ -573,12 +586,12 @@ class _GroupCheck:
         if "checksum" not in self.arrays or missing:
             return len(positions)
         sums, bad = self._read_1d("checksum", len(ids))
-        for i in bad:
-            if i in positions:
-                self._experiment(ids[i], i, "its checksum chunk does not decode")
         texts = ["" if i in bad else str(s) for i, s in enumerate(sums)]
+        lost = [i for i in positions if i in bad or not texts[i]]
+        for i in lost:
+            self._lost_checksum(ids[i], params, i, int(status[i]), i in bad)
         slots = self._slots(ids, status, params, texts)
-        failed = check(slots, [i for i in positions if i not in bad])
+        failed = check(slots, [i for i in positions if i not in lost])
         moved = self._moved_ids(ids, status, params, texts, list(failed))
         for i, reason in failed.items():
             if i in moved:
@@ -587,6 +600,20 @@ class _GroupCheck:
                           "(ids swapped or moved; its data are intact)")
             self._experiment(ids[i], i, reason + self._missing_chunks(i, status[i]))
         return 0
+
+    def _lost_checksum(self, experiment: str, params: dict, i: int, state: int,
+                       garbled: bool) -> None:
+        """A slot whose checksum chunk is lost or does not decode: signed again when its
+        chunks prove its data intact (:mod:`storage.resign`), else damaged."""
+        what = "does not decode" if garbled else "is missing"
+        text = signed_again(self.zs, self.group, self.arrays, experiment, params, i, state)
+        if text is None:
+            self._experiment(experiment, i, f"its checksum chunk {what}"
+                             + self._missing_chunks(i, state))
+            return
+        self.resign[i] = text
+        self._experiment(experiment, i, f"its checksum chunk {what}, but every chunk of its "
+                         "data passes its CRC32C: repair signs it again (no re-solve)")
 
     def _moved_ids(self, ids: list, status: np.ndarray, params: dict, sums: list[str],
                    failed: list[int]) -> dict[int, str]:
@@ -710,7 +737,8 @@ class _GroupCheck:
             try:
                 values[name] = a[...]
             except Exception as e:  # a chunk that does not decode
-                self.key_damage(f"{self.group}/{name}", f"a chunk does not decode ({_short(e)})")
+                self.key_damage(f"{self.group}/{name}",
+                                f"a chunk does not decode ({short_error(e)})")
         self._identity(values)
 
     def _identity(self, values: dict[str, Any]) -> None:
@@ -758,11 +786,21 @@ class _GroupCheck:
                                  "their load case is lost; `farm sweep resume STUDY` restores "
                                  "it from the study")
             self._drop_undecodable_parameters()
-        skip = set(self.restore) | self.keep | set(self.relabel)
+        if self.resign:
+            sums = self._writable("checksum")
+            for i, text in sorted(self.resign.items()):
+                sums[i] = text
+            self.repaired.append(f"{self.group}: {len(self.resign)} checksum(s) signed again: "
+                                 "their data chunks pass their CRC32C")
+        skip = set(self.restore) | self.keep | set(self.relabel) | set(self.resign)
         marked = sorted({d.index for d in self.damage
                          if d.index is not None and d.index not in skip})
         if not marked:
             return
+        dropped = drop_unreadable(self.zs, self.group, self.arrays, marked)
+        if dropped:
+            self.repaired.append(f"{self.group}: {len(dropped)} data chunk(s) that fail their "
+                                 f"CRC32C removed ({_few(dropped)}): their slots are pending")
         status = self._writable("status")
         error = self._writable("error") if "error" in self.arrays else None
         for d in self.damage:
@@ -817,8 +855,9 @@ class _GroupCheck:
                     values[c:c + chunk] = read(a, slice(c, min(c + chunk, hi))).tolist()
                 except Exception as e:
                     key = f"{self.group}/{name}/c/{c // chunk}"
-                    self.key_damage(key, f"the chunk does not decode ({_short(e)})")
-                    self.undecodable.setdefault(name, []).append(key)
+                    if key not in self.undecodable.get(name, ()):  # named once, if read twice
+                        self.key_damage(key, f"the chunk does not decode ({short_error(e)})")
+                        self.undecodable.setdefault(name, []).append(key)
                     bad.update(range(c, min(c + chunk, hi)))
         fill = "" if a.dtype.kind in "OTU" else a.fill_value
         values = [fill if v is None and i not in bad else v for i, v in enumerate(values)]
@@ -834,6 +873,3 @@ def _few(items: list, n: int = 10) -> str:
     shown = ", ".join(str(x) for x in items[:n])
     return shown + (f" and {len(items) - n} more" if len(items) > n else "")
 
-
-def _short(e: BaseException) -> str:
-    return f"{type(e).__name__}: {' '.join(str(e).split())[:160]}"

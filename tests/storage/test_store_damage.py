@@ -70,6 +70,16 @@ def _flip(path: Path, needle: bytes | None = None, high: bool = True) -> None:
     path.write_bytes(bytes(raw))
 
 
+def _write_status(path: Path, i: int, value: int) -> None:
+    """Write slot ``i``'s status chunk as a valid one holding ``value``: its byte and
+    its CRC32C (a changed status that still decodes, as a hand's or a bug's would)."""
+    import google_crc32c
+
+    byte = bytes([value % 256])
+    crc = int(google_crc32c.value(byte)).to_bytes(4, "little")
+    (path / GROUP / "status" / "c" / str(i)).write_bytes(byte + crc)
+
+
 def _value(e: str, name: str, flat: int) -> bytes:
     return np.float64(make_result(e, N_INNER, N_TREAD)[name].ravel()[flat]).tobytes()
 
@@ -111,8 +121,7 @@ DAMAGES = {
         lambda p: _flip(p / GROUP / "deflection" / "c" / "0", np.float64(17.3).tobytes()),
         ids=frozenset({"e1"}), exact=False),
     "flip-status-failed-to-done": Damage(
-        lambda p: (p / GROUP / "status" / "c" / "4").write_bytes(bytes([storage.DONE])),
-        ids=frozenset({"e4"})),
+        lambda p: _write_status(p, 4, storage.DONE), ids=frozenset({"e4"})),
     "delete-displacement-chunk": Damage(
         lambda p: _chunk(p, "displacement", 2).unlink(), ids=frozenset({"e2"})),
     "delete-id-chunk": Damage(
@@ -555,7 +564,7 @@ def test_a_single_wrong_id_proves_nothing_and_goes_pending(built, capsys):
 
 
 def _status_byte(value: int) -> Callable[[Path], None]:
-    return lambda p: (p / GROUP / "status" / "c" / "3").write_bytes(bytes([value % 256]))
+    return lambda p: _write_status(p, 3, value)
 
 
 def _repeat_id(p: Path) -> None:
@@ -766,3 +775,67 @@ def test_a_pending_slots_id_is_proven_by_its_load_case_and_never_guessed(built):
     with pytest.raises(storage.SchemaError, match="empty experiment id"):
         storage.reserve(built, GROUP, every, values)
     assert ids[6] == "" and ids[7] == ""  # nothing guessed
+
+
+# --- chunks that prove themselves (CRC32C, issue 50) -------------------------------------
+
+
+def _repaired(path: Path) -> dict[str, int]:
+    _cli("sweep", "verify", str(path), "--repair")
+    assert verify(path).ok
+    return storage.statuses(path, GROUP, IDS)
+
+
+@pytest.mark.parametrize("lose", ["flip", "delete", "truncate"])
+def test_a_lost_checksum_of_intact_data_is_signed_again_not_solved_again(built, lose):
+    """Issue 50: checksum-only damage marked intact experiments pending (six re-solves in
+    one fuzz case). Every data chunk of e1 passes its CRC32C: repair signs it again."""
+    chunk = built / GROUP / "checksum" / "c" / "1"
+    if lose == "flip":
+        _flip(chunk)
+    elif lose == "delete":
+        chunk.unlink()
+    else:
+        chunk.write_bytes(chunk.read_bytes()[:5])
+    report = verify(built)
+    assert not report.ok and report.damaged_ids == {"e1"}
+    assert "repair signs it again (no re-solve)" in "\n".join(report.lines())
+    status = _repaired(built)
+    assert [status[e] for e in DONE_IDS] == [storage.DONE] * 4
+    ds = storage.done(storage.open_dataset(built, GROUP))
+    assert ds["experiment"].values.tolist() == DONE_IDS
+    _exact(ds)
+
+
+@pytest.mark.parametrize("data", ["flip", "delete"])
+def test_a_lost_checksum_beside_damaged_data_is_solved_again(built, data):
+    """Nothing proves e1 intact when a data chunk fails too: pending, its bad chunk
+    removed so that the experiments beside it still read."""
+    (built / GROUP / "checksum" / "c" / "1").unlink()
+    chunk = _chunk(built, "displacement", 1)
+    _flip(chunk, _value("e1", "displacement", 4)) if data == "flip" else chunk.unlink()
+    assert verify(built).damaged_ids == {"e1"}
+    status = _repaired(built)
+    assert status["e1"] == storage.PENDING
+    assert [status[e] for e in ("e0", "e2", "e3")] == [storage.DONE] * 3
+    _exact(storage.done(storage.open_dataset(built, GROUP)))
+
+
+def test_a_flipped_data_byte_is_named_by_its_crc_and_its_chunk_removed(built):
+    _flip(_chunk(built, "displacement", 2), _value("e2", "displacement", 4))
+    report = verify(built)
+    assert report.damaged_ids == {"e2"}
+    assert "CRC32C" in "\n".join(report.lines()) or "checksum" in "\n".join(report.lines())
+    status = _repaired(built)
+    assert status["e2"] == storage.PENDING and not _chunk(built, "displacement", 2).exists()
+    _exact(storage.done(storage.open_dataset(built, GROUP)))
+
+
+def test_a_flipped_status_byte_gets_its_status_back_from_the_checksum(built):
+    """The status chunk fails its CRC32C; the slot's checksum proves it failed (e4) or
+    done (e2): repair gives that back, nothing is solved again."""
+    for i in (2, 4):
+        _flip(built / GROUP / "status" / "c" / str(i))
+    assert not verify(built).ok
+    status = _repaired(built)
+    assert status == {"e0": 1, "e1": 1, "e2": 1, "e3": 1, "e4": 2, "e5": 0}
