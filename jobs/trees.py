@@ -24,8 +24,11 @@ import dataclasses
 from dataclasses import dataclass
 
 import storage
+import storage.saved
+from farm.errors import ResultsError
 from farm.measure.measurement import measure
 from farm.mesh import mesh_for
+from farm.solve import trunk_file
 from farm.solve.tree import Trunk, solve_branch, solve_trunk
 from farm.specs import LoadPath, ModelSpec, RoadMotion, SolverSettings
 from jobs.expand import BranchPlan, Experiment, PathPlan, TreePlan
@@ -85,14 +88,23 @@ def run_trunk(task: TreeTask) -> TrunkResult:
             return TrunkResult(PathOutcome(tree.key), None, "cancelled",
                                (False,) * len(tree.trunk))
         todo, skipped = _todo(task, tree.trunk)
+        if _tree_done(task):  # e.g. a second client's trunk, after the first finished
+            return TrunkResult(PathOutcome(tree.key, skipped=skipped), None,
+                               "every experiment of the tree is done", (True,) * len(skipped))
         model = task.model
         mesh = mesh_for(model)
-        path = LoadPath(tree.deflections, tree.pressure, tree.motion)
+        saved = _saved_trunk(task)
+        if saved is not None:
+            result: Trunk | Failed = saved
+        else:
+            path = LoadPath(tree.deflections, tree.pressure, tree.motion)
 
-        def solve(settings: SolverSettings) -> Trunk:
-            return solve_trunk(model, mesh, path, settings, should_stop, tree.fractions)
+            def solve(settings: SolverSettings) -> Trunk:
+                return solve_trunk(model, mesh, path, settings, should_stop, tree.fractions)
 
-        result = guarded(solve, task.settings, retry=task.retry_smaller_increments)
+            result = guarded(solve, task.settings, retry=task.retry_smaller_increments)
+            if not isinstance(result, Failed):
+                storage.saved.save(task.store, task.group, tree.key, trunk_file.dumps(result))
         trunk = None if isinstance(result, Failed) else result
         reached = len(trunk.restarts) if trunk is not None else 0
         reason = (result.reason if isinstance(result, Failed)
@@ -122,13 +134,50 @@ def run_trunk(task: TreeTask) -> TrunkResult:
         elif rest:  # the levels a partial trunk did not reach: as the plain sweep does
             parts.append(solve_experiments(task.path_task(tree.key, tuple(rest), tree.motion), rest,
                                 should_stop))
+        if saved is not None and parts:  # the trunk's runs were made before, not now
+            parts[0] = dataclasses.replace(parts[0], solve_seconds=0.0, ccx_runs=0)
         done = {*skipped, *(i for p in parts for i in p.done)}
         outcome = PathOutcome(tree.key, tuple(i for p in parts for i in p.done),
                               tuple(f for p in parts for f in p.failed), skipped,
                               sum(p.solve_seconds for p in parts),
                               sum(p.ccx_runs for p in parts))
+        _drop_if_finished(task)
         return TrunkResult(outcome, trunk, reason,
                            tuple(e.id in done for e in tree.trunk))
+
+
+def _saved_trunk(task: TreeTask) -> Trunk | None:
+    """The trunk an earlier task saved in the store (a lost worker, a resumed study, a
+    second client: issue 50), or None. A saved trunk that does not read back is removed
+    and solved again."""
+    data = storage.saved.load(task.store, task.group, task.tree.key)
+    if data is None:
+        return None
+    try:
+        return trunk_file.loads(data)
+    except ResultsError:
+        storage.saved.drop(task.store, task.group, task.tree.key)
+        return None
+
+
+def _tree_status(task: TreeTask) -> list[int | None]:
+    tree = task.tree
+    ids = [e.id for e in tree.trunk] + [e.id for b in tree.branches for e in b.experiments]
+    status = storage.statuses(task.store, task.group, ids)
+    return [status.get(i) for i in ids]
+
+
+def _tree_done(task: TreeTask) -> bool:
+    """Whether every experiment of the tree is done: no task needs the trunk."""
+    return all(s == storage.DONE for s in _tree_status(task))
+
+
+def _drop_if_finished(task: TreeTask) -> None:
+    """Remove the tree's saved trunk once every experiment of the tree is done or
+    failed: no slide will continue from it (a failed one retried later, with
+    ``--retry-failed``, solves the trunk again)."""
+    if all(s in (storage.DONE, storage.FAILED) for s in _tree_status(task)):
+        storage.saved.drop(task.store, task.group, task.tree.key)
 
 
 def run_branch(task: TreeTask, trunk: TrunkResult) -> PathOutcome:
@@ -163,7 +212,9 @@ def run_branch(task: TreeTask, trunk: TrunkResult) -> PathOutcome:
             result = dataclasses.replace(result, measurements=tuple(
                 m for e, m in zip(branch.experiments, result.measurements, strict=True)
                 if e.id in wanted))
-        return dataclasses.replace(write_outcome(plain, todo, result), skipped=skipped)
+        outcome = dataclasses.replace(write_outcome(plain, todo, result), skipped=skipped)
+        _drop_if_finished(task)
+        return outcome
 
 
 def _slide(task: TreeTask, branch: BranchPlan, trunk: Trunk, should_stop) -> Solved | Failed:

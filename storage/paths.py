@@ -52,15 +52,17 @@ StoreLike: TypeAlias = str | os.PathLike[str] | Store
 #: installed: s3fs, gcsfs, adlfs). ``file://`` is a local path.
 URL_SCHEMES = ("s3", "s3a", "gs", "gcs", "az", "abfs", "abfss")
 #: Entries of a store's root that are the farm's, not zarr's: the client lock and the
-#: workers' claims (:mod:`storage.lock`). A directory holding only these is empty.
+#: workers' claims (:mod:`storage.lock`), the saved solver states of load-path trees
+#: (:mod:`storage.saved`). A directory holding only these is empty.
 LOCK_NAME = ".farm.lock"
 CLAIMS_DIR = ".claims"
-FARM_ENTRIES = (LOCK_NAME, CLAIMS_DIR)
+STATES_DIR = ".states"
+FARM_ENTRIES = (LOCK_NAME, CLAIMS_DIR, STATES_DIR)
 # zarr warns about every entry of a group's directory that is no zarr node when it lists
 # members (list_groups, consolidating metadata): the farm's own entries are expected.
 # Filtered for the whole process (a user's own zarr calls), and again around this
 # package's listings (test runners reset the process-wide filters).
-_FARM_ENTRY_WARNING = r"Object at \.(farm\.lock|claims) is not recognized"
+_FARM_ENTRY_WARNING = r"Object at \.(farm\.lock|claims|states) is not recognized"
 warnings.filterwarnings("ignore", category=ZarrUserWarning, message=_FARM_ENTRY_WARNING)
 _URL = re.compile(r"([A-Za-z][A-Za-z0-9+.-]*)://(.*)", re.DOTALL)
 _SCHEME_ONLY = re.compile(r"[A-Za-z][A-Za-z0-9+.-]*:")  # "s3:" of a URL missing its "//"

@@ -86,3 +86,26 @@ def test_two_embedded_clusters_on_one_store_solve_each_experiment_once(write_stu
     _consistent(study)
     claims = os.path.join(study.store, ".claims", study.group_name)
     assert os.listdir(claims) == []  # every claim was given back
+
+
+def test_two_embedded_clusters_on_one_tree_study_share_its_trunks(tmp_path, counting_ccx):
+    """Issue 50: two clients on one tree study each solved both trunks (2 of 6 ccx runs
+    repeated). The second waits on the trunk's claim, then reads the saved trunk."""
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    text = (root / "examples" / "combined_tree_quick.toml").read_text()
+    path = tmp_path / "tree.toml"
+    path.write_text(text.replace('store = "results/combined_tree_quick.zarr"',
+                                 f'store = "{tmp_path / "tree.zarr"}"'))
+    study = load_study(path)
+    ensure_group(study, f"CalculiX {ccx_version()}")
+    clients = [subprocess.Popen([sys.executable, "-m", "farm", "sweep", "submit", str(path),
+                                 "--workers", "1"], stdout=subprocess.PIPE,
+                                stderr=subprocess.STDOUT, text=True, env=os.environ.copy())
+               for _ in range(2)]
+    outputs = [c.communicate(timeout=300)[0] for c in clients]
+    assert [c.returncode for c in clients] == [0, 0], outputs
+    assert ccx_runs(counting_ccx) == 6, outputs  # 2 trunks and 4 slides, each once
+    assert storage.status_counts(study.store, study.group_name) == {
+        "pending": 0, "done": 12, "failed": 0}

@@ -221,3 +221,59 @@ def test_a_slide_whose_trunk_failed_is_solved_from_rest(tmp_path):
     assert not failed.done and failed.ccx_runs == 0 and len(failed.failed) == 2
     assert all("not tried from rest" in why and "too many cutbacks" in why
                for _, why in failed.failed)
+
+
+def _reserved(study):
+    trees = tree_plan(study, SOLVER)
+    ensure_group(study, SOLVER)
+    exps = experiments(trees)
+    storage.reserve(study.store, study.group_name, [e.id for e in exps],
+                    parameters(exps, True))
+    return trees
+
+
+@pytest.mark.ccx
+def test_a_trunk_is_solved_once_and_read_back_by_the_next_task(tmp_path):
+    """Issue 50: a trunk's states lived in one worker's memory, so a lost worker's
+    retry, a resumed study and a second client solved it again. The next task reads it
+    from the store: no ccx run, and slides continue from it exactly as from the first."""
+    from farm.mesh import mesh_for
+    from farm.solve.tree import solve_branch
+    from jobs.trees import run_trunk
+    from storage.paths import STATES_DIR
+
+    study = _study(tmp_path / "s.zarr")
+    tree = _reserved(study)[0]
+    task = TreeTask(tree, study.model, study.settings, study.store, study.group_name)
+    first = run_trunk(task)
+    assert first.trunk is not None and first.outcome.ccx_runs >= 1
+    assert len(first.outcome.done) == len(tree.trunk)
+    assert (tmp_path / "s.zarr" / STATES_DIR / study.group_name / tree.key).is_file()
+    again = run_trunk(task)  # as after a lost worker, a client kill, or a second client
+    assert again.outcome.ccx_runs == 0 and again.outcome.solve_seconds == 0
+    assert again.outcome.skipped == first.outcome.done and not again.outcome.done
+    assert again.trunk is not None and again.trunk.restarts == first.trunk.restarts
+    assert again.levels_done == first.levels_done == (True, True)
+    mesh, shift = mesh_for(study.model), tree.branches[0].shift
+    a = solve_branch(study.model, mesh, first.trunk, 0, shift, study.settings)
+    b = solve_branch(study.model, mesh, again.trunk, 0, shift, study.settings)
+    for x, y in zip(a.states, b.states, strict=True):
+        np.testing.assert_array_equal(x.road_reaction, y.road_reaction)
+        np.testing.assert_array_equal(x.displacement, y.displacement)
+
+
+@pytest.mark.ccx
+def test_a_resumed_tree_study_solves_no_trunk_again(tmp_path):
+    """The trunks ran (a client killed after them): resume solves the four slides only,
+    and no saved trunk is left once every tree is finished."""
+    from jobs.trees import run_trunk
+    from storage.paths import STATES_DIR
+
+    study = _study(tmp_path / "s.zarr")
+    for tree in _reserved(study):
+        assert run_trunk(TreeTask(tree, study.model, study.settings, study.store,
+                                  study.group_name)).outcome.ccx_runs >= 1
+    report = run_sweep(study, workers=2)
+    assert report.ok and report.total == 12, report.failed
+    assert report.ccx_runs == 4  # the slides; before: 6, both trunks solved again
+    assert not [p for p in (tmp_path / "s.zarr" / STATES_DIR).rglob("*") if p.is_file()]

@@ -220,8 +220,9 @@ def _tree_example(store: Path):
 def test_a_tree_sweep_outlives_workers_lost_in_a_trunk_and_in_a_slide(tmp_path):
     """Tree tasks are plain futures (no new keys, jobs/sweep.py): the worker running a
     trunk's ccx is killed, then the one running a slide's. The nanny brings a worker
-    back, Dask runs what was lost again (the trunk too, where a slide still needs its
-    states), and every experiment ends done with the results of an undisturbed sweep."""
+    back, Dask runs what was lost again (the trunk's task too, where a slide still needs
+    its states: it reads them from the store since issue 50, storage/saved.py), and every
+    experiment ends done with the results of an undisturbed sweep."""
     kills: list[int] = []
     with _cluster(3) as cluster:  # Dask's default allowed-failures
         chaos = threading.Thread(target=_kill_workers_running_ccx,
