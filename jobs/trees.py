@@ -21,6 +21,7 @@ only when the last attempt fails, and it names every attempt.
 from __future__ import annotations
 
 import dataclasses
+import logging
 from dataclasses import dataclass
 
 import storage
@@ -34,6 +35,8 @@ from farm.specs import LoadPath, ModelSpec, RoadMotion, SolverSettings
 from jobs.expand import BranchPlan, Experiment, PathPlan, TreePlan
 from jobs.guard import Failed, Solved, cancellation_check, guarded
 from jobs.tasks import PathOutcome, PathTask, solve_experiments, write_outcome
+
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -104,7 +107,7 @@ def run_trunk(task: TreeTask) -> TrunkResult:
 
             result = guarded(solve, task.settings, retry=task.retry_smaller_increments)
             if not isinstance(result, Failed):
-                storage.saved.save(task.store, task.group, tree.key, trunk_file.dumps(result))
+                _save_trunk(task, result)
         trunk = None if isinstance(result, Failed) else result
         reached = len(trunk.restarts) if trunk is not None else 0
         reason = (result.reason if isinstance(result, Failed)
@@ -144,6 +147,16 @@ def run_trunk(task: TreeTask) -> TrunkResult:
         _drop_if_finished(task)
         return TrunkResult(outcome, trunk, reason,
                            tuple(e.id in done for e in tree.trunk))
+
+
+def _save_trunk(task: TreeTask, trunk: Trunk) -> None:
+    """Keep the trunk for the next task that needs it; a store that refuses it (a full
+    disk) costs a solve later, not this task."""
+    try:
+        storage.saved.save(task.store, task.group, task.tree.key, trunk_file.dumps(trunk))
+    except (storage.StoreError, OSError) as e:
+        log.warning("the trunk %s was not saved (%s): a later task solves it again",
+                    task.tree.key, e)
 
 
 def _saved_trunk(task: TreeTask) -> Trunk | None:
