@@ -67,6 +67,7 @@ from storage._zarr import (
     delete_key,
     dimension_names,
     get_bytes,
+    key_exists,
     list_dir,
     read,
     set_bytes,
@@ -76,7 +77,7 @@ from storage.checksum import Slots, check, label_digest, split
 from storage.errors import GroupNotFoundError, NotAStoreError, StoreError, verify_hint
 from storage.group import unfinished_groups
 from storage.paths import LOCK_NAME, StoreLike, describe, names_the_store, open_store, publish
-from storage.resign import drop_unreadable, signed_again
+from storage.resign import chunk_key, drop_unreadable, signed_again
 from storage.schema import (
     CHECKED_NAMES,
     CLIENT_CHUNK,
@@ -134,6 +135,7 @@ class GroupReport:
     unverifiable: int  # of those, how many had nothing to check against
     damage: tuple[Damage, ...]
     repaired: tuple[str, ...] = ()
+    notes: tuple[str, ...] = ()  # not damage, but worth knowing (what resume will cost)
 
     @property
     def damaged_ids(self) -> set[str]:
@@ -177,6 +179,9 @@ class VerifyReport:
             out += [f"  damaged: {d.line()}" for d in g.damage[:_SHOWN]]
             if len(g.damage) > _SHOWN:
                 out.append(f"  ... and {len(g.damage) - _SHOWN} more (--json lists them all)")
+            out += [f"  note: {n}" for n in g.notes[:_SHOWN]]
+            if len(g.notes) > _SHOWN:
+                out.append(f"  ... and {len(g.notes) - _SHOWN} more notes (--json lists them)")
         repaired = [*self.repaired, *(r for g in self.groups for r in g.repaired)]
         out += [f"repaired: {r}" for r in repaired]
         if self.after is not None:
@@ -194,7 +199,8 @@ class VerifyReport:
             "damage": [_damage_dict(d) for d in _all(self)],
             "groups": [{"group": g.group, "reserved": g.reserved, "checked": g.checked,
                         "ok": g.ok, "damaged": len(g.damaged_ids),
-                        "unverifiable": g.unverifiable} for g in self.groups],
+                        "unverifiable": g.unverifiable, "notes": list(g.notes)}
+                       for g in self.groups],
             "repaired": [*self.repaired, *(r for g in self.groups for r in g.repaired)],
             "after_repair": None if self.after is None else self.after.to_dict(),
         }
@@ -388,10 +394,11 @@ class _GroupCheck:
         self.undecodable: dict[str, list[str]] = {}  # array -> keys of chunks that do not decode
         self.relabel: dict[int, str] = {}  # slot -> the id its checksum was signed with
         self.resign: dict[int, str] = {}  # slot -> its checksum, signed again (intact data)
+        self.notes: list[str] = []
 
     def report(self, reserved: int = 0, checked: int = 0, unverifiable: int = 0) -> GroupReport:
         return GroupReport(self.group, reserved, checked, unverifiable, tuple(self.damage),
-                           tuple(self.repaired))
+                           tuple(self.repaired), tuple(self.notes))
 
     def key_damage(self, what: str, reason: str) -> None:
         self.damage.append(Damage(self.group, what, reason))
@@ -413,9 +420,10 @@ class _GroupCheck:
         lost = self._lost_load_cases(ids, positions, params, bad_params)
         checkable = [i for i in positions if i not in lost and _valid_id(ids[i])]
         unverifiable = self._checksums(ids, status, params, checkable)
-        self._lost_status(ids, status, params, [
-            i for i in range(used) if status[i] == PENDING and ids[i] and i not in bad_params
-            and _valid_id(ids[i])])
+        pending = [i for i in range(used) if status[i] == PENDING and ids[i]
+                   and i not in bad_params and _valid_id(ids[i])]
+        self._lost_status(ids, status, params, pending)
+        self._unsigned_data(ids, [i for i in pending if i not in self.restore])
         self._mark()
         return self.report(used, len(positions), unverifiable)
 
@@ -675,6 +683,24 @@ class _GroupCheck:
                 self.group, "status", f"its status is pending but its checksum matches it "
                 f"{STATUS_NAMES[state]} (the status chunk was lost or reset, or a write "
                 "stopped before its status)", ids[i], i))
+
+    def _unsigned_data(self, ids: list, pending: list[int]) -> None:
+        """Pending slots that hold data chunks but no checksum: a write that stopped
+        between its data and its checksum (a killed worker), or a slot whose status and
+        checksum chunks were both lost (issue 50: verify said nothing, and the analyses
+        used 19 of 20). The store cannot tell the two apart, so it is a note, not
+        damage: resume solves the slot again either way."""
+        if "checksum" not in self.arrays or "displacement" not in self.arrays:
+            return
+        a, sums = self.arrays["displacement"], self.arrays["checksum"]
+        for i in pending:
+            if (key_exists(self.zs, chunk_key(self.group, "displacement", a, i))
+                    and not key_exists(self.zs, chunk_key(self.group, "checksum", sums, i))):
+                self.notes.append(
+                    f"{ids[i]} (slot {i}): pending, but its data chunks are there and its "
+                    "checksum is not: a write that stopped before its checksum, or its "
+                    "status and checksum chunks lost; `farm sweep resume STUDY` solves it "
+                    "again")
 
     def _verified_states(self, ids: list, params: dict, slots) -> dict[int, int]:
         """Slot -> done or failed, for those of ``slots`` (with an id and a readable,

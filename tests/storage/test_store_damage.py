@@ -839,3 +839,19 @@ def test_a_flipped_status_byte_gets_its_status_back_from_the_checksum(built):
     assert not verify(built).ok
     status = _repaired(built)
     assert status == {"e0": 1, "e1": 1, "e2": 1, "e3": 1, "e4": 2, "e5": 0}
+
+
+def test_a_lost_status_and_checksum_is_named_as_what_resume_will_solve(built, capsys):
+    """Issue 50: with e1's status and checksum chunks both deleted, verify said nothing
+    while the analyses used 3 of 4. A stopped write leaves the same bytes, so it is a
+    note (resume solves it again), not damage."""
+    for name in ("status", "checksum"):
+        (built / GROUP / name / "c" / "1").unlink()
+    report = verify(built)
+    assert report.ok  # a killed worker's slot looks just so
+    (group,) = report.groups
+    assert len(group.notes) == 1 and group.notes[0].startswith("e1 (slot 1): pending, but")
+    assert _cli("sweep", "verify", str(built), "--json") == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["groups"][0]["notes"] == list(group.notes)
+    assert not verify(build(built.parent / "intact.zarr")).groups[0].notes
