@@ -240,11 +240,12 @@ def verify(store: StoreLike, group: str | None = None, *, repair: bool = False) 
     root_doc, root_damage = _root(zs)
     if root_damage and get_bytes(zs, "zarr.json") is None and not list_dir(zs, ""):
         raise NotAStoreError(f"no Zarr store at {where}: check the path")
-    root_damage += _lock_file(zs) + _unfinished(zs)
+    copies = _copies(root_doc)
+    root_damage += _lock_file(zs) + _unfinished(zs, copies)
     lock = [d for d in root_damage if d.what == LOCK_NAME]
     if repair and lock:
         raise StoreError(f"cannot repair {where}: {lock[0].reason}")
-    copies = _copies(root_doc)
+    attributes = _restore_attributes(zs, root_damage, copies) if repair else []
     if repair and root_doc is None and get_bytes(zs, "zarr.json") is None \
             and _experiment_groups(zs):
         # a lost root, intact groups (issue 50: repair refused, "not a Zarr v3 store"):
@@ -257,7 +258,8 @@ def verify(store: StoreLike, group: str | None = None, *, repair: bool = False) 
         checks = [_GroupCheck(zs, name, copies, repair) for name in names]
         reports = tuple(c.run() for c in checks)
         restored = any(c.restored for c in checks)
-        repaired = _repair_root(zs, root_damage, restored) if repair else []
+        repaired = [*attributes, *(_repair_root(zs, root_damage, restored or bool(attributes))
+                                   if repair else [])]
     report = VerifyReport(where, reports, tuple(root_damage), tuple(repaired))
     if repair and not report.ok:
         report = VerifyReport(where, reports, tuple(root_damage), tuple(repaired),
@@ -277,16 +279,45 @@ def _lock_file(zs: Store) -> list[Damage]:
                    "while no client uses the store (farm recreates it)")]
 
 
-def _unfinished(zs: Store) -> list[Damage]:
+_LOST_ATTRIBUTES = ("the group's attributes are lost (its zarr.json has no schema_version; "
+                    "the consolidated copy has them): repair restores them from it")
+
+
+def _unfinished(zs: Store, copies: dict[str, dict]) -> list[Damage]:
     """Groups whose creation stopped before it finished (issue 26: after a full disk the
-    half-written group was invisible, "0 groups, no damage")."""
+    half-written group was invisible, "0 groups, no damage"), and groups whose
+    attributes were lost since (issue 50: they looked unfinished, and resume rebuilt
+    the group and solved all of it again): the root's consolidated copy of a finished
+    group holds its ``schema_version``."""
     try:
         names = unfinished_groups(zs)
     except Exception:  # a root too damaged to list: _root reports it
         return []
-    return [Damage(name, name, "the group's creation never finished (a client stopped "
+    return [Damage(name, name, _LOST_ATTRIBUTES) if _finished_copy(copies, name) else
+            Damage(name, name, "the group's creation never finished (a client stopped "
                    "mid-way, e.g. on a full disk): submit the study again to rebuild it")
             for name in names]
+
+
+def _finished_copy(copies: dict[str, dict], group: str) -> dict | None:
+    copy = copies.get(group)
+    attrs = copy.get("attributes") if isinstance(copy, dict) else None
+    return copy if isinstance(attrs, dict) and "schema_version" in attrs else None
+
+
+def _restore_attributes(zs: Store, root_damage: list[Damage], copies: dict[str, dict]
+                        ) -> list[str]:
+    """Give groups whose attributes were lost their consolidated copy's (before the
+    groups are checked and the consolidated metadata rebuilt from them)."""
+    done = []
+    for d in root_damage:
+        copy = _finished_copy(copies, d.group) if d.reason == _LOST_ATTRIBUTES else None
+        if copy is None:
+            continue
+        doc = {k: v for k, v in copy.items() if k != "consolidated_metadata"}
+        set_bytes(zs, f"{d.group}/zarr.json", json.dumps(doc, indent=2).encode())
+        done.append(f"{d.group}/zarr.json: attributes restored from the consolidated metadata")
+    return done
 
 
 def _lock(zs: Store, repair: bool) -> AbstractContextManager:
@@ -365,10 +396,10 @@ def _plain_root(zs: Store) -> None:
 
 def _repair_root(zs: Store, root_damage: list[Damage], restored: bool) -> list[str]:
     done: list[str] = []
-    if root_damage:
+    if any(d.what == "zarr.json" and not d.group for d in root_damage):  # the root's own
         _plain_root(zs)
         done.append("zarr.json: rewritten as a plain root group")
-    if done or restored:  # the consolidated copy must show the restored metadata
+    if done or restored or root_damage:  # the consolidated copy shows what is now there
         try:
             publish(zs)
             done.append("consolidated metadata rebuilt")

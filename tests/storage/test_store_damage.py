@@ -855,3 +855,21 @@ def test_a_lost_status_and_checksum_is_named_as_what_resume_will_solve(built, ca
     doc = json.loads(capsys.readouterr().out)
     assert doc["groups"][0]["notes"] == list(group.notes)
     assert not verify(build(built.parent / "intact.zarr")).groups[0].notes
+
+
+def test_lost_group_attributes_are_restored_not_solved_again(built):
+    """Issue 50: a group whose attributes were deleted looked unfinished; resume then
+    rebuilt it and solved all of it again. The consolidated copy holds them."""
+    meta = built / GROUP / "zarr.json"
+    doc = json.loads(meta.read_text())
+    want = doc["attributes"]
+    meta.write_text(json.dumps({**doc, "attributes": {}}))
+    report = verify(built)
+    assert not report.ok and "attributes are lost" in "\n".join(report.lines())
+    assert storage.list_groups(built) == []
+    repaired = verify(built, repair=True)
+    assert repaired.after is None or repaired.after.ok, repaired.lines()
+    assert json.loads(meta.read_text())["attributes"] == want
+    assert storage.statuses(built, GROUP, IDS) == {
+        "e0": 1, "e1": 1, "e2": 1, "e3": 1, "e4": 2, "e5": 0}
+    _exact(storage.done(storage.open_dataset(built, GROUP)))
