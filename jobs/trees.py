@@ -83,7 +83,8 @@ def _todo(task: TreeTask, exps: tuple[Experiment, ...]) -> tuple[list[Experiment
 
 
 def run_trunk(task: TreeTask) -> TrunkResult:
-    """Worker entry point: solve the trunk, write its own experiments not yet done."""
+    """Worker entry point: solve the trunk (or read the one saved in the store), write
+    its own experiments not yet done."""
     tree = task.tree
     should_stop = cancellation_check()
     with storage.claim(task.store, task.group, tree.key, should_stop=should_stop) as go:
@@ -94,50 +95,13 @@ def run_trunk(task: TreeTask) -> TrunkResult:
         if _tree_done(task):  # e.g. a second client's trunk, after the first finished
             return TrunkResult(PathOutcome(tree.key, skipped=skipped), None,
                                "every experiment of the tree is done", (True,) * len(skipped))
-        model = task.model
-        mesh = mesh_for(model)
-        saved = _saved_trunk(task)
-        if saved is not None:
-            result: Trunk | Failed = saved
-        else:
-            path = LoadPath(tree.deflections, tree.pressure, tree.motion)
-
-            def solve(settings: SolverSettings) -> Trunk:
-                return solve_trunk(model, mesh, path, settings, should_stop, tree.fractions)
-
-            result = guarded(solve, task.settings, retry=task.retry_smaller_increments)
-            if not isinstance(result, Failed):
-                _save_trunk(task, result)
+        mesh = mesh_for(task.model)
+        result, saved = _solved_or_saved(task, mesh, should_stop)
         trunk = None if isinstance(result, Failed) else result
-        reached = len(trunk.restarts) if trunk is not None else 0
         reason = (result.reason if isinstance(result, Failed)
                   else trunk.failure if trunk is not None and trunk.failure else "")
-        level = {e.id: k for k, e in enumerate(tree.trunk)}
-        parts: list[PathOutcome] = []
-        mine = [e for e in todo if level[e.id] < reached]
-        if trunk is not None and mine:
-            states = measure(mesh, trunk.solution, tree.pressure, inflated=True)
-            solution = trunk.solution
-            parts.append(write_outcome(task.path_task(tree.key, tuple(mine), tree.motion), mine,
-                                Solved(tuple(states[level[e.id]] for e in mine),
-                                       solution.solve_seconds, solution.ccx_runs,
-                                       solution.increments)))
-        elif trunk is not None:
-            parts.append(PathOutcome(tree.key, solve_seconds=trunk.solution.solve_seconds,
-                                     ccx_runs=trunk.solution.ccx_runs))
-        rest = [e for e in todo if level[e.id] >= reached]
-        if rest and trunk is None:
-            # stopped before its first deflection, after the guard's retry: its first
-            # step is the one-run path's deck up to there, so from rest would stop at the
-            # same place (the first touch, as a rule); recorded, not repeated
-            plain = task.path_task(tree.key, tuple(rest), tree.motion)
-            parts.append(write_outcome(plain, rest, Failed(
-                f"{reason} (the trunk, before its first deflection; the same path from "
-                "rest was not tried again)")))
-        elif rest:  # the levels a partial trunk did not reach: as the plain sweep does
-            parts.append(solve_experiments(task.path_task(tree.key, tuple(rest), tree.motion), rest,
-                                should_stop))
-        if saved is not None and parts:  # the trunk's runs were made before, not now
+        parts = _trunk_parts(task, todo, trunk, reason, mesh, should_stop)
+        if saved and parts:  # the trunk's runs were made before, not now
             parts[0] = dataclasses.replace(parts[0], solve_seconds=0.0, ccx_runs=0)
         done = {*skipped, *(i for p in parts for i in p.done)}
         outcome = PathOutcome(tree.key, tuple(i for p in parts for i in p.done),
@@ -147,6 +111,56 @@ def run_trunk(task: TreeTask) -> TrunkResult:
         _drop_if_finished(task)
         return TrunkResult(outcome, trunk, reason,
                            tuple(e.id in done for e in tree.trunk))
+
+
+def _solved_or_saved(task: TreeTask, mesh, should_stop) -> tuple[Trunk | Failed, bool]:
+    """The trunk saved in the store (True), else solved now and saved (False)."""
+    saved = _saved_trunk(task)
+    if saved is not None:
+        return saved, True
+    tree = task.tree
+    path = LoadPath(tree.deflections, tree.pressure, tree.motion)
+
+    def solve(settings: SolverSettings) -> Trunk:
+        return solve_trunk(task.model, mesh, path, settings, should_stop, tree.fractions)
+
+    result = guarded(solve, task.settings, retry=task.retry_smaller_increments)
+    if not isinstance(result, Failed):
+        _save_trunk(task, result)
+    return result, False
+
+
+def _trunk_parts(task: TreeTask, todo: list[Experiment], trunk: Trunk | None, reason: str,
+                 mesh, should_stop) -> list[PathOutcome]:
+    """Write the trunk's own experiments of ``todo``: those it reached from its states
+    (first), the rest failed (no trunk) or solved as the plain sweep would."""
+    tree = task.tree
+    reached = len(trunk.restarts) if trunk is not None else 0
+    level = {e.id: k for k, e in enumerate(tree.trunk)}
+    parts: list[PathOutcome] = []
+    mine = [e for e in todo if level[e.id] < reached]
+    if trunk is not None and mine:
+        states = measure(mesh, trunk.solution, tree.pressure, inflated=True)
+        solution = trunk.solution
+        parts.append(write_outcome(task.path_task(tree.key, tuple(mine), tree.motion), mine,
+                                   Solved(tuple(states[level[e.id]] for e in mine),
+                                          solution.solve_seconds, solution.ccx_runs,
+                                          solution.increments)))
+    elif trunk is not None:
+        parts.append(PathOutcome(tree.key, solve_seconds=trunk.solution.solve_seconds,
+                                 ccx_runs=trunk.solution.ccx_runs))
+    rest = [e for e in todo if level[e.id] >= reached]
+    plain = task.path_task(tree.key, tuple(rest), tree.motion)
+    if rest and trunk is None:
+        # stopped before its first deflection, after the guard's retry: its first step
+        # is the one-run path's deck up to there, so from rest would stop at the same
+        # place (the first touch, as a rule); recorded, not repeated
+        parts.append(write_outcome(plain, rest, Failed(
+            f"{reason} (the trunk, before its first deflection; the same path from "
+            "rest was not tried again)")))
+    elif rest:  # the levels a partial trunk did not reach: as the plain sweep does
+        parts.append(solve_experiments(plain, rest, should_stop))
+    return parts
 
 
 def _save_trunk(task: TreeTask, trunk: Trunk) -> None:
