@@ -13,7 +13,7 @@ from __future__ import annotations
 import importlib
 import math
 from pathlib import Path
-from typing import Annotated
+from typing import Any
 
 import numpy as np
 import typer
@@ -22,17 +22,66 @@ from analysis.errors import ParameterError
 from jobs.errors import ClusterError, StudyError
 from jobs.validate import messages
 from jobs.wording import plural
+from tyre_farm_cli.analyse_options import (
+    Axes,
+    BootstrapSeed,
+    CombinedDraws,
+    CombinedFolds,
+    CombinedInputs,
+    CombinedMaxComponents,
+    ConfLevel,
+    Deflection,
+    Deflections,
+    Edges,
+    Force,
+    Group,
+    Inputs,
+    Json,
+    Learners,
+    Method,
+    ModelStudy,
+    Nipals,
+    NoiseComponents,
+    NoiseCv,
+    NoiseDraws,
+    NoiseLevels,
+    Noises,
+    NoiseSeed,
+    NumResamples,
+    Out,
+    PcaModes,
+    PcrModes,
+    PlsComponents,
+    PlsCv,
+    Pressure,
+    PressuresKpa,
+    Reference,
+    Repeats,
+    Restarts,
+    Sampling,
+    Scheduler,
+    ScoreComponents,
+    ScoreField,
+    Sensor,
+    SensorDraws,
+    SensorFolds,
+    SensorMaxComponents,
+    ShuffleSeed,
+    Spacings,
+    SplitSeed,
+    StorageOption,
+    Store,
+    SurrogateField,
+    SurrogateFolds,
+    SurrogateSeed,
+    TestFraction,
+    TrainNoise,
+    Windows,
+)
 from tyre_farm_cli.checks import output_folder
 from tyre_farm_cli.errors import usage
-from tyre_farm_cli.jsondoc import JSON_HELP, dump, records
-from tyre_farm_cli.options import (
-    APP_SETTINGS,
-    SCHEDULER_HELP,
-    STORAGE_OPTION_HELP,
-    check_scheduler,
-    open_target,
-    with_tls,
-)
+from tyre_farm_cli.jsondoc import dump, records
+from tyre_farm_cli.options import APP_SETTINGS, open_target, with_tls
 
 REFERENCE_TOLERANCE_MM = 1e-6  # stored deflections are rounded to 1e-9 mm
 MAX_DRAWS = 10_000  # Monte Carlo draws per noise level
@@ -75,51 +124,25 @@ app = typer.Typer(
     **APP_SETTINGS,
 )
 
-Store = Annotated[str, typer.Argument(help="Zarr store: directory or fsspec URL.")]
-StorageOption = Annotated[list[str] | None,
-                         typer.Option("--storage-option", help=STORAGE_OPTION_HELP)]
-Group = Annotated[
-    str | None,
-    typer.Option("--group", "-g", help="Group (mesh) [default: the store's only group]."),
-]
-Out = Annotated[
-    Path | None, typer.Option(help="Output folder [default: ./analysis-out/<command>].")
-]
-Pressure = Annotated[
-    float | None,
-    typer.Option(help="Only experiments at this inflation pressure, kPa, as in study files "
-                 "and `farm run` (the store keeps MPa) [default: all pressures]."),
-]
-Deflection = Annotated[
-    float | None,
-    typer.Option(help="Only experiments at this deflection, mm [default: all deflections]."),
-]
-Inputs = Annotated[
-    str | None,
-    typer.Option(
-        help="Comma list of input sets or directions (displacement,strain; Uz,exx; Uz+Uy) "
-        "[default: the study's own sets]."
-    ),
-]
-Force = Annotated[
-    str, typer.Option("--force-component", help="Tread force component for Y: x, y or z.")
-]
-Reference = Annotated[
-    float | None,
-    typer.Option(help="Deflection (mm) of the reference experiment [default: the median]."),
-]
-#: Analyses without a scheduler run on dask's threads, not on an embedded cluster
-ANALYSE_SCHEDULER_HELP = SCHEDULER_HELP.replace("else an embedded LocalCluster",
-                                                "else dask's local threads")
-Scheduler = Annotated[
-    str | None,
-    typer.Option(help=ANALYSE_SCHEDULER_HELP, callback=check_scheduler),
-]
-Json = Annotated[bool, typer.Option("--json", help=JSON_HELP)]
-Axes = Annotated[
-    str, typer.Option("--axes", help="Axes of the forces and moments learned and reported: "
-                      "wheel (the store's) or road (x, y in the road plane, z its normal: "
-                      "TYDEX, ISO 8855; differs where the road is tilted).")]
+
+def _analyse(name: str, command: str, *, store: str, options: list[str] | None,
+             group: str | None, pressure: float | None, deflection: float | None = None,
+             out: Path | None, scheduler: str | None, as_json: bool, axes: str | None = None,
+             reference: object = None, **kwargs) -> None:
+    """The scaffold of every store analysis: the output folder checked, the selection
+    loaded on the scheduler (turned to ``axes``), ``reference`` checked against it when
+    the analysis takes one, the study run, what it wrote reported."""
+    folder = _out(out, command)
+    with dask_scheduler(scheduler):
+        ds = load_selection(store, options, group, pressure, deflection)
+        if axes is not None:
+            ds = in_axes(ds, axes)
+        if reference is not _NO_REFERENCE:
+            kwargs["reference_deflection"] = _reference(ds, reference)  # type: ignore[arg-type]
+        _done(_study(name).run(ds, folder, **kwargs), as_json)
+
+
+_NO_REFERENCE = object()  # the analysis takes no reference deflection
 
 
 def load_selection(store: str, options: list[str] | None, group: str | None, pressure: float | None,
@@ -174,188 +197,65 @@ def _done(report, as_json: bool = False) -> None:
 
 @app.command()
 @with_tls
-def pca(
-    store: Store,
-    group: Group = None,
-    out: Out = None,
-    pressure: Pressure = None,
-    deflection: Deflection = None,
-    inputs: Inputs = None,
-    components: Annotated[int, typer.Option(help="Modes written to the eigen-vector tables.")] = 3,
-    force_component: Force = "z",
-    scheduler: Scheduler = None,
-    storage_option: StorageOption = None,
-    as_json: Json = False,
-) -> None:
+def pca(store: Store, group: Group = None, out: Out = None, pressure: Pressure = None,
+        deflection: Deflection = None, inputs: Inputs = None, components: PcaModes = 3,
+        force_component: Force = "z", scheduler: Scheduler = None,
+        storage_option: StorageOption = None, as_json: Json = False) -> None:
     """Cross-covariance PCA per direction: singular values, eigen-maps, importance (§5.3)."""
-    folder = _out(out, "pca")
-    with dask_scheduler(scheduler):
-        ds = load_selection(store, storage_option, group, pressure, deflection)
-        _done(
-            _study("crosscov").run(
-                ds, folder, inputs=inputs, n_modes=components, component=force_component
-            ),
-            as_json,
-        )
+    _analyse("crosscov", "pca", store=store, options=storage_option, group=group,
+             pressure=pressure, deflection=deflection, out=out, scheduler=scheduler,
+             as_json=as_json, reference=_NO_REFERENCE, inputs=inputs, n_modes=components,
+             component=force_component)
 
 
 @app.command()
 @with_tls
-def pcr(
-    store: Store,
-    group: Group = None,
-    out: Out = None,
-    pressure: Pressure = None,
-    deflection: Deflection = None,
-    inputs: Inputs = None,
-    components: Annotated[int, typer.Option(help="Largest number of modes shown.")] = 5,
-    reference_deflection: Reference = None,
-    force_component: Force = "z",
-    scheduler: Scheduler = None,
-    storage_option: StorageOption = None,
-    as_json: Json = False,
-) -> None:
+def pcr(store: Store, group: Group = None, out: Out = None, pressure: Pressure = None,
+        deflection: Deflection = None, inputs: Inputs = None, components: PcrModes = 5,
+        reference_deflection: Reference = None, force_component: Force = "z",
+        scheduler: Scheduler = None, storage_option: StorageOption = None,
+        as_json: Json = False) -> None:
     """Principal component regression with 1..N modes (§5.4, Figs. 5.5-5.7)."""
-    folder = _out(out, "pcr")
-    with dask_scheduler(scheduler):
-        ds = load_selection(store, storage_option, group, pressure, deflection)
-        reference_deflection = _reference(ds, reference_deflection)
-        _done(
-            _study("pcr").run(
-                ds,
-                folder,
-                inputs=inputs,
-                max_modes=components,
-                reference_deflection=reference_deflection,
-                component=force_component,
-            ),
-            as_json,
-        )
+    _analyse("pcr", "pcr", store=store, options=storage_option, group=group,
+             pressure=pressure, deflection=deflection, out=out, scheduler=scheduler,
+             as_json=as_json, reference=reference_deflection, inputs=inputs,
+             max_modes=components, component=force_component)
 
 
 @app.command()
 @with_tls
-def plsr(
-    store: Store,
-    group: Group = None,
-    out: Out = None,
-    pressure: Pressure = None,
-    deflection: Deflection = None,
-    inputs: Inputs = None,
-    components: Annotated[int, typer.Option(help="Largest number of components shown.")] = 5,
-    cv: Annotated[
-        int | None,
-        typer.Option(help="Choose components by k-fold CV with k folds [default: no CV]."),
-    ] = None,
-    nipals: Annotated[
-        bool, typer.Option(help="Also fit scikit-learn's NIPALS (needs X in memory).")
-    ] = True,
-    seed: Annotated[
-        int | None, typer.Option(help="Shuffle CV folds with this seed [default: no shuffle].")
-    ] = None,
-    reference_deflection: Reference = None,
-    force_component: Force = "z",
-    scheduler: Scheduler = None,
-    storage_option: StorageOption = None,
-    as_json: Json = False,
-) -> None:
+def plsr(store: Store, group: Group = None, out: Out = None, pressure: Pressure = None,
+         deflection: Deflection = None, inputs: Inputs = None, components: PlsComponents = 5,
+         cv: PlsCv = None, nipals: Nipals = True, seed: ShuffleSeed = None,
+         reference_deflection: Reference = None, force_component: Force = "z",
+         scheduler: Scheduler = None, storage_option: StorageOption = None,
+         as_json: Json = False) -> None:
     """PLS regression, SIMPLS beside scikit-learn's NIPALS, PCTVAR (§5.5, Figs. 5.8-5.10)."""
-    folder = _out(out, "plsr")
-    with dask_scheduler(scheduler):
-        ds = load_selection(store, storage_option, group, pressure, deflection)
-        reference_deflection = _reference(ds, reference_deflection)
-        _done(
-            _study("plsr").run(
-                ds,
-                folder,
-                inputs=inputs,
-                max_modes=components,
-                cv=cv,
-                nipals=nipals,
-                seed=seed,
-                reference_deflection=reference_deflection,
-                component=force_component,
-            ),
-            as_json,
-        )
+    _analyse("plsr", "plsr", store=store, options=storage_option, group=group,
+             pressure=pressure, deflection=deflection, out=out, scheduler=scheduler,
+             as_json=as_json, reference=reference_deflection, inputs=inputs,
+             max_modes=components, cv=cv, nipals=nipals, seed=seed, component=force_component)
 
 
 @app.command()
 @with_tls
-def noise(
-    store: Store,
-    group: Group = None,
-    out: Out = None,
-    pressure: Pressure = None,
-    deflection: Deflection = None,
-    inputs: Inputs = None,
-    components: Annotated[
-        int | None,
-        typer.Option(
-            help="PLS components of each model [default: chosen per input set by "
-            "cross-validation over the experiments, see --cv; reported in models.csv]."
-        ),
-    ] = None,
-    cv: Annotated[
-        int | None,
-        typer.Option(
-            help="Folds of the cross-validation that chooses --components [default: "
-            "leave-one-out up to 10 experiments, else 10]."
-        ),
-    ] = None,
-    draws: Annotated[int, typer.Option(help="Monte Carlo draws per noise level.")] = 100,
-    noise_levels: Annotated[
-        str | None,
-        typer.Option(
-            help="Comma list of multiples of the thesis level (1 mm, 4e-4) "
-            "[default: 0,0.1,...,2]."
-        ),
-    ] = None,
-    seed: Annotated[int, typer.Option(help="Seed of the noise draws.")] = 0,
-    sampling: Annotated[
-        str,
-        typer.Option(
-            help="'inputs': N(0, σ²) on every input (thesis); 'subspace': same law, faster."
-        ),
-    ] = "inputs",
-    train_noise: Annotated[
-        bool,
-        typer.Option(
-            help="Also refit each model on noisy training inputs (rows 'training: noisy'; "
-            "the thesis trained on noise-free data, rows 'training: clean')."
-        ),
-    ] = True,
-    reference_deflection: Reference = None,
-    force_component: Force = "z",
-    scheduler: Scheduler = None,
-    storage_option: StorageOption = None,
-    as_json: Json = False,
-) -> None:
+def noise(store: Store, group: Group = None, out: Out = None, pressure: Pressure = None,
+          deflection: Deflection = None, inputs: Inputs = None,
+          components: NoiseComponents = None, cv: NoiseCv = None, draws: NoiseDraws = 100,
+          noise_levels: NoiseLevels = None, seed: NoiseSeed = 0,
+          sampling: Sampling = "inputs", train_noise: TrainNoise = True,
+          reference_deflection: Reference = None, force_component: Force = "z",
+          scheduler: Scheduler = None, storage_option: StorageOption = None,
+          as_json: Json = False) -> None:
     """Monte Carlo measurement noise on PLSR: node maps, Table 5.1, sweep (§5.6)."""
     with usage():
         levels = _levels(noise_levels)
         _draws(draws)
-    folder = _out(out, "noise")
-    with dask_scheduler(scheduler):
-        ds = load_selection(store, storage_option, group, pressure, deflection)
-        reference_deflection = _reference(ds, reference_deflection)
-        _done(
-            _study("noise").run(
-                ds,
-                folder,
-                inputs=inputs,
-                n_components=components,
-                multipliers=levels,
-                draws=draws,
-                seed=seed,
-                reference_deflection=reference_deflection,
-                component=force_component,
-                sampling=sampling,
-                cv=cv,
-                train_noise=train_noise,
-            ),
-            as_json,
-        )
+    _analyse("noise", "noise", store=store, options=storage_option, group=group,
+             pressure=pressure, deflection=deflection, out=out, scheduler=scheduler,
+             as_json=as_json, reference=reference_deflection, inputs=inputs,
+             n_components=components, multipliers=levels, draws=draws, seed=seed,
+             component=force_component, sampling=sampling, cv=cv, train_noise=train_noise)
 
 
 def _levels(text: str | None):
@@ -376,64 +276,32 @@ def _draws(draws: int) -> int:
 
 @app.command()
 @with_tls
-def combined(
-    store: Store,
-    group: Group = None,
-    out: Out = None,
-    pressure: Pressure = None,
-    inputs: Annotated[
-        str | None,
-        typer.Option(help="Comma list of input sets: displacement, strain, surface_strain, "
-                     "both (displacement + strain) [default: those the group has]."),
-    ] = None,
-    test_fraction: Annotated[
-        float, typer.Option(
-            help="Share of the load paths held out for testing (seeded; a roll's states "
-                 "together).")
-    ] = 0.25,
-    folds: Annotated[
-        int, typer.Option(help="Folds of the CV on the training part that chooses each "
-                          "component count.")
-    ] = 5,
-    seed: Annotated[int, typer.Option(help="Seed of the test split, CV folds and noise.")] = 0,
-    max_components: Annotated[
-        int, typer.Option(help="Largest component count the CV tries.")
-    ] = 15,
-    draws: Annotated[
-        int, typer.Option(help="Noise draws per held-out experiment (test set, CV folds).")
-    ] = 10,
-    axes: Axes = "wheel",
-    scheduler: Scheduler = None,
-    storage_option: StorageOption = None,
-    as_json: Json = False,
-) -> None:
+def combined(store: Store, group: Group = None, out: Out = None, pressure: Pressure = None,
+             inputs: CombinedInputs = None, test_fraction: TestFraction = 0.25,
+             folds: CombinedFolds = 5, seed: SplitSeed = 0,
+             max_components: CombinedMaxComponents = 15, draws: CombinedDraws = 10,
+             axes: Axes = "wheel", scheduler: Scheduler = None,
+             storage_option: StorageOption = None, as_json: Json = False) -> None:
     """Combined loads: PCA latent counts, PLSR/PCR of the 3-D force map and totals,
     held-out errors under T2Cam noise, beside the published anchors (issue 13)."""
     with usage():
-        if not 0.0 < test_fraction < 1.0:  # NaN fails too
-            raise ParameterError(f"--test-fraction must be in (0, 1), got {test_fraction}")
-        if folds < 2:
-            raise ParameterError(f"--folds must be at least 2, got {folds}")
+        _split(test_fraction, folds)
         if max_components < 1:
             raise ParameterError(f"--max-components must be at least 1, got {max_components}")
         _draws_at_least_one(draws)
         _axes(axes)
-    folder = _out(out, "combined")
-    with dask_scheduler(scheduler):
-        ds = in_axes(load_selection(store, storage_option, group, pressure, None), axes)
-        _done(
-            _study("combined").run(
-                ds,
-                folder,
-                inputs=inputs,
-                test_fraction=test_fraction,
-                folds=folds,
-                seed=seed,
-                max_components=max_components,
-                draws=draws,
-            ),
-            as_json,
-        )
+    _analyse("combined", "combined", store=store, options=storage_option, group=group,
+             pressure=pressure, out=out, scheduler=scheduler, as_json=as_json, axes=axes,
+             reference=_NO_REFERENCE, inputs=inputs, test_fraction=test_fraction,
+             folds=folds, seed=seed, max_components=max_components, draws=draws)
+
+
+def _split(test_fraction: float, folds: int) -> None:
+    """A held-out split's share and the CV's folds (as the user typed them)."""
+    if not 0.0 < test_fraction < 1.0:  # NaN fails too
+        raise ParameterError(f"--test-fraction must be in (0, 1), got {test_fraction}")
+    if folds < 2:
+        raise ParameterError(f"--folds must be at least 2, got {folds}")
 
 
 def _axes(axes: str) -> str:
@@ -457,117 +325,69 @@ def _draws_at_least_one(draws: int) -> int:
 
 # ------------------------------------------------------------------ the sensor (issue 27)
 
-SENSOR_HELP = ("Virtual camera: a preset (t2cam-2017, t2cam-2020, ideal-full), optionally "
-               "with field=value changes, e.g. 't2cam-2017,window_deg=90' "
-               "(docs/sensor.md lists the fields).")
-Sensor = Annotated[str, typer.Option("--sensor", help=SENSOR_HELP)]
-
 
 @app.command()
 @with_tls
-def sensor(
-    store: Store,
-    group: Group = None,
-    out: Out = None,
-    pressure: Pressure = None,
-    sensor_: Sensor = "t2cam-2017",
-    windows: Annotated[
-        str, typer.Option(help="Windows (degrees about the contact centre) to try, comma "
-                          "list in (0, 360].")
-    ] = "10,20,40,90,360",
-    noises: Annotated[
-        str, typer.Option(help="Position noise levels σ (mm) to try, comma list.")
-    ] = "0,0.5,1,2",
-    spacings: Annotated[
-        str, typer.Option(help="Point spacings (mm) to try, comma list.")
-    ] = "5,10,20",
-    learners: Annotated[
-        str, typer.Option(help="Learners side by side: plsr (CV-chosen count) and gp "
-                          "(Gaussian process on the PLS scores).")
-    ] = "plsr,gp",
-    test_fraction: Annotated[
-        float, typer.Option(
-            help="Share of the load paths held out for testing (seeded; a roll's states "
-                 "together).")
-    ] = 0.25,
-    folds: Annotated[int, typer.Option(help="Folds of the grouped CV on the training part.")] = 5,
-    draws: Annotated[
-        int, typer.Option(help="Noisy measurements per experiment (training and test).")
-    ] = 3,
-    seed: Annotated[int, typer.Option(help="Seed of the split, folds and noise.")] = 0,
-    max_components: Annotated[int, typer.Option(help="Largest PLS count the CV tries.")] = 10,
-    repeats: Annotated[
-        int, typer.Option(help="Grouped splits (seeds SEED, SEED+1, ...): every figure a mean "
-                          "over them, with its spread (issue 46 asks for at least 5).")
-    ] = 1,
-    edges: Annotated[
-        float, typer.Option(help="Also train on the interior and test on the load paths with "
-                            "a varying parameter in this outer fraction of its range, in "
-                            "[0, 0.5) [default: 0, no edge check].")
-    ] = 0.0,
-    axes_: Axes = "wheel",
-    scheduler: Scheduler = None,
-    storage_option: StorageOption = None,
-    as_json: Json = False,
-) -> None:
+def sensor(store: Store, group: Group = None, out: Out = None, pressure: Pressure = None,
+           sensor_: Sensor = "t2cam-2017", windows: Windows = "10,20,40,90,360",
+           noises: Noises = "0,0.5,1,2", spacings: Spacings = "5,10,20",
+           learners: Learners = "plsr,gp", test_fraction: TestFraction = 0.25,
+           folds: SensorFolds = 5, draws: SensorDraws = 3, seed: SplitSeed = 0,
+           max_components: SensorMaxComponents = 10, repeats: Repeats = 1,
+           edges: Edges = 0.0, axes_: Axes = "wheel", scheduler: Scheduler = None,
+           storage_option: StorageOption = None, as_json: Json = False) -> None:
     """Identifiability vs the sensor: held-out Fx, Fy, Fz, Mz errors over window, noise and
     point spacing of a virtual T2Cam, PLSR beside a Gaussian process (issue 27)."""
     from analysis.sensor import sensor_spec
 
     with usage():
         spec = sensor_spec(sensor_)
-        axes = dict(windows=_numbers(windows, "--windows", low=1e-9, high=360.0,
-                                     what="angles in (0, 360] degrees"),
-                    noises=_numbers(noises, "--noises", low=0.0),
-                    spacings=_numbers(spacings, "--spacings", low=0.5,
-                                      what="spacings of at least 0.5 mm"))
-        names = tuple(n.strip() for n in learners.split(",") if n.strip())
-        from analysis.learners import learner
-
-        for name in names:
-            learner(name)
-        if not 0.0 < test_fraction < 1.0:
-            raise ParameterError(f"--test-fraction must be in (0, 1), got {test_fraction}")
-        if folds < 2:
-            raise ParameterError(f"--folds must be at least 2, got {folds}")
+        grid = _sensor_grid(windows, noises, spacings)
+        names = _learners(learners)
+        _split(test_fraction, folds)
         _draws_at_least_one(draws)
         _axes(axes_)
-        if not 1 <= repeats <= 100:
-            raise ParameterError(f"--repeats must be in [1, 100], got {repeats}")
-        if not 0.0 <= edges < 0.5:  # NaN fails too
-            raise ParameterError(f"--edges must be in [0, 0.5), got {edges}")
-    folder = _out(out, "sensor")
-    with dask_scheduler(scheduler):
-        ds = in_axes(load_selection(store, storage_option, group, pressure, None), axes_)
-        _done(_study("sensor").run(ds, folder, sensor=spec, learner_names=names,
-                                   test_fraction=test_fraction, folds=folds, draws=draws,
-                                   max_components=max_components, seed=seed,
-                                   repeats=repeats, edges=edges, **axes),
-              as_json)
+        _repeats_and_edges(repeats, edges)
+    _analyse("sensor", "sensor", store=store, options=storage_option, group=group,
+             pressure=pressure, out=out, scheduler=scheduler, as_json=as_json, axes=axes_,
+             reference=_NO_REFERENCE, sensor=spec, learner_names=names,
+             test_fraction=test_fraction, folds=folds, draws=draws,
+             max_components=max_components, seed=seed, repeats=repeats, edges=edges, **grid)
+
+
+def _sensor_grid(windows: str, noises: str, spacings: str
+                 ) -> dict[str, Any]:  # windows, noises, spacings: tuples
+    return dict(windows=_numbers(windows, "--windows", low=1e-9, high=360.0,
+                                 what="angles in (0, 360] degrees"),
+                noises=_numbers(noises, "--noises", low=0.0),
+                spacings=_numbers(spacings, "--spacings", low=0.5,
+                                  what="spacings of at least 0.5 mm"))
+
+
+def _learners(text: str) -> tuple[str, ...]:
+    from analysis.learners import learner
+
+    names = tuple(n.strip() for n in text.split(",") if n.strip())
+    for name in names:
+        learner(name)  # an unknown name: one line naming the known ones
+    return names
+
+
+def _repeats_and_edges(repeats: int, edges: float) -> None:
+    if not 1 <= repeats <= 100:
+        raise ParameterError(f"--repeats must be in [1, 100], got {repeats}")
+    if not 0.0 <= edges < 0.5:  # NaN fails too
+        raise ParameterError(f"--edges must be in [0, 0.5), got {edges}")
 
 
 # ------------------------------------------------------------------ surrogate (issue 28)
 
 @app.command()
 @with_tls
-def surrogate(
-    store: Store,
-    group: Group = None,
-    out: Out = None,
-    pressure: Pressure = None,
-    field: Annotated[
-        str, typer.Option(help="Inner-surface field the surrogate predicts beside the six "
-                          "totals: displacement or strain.")
-    ] = "displacement",
-    folds: Annotated[int, typer.Option(help="Folds of the cross-validation.")] = 5,
-    seed: Annotated[int, typer.Option(help="Seed of the folds and kernel restarts.")] = 0,
-    restarts: Annotated[
-        int, typer.Option(help="Restarts of each Gaussian process' kernel optimiser.")
-    ] = 3,
-    scheduler: Scheduler = None,
-    storage_option: StorageOption = None,
-    as_json: Json = False,
-) -> None:
+def surrogate(store: Store, group: Group = None, out: Out = None, pressure: Pressure = None,
+              field: SurrogateField = "displacement", folds: SurrogateFolds = 5,
+              seed: SurrogateSeed = 0, restarts: Restarts = 3, scheduler: Scheduler = None,
+              storage_option: StorageOption = None, as_json: Json = False) -> None:
     """A surrogate of the experiments: Gaussian processes from the varied load parameters
     to the field and the six totals, its held-out errors and uncertainty, and the fitted
     model in OUT/surrogate (issue 28)."""
@@ -579,11 +399,9 @@ def surrogate(
             raise ParameterError(f"--restarts must be at least 0, got {restarts}")
         if field not in fields:
             raise ParameterError(f"--field must be {' or '.join(fields)}, got {field!r}")
-    folder = _out(out, "surrogate")
-    with dask_scheduler(scheduler):
-        ds = load_selection(store, storage_option, group, pressure, None)
-        _done(_study("surrogate").run(ds, folder, field=field, folds=folds, seed=seed,
-                                      restarts=restarts), as_json)
+    _analyse("surrogate", "surrogate", store=store, options=storage_option, group=group,
+             pressure=pressure, out=out, scheduler=scheduler, as_json=as_json,
+             reference=_NO_REFERENCE, field=field, folds=folds, seed=seed, restarts=restarts)
 
 
 # ------------------------------------------------------------------ sensitivity (issue 15)
@@ -593,61 +411,20 @@ SENSITIVITY_FIELDS = ("displacement", "strain", "surface_strain")
 
 @app.command()
 @with_tls
-def sensitivity(
-    study: Annotated[Path, typer.Argument(help="Model-space study file (.toml) with a "
-                                          "[models] sobol or morris design.")],
-    out: Out = None,
-    method: Annotated[
-        str | None,
-        typer.Option(help="sobol or morris: must be the study's [models] method "
-                     "[default: the study's]."),
-    ] = None,
-    deflection: Annotated[
-        str | None,
-        typer.Option(help="Comma list of deflections, mm [default: the study's]."),
-    ] = None,
-    pressure_kpa: Annotated[
-        str | None,
-        typer.Option(help="Comma list of inflation pressures, kPa [default: the study's]."),
-    ] = None,
-    field: Annotated[
-        str | None,
-        typer.Option(help="Also the PCA scores of this inner-surface field across the "
-                     "models: displacement, strain or surface_strain [default: none]."),
-    ] = None,
-    components: Annotated[
-        int, typer.Option(help="PCA scores of --field per load case.")] = 3,
-    num_resamples: Annotated[
-        int, typer.Option(help="Bootstrap resamples of the confidence intervals.")] = 1000,
-    conf_level: Annotated[
-        float, typer.Option(help="Confidence level of the intervals.")] = 0.95,
-    seed: Annotated[int, typer.Option(help="Seed of the bootstrap.")] = 0,
-    storage_option: StorageOption = None,
-    as_json: Json = False,
-) -> None:
+def sensitivity(study: ModelStudy, out: Out = None, method: Method = None,
+                deflection: Deflections = None, pressure_kpa: PressuresKpa = None,
+                field: ScoreField = None, components: ScoreComponents = 3,
+                num_resamples: NumResamples = 1000, conf_level: ConfLevel = 0.95,
+                seed: BootstrapSeed = 0, storage_option: StorageOption = None,
+                as_json: Json = False) -> None:
     """Sobol' indices or Morris screening of a model design over the store (thesis §6.2):
     Fz, contact nodes and area per load case, and PCA scores of an inner-surface field."""
     from analysis.sensitivity_data import OutputRequest
 
     with usage():
-        deflections = _numbers(deflection, "--deflection", low=math.ulp(0.0),
-                               what="positive numbers of mm")
-        pressures = _numbers(pressure_kpa, "--pressure-kpa", low=0.0,  # 0: not inflated
-                             what="numbers of kPa >= 0")
-        if field is not None and field not in SENSITIVITY_FIELDS:
-            raise ParameterError(f"--field must be one of {', '.join(SENSITIVITY_FIELDS)}, "
-                                 f"got {messages.shown(field)}")
-        if method is not None and method not in ("sobol", "morris"):
-            raise ParameterError(f"--method must be sobol or morris, got {messages.shown(method)}")
-        if not 2 <= num_resamples <= MAX_DRAWS:
-            raise ParameterError(
-                f"--num-resamples must be in [2, {MAX_DRAWS}], got {num_resamples}")
-        if not 0 < conf_level < 1:
-            raise ParameterError(f"--conf-level must be in (0, 1), got {conf_level:g}")
-        if not 1 <= components <= 20:
-            raise ParameterError(f"--components must be in [1, 20], got {components}")
-        if seed < 0:
-            raise ParameterError(f"--seed must be >= 0, got {seed}")
+        deflections, pressures = _sensitivity_checks(deflection, pressure_kpa, field, method,
+                                                     num_resamples, conf_level, components,
+                                                     seed)
     folder = _out(out, "sensitivity")
     spec, design = _model_design(study, method)
     store = open_target(spec.location, storage_option) if storage_option else spec.store
@@ -664,6 +441,29 @@ def sensitivity(
         method=design.method, num_levels=spec.models.num_levels,
         num_resamples=num_resamples, conf_level=conf_level, seed=seed, source=str(study)),
         as_json)
+
+
+def _sensitivity_checks(deflection, pressure_kpa, field, method, num_resamples, conf_level,
+                        components, seed):
+    """The sensitivity command's values as typed: (deflections, pressures in kPa)."""
+    deflections = _numbers(deflection, "--deflection", low=math.ulp(0.0),
+                           what="positive numbers of mm")
+    pressures = _numbers(pressure_kpa, "--pressure-kpa", low=0.0,  # 0: not inflated
+                         what="numbers of kPa >= 0")
+    if field is not None and field not in SENSITIVITY_FIELDS:
+        raise ParameterError(f"--field must be one of {', '.join(SENSITIVITY_FIELDS)}, "
+                             f"got {messages.shown(field)}")
+    if method is not None and method not in ("sobol", "morris"):
+        raise ParameterError(f"--method must be sobol or morris, got {messages.shown(method)}")
+    if not 2 <= num_resamples <= MAX_DRAWS:
+        raise ParameterError(f"--num-resamples must be in [2, {MAX_DRAWS}], got {num_resamples}")
+    if not 0 < conf_level < 1:
+        raise ParameterError(f"--conf-level must be in (0, 1), got {conf_level:g}")
+    if not 1 <= components <= 20:
+        raise ParameterError(f"--components must be in [1, 20], got {components}")
+    if seed < 0:
+        raise ParameterError(f"--seed must be >= 0, got {seed}")
+    return deflections, pressures
 
 
 def _numbers(text: str | None, option: str, *, low: float, high: float = math.inf,
