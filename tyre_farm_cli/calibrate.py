@@ -65,47 +65,51 @@ class CalibrationLines(Progress):
             self.lines.progress(f"calibrate: {text}")
 
 
+MODEL = typer.Option("reduced", "--model", "-m", help="Tyre model: full or reduced.")
+REFERENCES = typer.Option(
+    None, "--references", help="CSV of reference points (model, deflection_mm, "
+    "pressure_kpa, force_n) [default: the thesis' points of the model].")
+PARAMETERS = typer.Option(
+    None, "--parameters", help="Comma list of: modulus, tread, sidewall, bead, "
+    "tread_thickness, sidewall_thickness, bead_thickness [default: modulus for the "
+    "reduced model, tread,sidewall,bead for the full one].")
+THICKNESS = typer.Option(False, "--thickness", help="Also fit the three wall thicknesses "
+                         "(a new mesh per evaluation).")
+READING = typer.Option(
+    "80kPa", "--reading", help="Which pressure the thesis' 4475.5 N point at 30 mm is "
+    "read at: 80kPa (§3.3.2, Fig. 3.2; the reading a tyre with cords can meet together "
+    "with the measured stiffness ratio, docs/reinforcement.md) or 200kPa (chapter 5, "
+    "Table 5.1); the full model's default points only. `farm compare` shows a model "
+    "under both.")
+RATIO = typer.Option(
+    False, "--ratio", help="Also fit the measured 200/80 kPa stiffness ratio (1.636, "
+    "§3.4): adds the reading's 30 mm point at the other pressure, scaled by it (full "
+    "model, the thesis' points).")
+MEASURED = typer.Option(
+    False, "--measured", help="Also fit the measured tyre's point the thesis lets one "
+    "derive: 4195 N at 25 mm / 80 kPa (3933 N + its largest error, §3.4; full model).")
+MATERIALS = typer.Option("table-3.1", "--materials", help="Start material preset.")
+MESH = typer.Option("thesis", "--mesh", help=MESH_HELP)
+OVERRIDES = typer.Option(
+    [], "--set", help="Override a model setting, e.g. --set mesh.circumferential=8.")
+MAX_EVALUATIONS = typer.Option(60, "--max-evaluations", help="Evaluation budget (one "
+                               "evaluation = one parameter set).")
+PRIOR_WEIGHT = typer.Option(1e-4, "--prior-weight", help="Weight of the pull towards the "
+                            "start values (per e-fold, squared).")
+OUT = typer.Option(Path("calibration"), "--out", help="Folder for the tables, the figure "
+                   "and the fitted preset (JSON).")
+CACHE = typer.Option(None, "--cache", help="Evaluation cache [default: <out>/evaluations]; "
+                     "a re-run replays it without ccx.")
+
+
 @with_cluster
 def calibrate(
-    model: str = typer.Option("reduced", "--model", "-m", help="Tyre model: full or reduced."),
-    references: Path = typer.Option(
-        None, "--references", help="CSV of reference points (model, deflection_mm, "
-        "pressure_kpa, force_n) [default: the thesis' points of the model]."),
-    parameters: str = typer.Option(
-        None, "--parameters", help="Comma list of: modulus, tread, sidewall, bead, "
-        "tread_thickness, sidewall_thickness, bead_thickness [default: modulus for the "
-        "reduced model, tread,sidewall,bead for the full one]."),
-    thickness: bool = typer.Option(False, "--thickness", help="Also fit the three wall "
-                                   "thicknesses (a new mesh per evaluation)."),
-    reading: str = typer.Option(
-        "80kPa", "--reading", help="Which pressure the thesis' 4475.5 N point at 30 mm is "
-        "read at: 80kPa (§3.3.2, Fig. 3.2; the reading a tyre with cords can meet together "
-        "with the measured stiffness ratio, docs/reinforcement.md) or 200kPa (chapter 5, "
-        "Table 5.1); the full model's default points only. `farm compare` shows a model "
-        "under both."),
-    ratio: bool = typer.Option(
-        False, "--ratio", help="Also fit the measured 200/80 kPa stiffness ratio (1.636, "
-        "§3.4): adds the reading's 30 mm point at the other pressure, scaled by it (full "
-        "model, the thesis' points)."),
-    measured: bool = typer.Option(
-        False, "--measured", help="Also fit the measured tyre's point the thesis lets one "
-        "derive: 4195 N at 25 mm / 80 kPa (3933 N + its largest error, §3.4; full model)."),
-    materials: str = typer.Option("table-3.1", "--materials", help="Start material preset."),
-    mesh: str = typer.Option("thesis", "--mesh", help=MESH_HELP),
-    overrides: list[str] = typer.Option(
-        [], "--set", help="Override a model setting, e.g. --set mesh.circumferential=8."),
-    max_evaluations: int = typer.Option(60, "--max-evaluations", help="Evaluation budget "
-                                        "(one evaluation = one parameter set)."),
-    prior_weight: float = typer.Option(1e-4, "--prior-weight", help="Weight of the pull "
-                                       "towards the start values (per e-fold, squared)."),
-    scheduler: str = SCHEDULER,
-    workers: int = WORKERS,
-    out: Path = typer.Option(Path("calibration"), "--out", help="Folder for the tables, the "
-                             "figure and the fitted preset (JSON)."),
-    cache: Path = typer.Option(None, "--cache", help="Evaluation cache [default: "
-                               "<out>/evaluations]; a re-run replays it without ccx."),
-    as_json: bool = JSON,
-    cluster=None,
+    model: str = MODEL, references: Path = REFERENCES, parameters: str = PARAMETERS,
+    thickness: bool = THICKNESS, reading: str = READING, ratio: bool = RATIO,
+    measured: bool = MEASURED, materials: str = MATERIALS, mesh: str = MESH,
+    overrides: list[str] = OVERRIDES, max_evaluations: int = MAX_EVALUATIONS,
+    prior_weight: float = PRIOR_WEIGHT, scheduler: str = SCHEDULER, workers: int = WORKERS,
+    out: Path = OUT, cache: Path = CACHE, as_json: bool = JSON, cluster=None,
 ) -> None:
     """Fit Young's moduli (and thicknesses) to force-deflection points, on the farm.
 
@@ -115,30 +119,12 @@ def calibrate(
     writes tables, a force-deflection figure and fitted.json to --out.
     """
     from farm.ccx.runner import find_ccx
-    from farm.errors import SpecError
     from jobs.calibrate.fit import CalibrationSettings
-    from jobs.calibrate.params import Parameters, default_parameters
     from jobs.calibrate.run import run_calibration
-    from jobs.validate import limits, messages, scalars
-    from tyre_farm_cli.checks import output_folder
-    from tyre_farm_cli.params import build_model
 
-    with usage():
-        if model not in ("reduced", "full"):
-            raise SpecError(f"unknown model {messages.shown(model)}: choose 'reduced' or "
-                            "'full'")
-        base = build_model(model, materials, None, overrides, mesh)
-        names = (tuple(s.strip() for s in parameters.split(",") if s.strip()) if parameters
-                 else default_parameters(model, thickness))
-        params = Parameters(names, base)
+    base, params = _parameters(model, materials, overrides, mesh, parameters, thickness)
     points = _points(base, reading, ratio, measured, references)
-    with usage():
-        scalars.integer(max_evaluations, "--max-evaluations", low=2,
-                        high=limits.MAX_EVALUATIONS)
-        scalars.number(prior_weight, "--prior-weight", low=0)
-        output_folder(out, "--out")
-        if cache is not None:
-            output_folder(cache, "--cache")
+    _check_budget(max_evaluations, prior_weight, out, cache)
     if cluster.embedded:
         find_ccx()
     console = Console(width=None if sys.stdout.isatty() else 160)
@@ -152,6 +138,38 @@ def calibrate(
     else:
         _print(console, report, frames, out)
     raise typer.Exit(0 if report.ok else 1)
+
+
+def _parameters(model: str, materials: str, overrides: list[str], mesh: str,
+                parameters: str | None, thickness: bool):
+    """The start model and the parameters fitted on it, as the user typed them."""
+    from farm.errors import SpecError
+    from jobs.calibrate.params import Parameters, default_parameters
+    from jobs.validate import messages
+    from tyre_farm_cli.params import build_model
+
+    with usage():
+        if model not in ("reduced", "full"):
+            raise SpecError(f"unknown model {messages.shown(model)}: choose 'reduced' or "
+                            "'full'")
+        base = build_model(model, materials, None, overrides, mesh)
+        names = (tuple(s.strip() for s in parameters.split(",") if s.strip()) if parameters
+                 else default_parameters(model, thickness))
+        return base, Parameters(names, base)
+
+
+def _check_budget(max_evaluations: int, prior_weight: float, out: Path,
+                  cache: Path | None) -> None:
+    from jobs.validate import limits, scalars
+    from tyre_farm_cli.checks import output_folder
+
+    with usage():
+        scalars.integer(max_evaluations, "--max-evaluations", low=2,
+                        high=limits.MAX_EVALUATIONS)
+        scalars.number(prior_weight, "--prior-weight", low=0)
+        output_folder(out, "--out")
+        if cache is not None:
+            output_folder(cache, "--cache")
 
 
 def _points(base, reading: str, ratio: bool, measured: bool, references: Path | None):
