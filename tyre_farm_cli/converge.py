@@ -22,58 +22,43 @@ from tyre_farm_cli.options import SCHEDULER, WORKERS, with_cluster
 from tyre_farm_cli.params import check_materials
 from tyre_farm_cli.progress import LogLines
 
+QUICK = typer.Option(False, "--quick", help="Test-sized levels and two cases (minutes: for "
+                     "the pipeline, not for conclusions).")
+REPLAY = typer.Option(False, "--replay", help="Solve nothing: redraw the tables from "
+                      "OUT/convergence.json of an earlier run.")
+CASES = typer.Option(
+    [], "--case", help="Solve only this load case (repeatable): one of the study's cases, "
+    "or roll-150mm (a rolling tyre, issue 30). Default: the study's cases.")
+DIRECTIONS = typer.Option(
+    [], "--direction", help="Refine the --mesh preset in this direction alone, 2 and 4 x "
+    "(repeatable): circumferential, tread, sidewall, bead, through, together (2 x in every "
+    "one at once), or all. Cases: the calibration's vertical points (point-80kPa at 25 "
+    "mm, point-200kPa at 30 mm) unless --case names others.")
+MESH = typer.Option("patch", "--mesh", help="With --direction: the mesh preset refined (the "
+                    "full model's).")
+FACTORS = typer.Option("", "--factors", help="With --direction: the refinement factors, e.g. "
+                       "2,4,8 [default: 2,4; together 2].")
+OUT = typer.Option(Path("convergence"), "--out", help="Output folder.")
+MATERIALS = typer.Option("table-3.1", "--materials", help="Material preset.")
+TIMEOUT = typer.Option(
+    1800.0, "--timeout", help="Wall-clock seconds per ccx run: a roll or a tilt on a wall "
+    "refined twice can need more than the default half hour.")
+
 
 @with_cluster
 def converge(
-    quick: bool = typer.Option(False, "--quick", help="Test-sized levels and two cases "
-                               "(minutes: for the pipeline, not for conclusions)."),
-    replay: bool = typer.Option(False, "--replay", help="Solve nothing: redraw the tables "
-                                "from OUT/convergence.json of an earlier run."),
-    cases: list[str] = typer.Option(
-        [], "--case", help="Solve only this load case (repeatable): one of the study's "
-        "cases, or roll-150mm (a rolling tyre, issue 30). Default: the study's cases."),
-    directions: list[str] = typer.Option(
-        [], "--direction", help="Refine the --mesh preset in this direction alone, 2 and "
-        "4 x (repeatable): circumferential, tread, sidewall, bead, through, together "
-        "(2 x in every one at once), or all. Cases: the calibration's vertical points "
-        "(point-80kPa at 25 mm, point-200kPa at 30 mm) unless --case names others."),
-    mesh: str = typer.Option("patch", "--mesh", help="With --direction: the mesh preset "
-                             "refined (the full model's)."),
-    factors: str = typer.Option("", "--factors", help="With --direction: the refinement "
-                                "factors, e.g. 2,4,8 [default: 2,4; together 2]."),
-    out: Path = typer.Option(Path("convergence"), "--out", help="Output folder."),
-    materials: str = typer.Option("table-3.1", "--materials", help="Material preset."),
-    timeout: float = typer.Option(
-        1800.0, "--timeout", help="Wall-clock seconds per ccx run: a roll or a tilt on a "
-        "wall refined twice can need more than the default half hour."),
-    scheduler: str = SCHEDULER,
-    workers: int = WORKERS,
-    cluster=None,
+    quick: bool = QUICK, replay: bool = REPLAY, cases: list[str] = CASES,
+    directions: list[str] = DIRECTIONS, mesh: str = MESH, factors: str = FACTORS,
+    out: Path = OUT, materials: str = MATERIALS, timeout: float = TIMEOUT,
+    scheduler: str = SCHEDULER, workers: int = WORKERS, cluster=None,
 ) -> None:
     """Solve the mesh-convergence study and write OUT/convergence.md."""
     from farm.ccx.runner import find_ccx
-    from farm.specs import TIMEOUT_S, SolverSettings
-    from jobs.convergence import levels as lv
     from jobs.convergence.run import run_study
-    from jobs.validate import reading, scalars
-    from tyre_farm_cli.checks import output_folder
 
-    with usage():
-        check_materials(materials)
-        output_folder(out, "--out")
-        scalars.number(timeout, "--timeout", low=TIMEOUT_S[0], high=TIMEOUT_S[1])
-        settings = SolverSettings(timeout=timeout)
-        if directions:
-            levels, sequences = lv.direction_study(
-                lv.chosen_directions(directions), mesh, quick, _factors(factors))
-            chosen = lv.chosen_cases(cases, quick, default=lv.POINT_CASES)
-        else:
-            levels = lv.QUICK_LEVELS if quick else lv.LEVELS
-            sequences = {"levels": [level.name for level in levels if level.ratio]}
-            chosen = lv.chosen_cases(cases, quick)
-        if replay:
-            saved = reading.read_text(out / "convergence.json", "convergence records")
-    if replay:
+    levels, sequences, chosen, settings, saved = _plan(
+        quick, replay, cases, directions, mesh, factors, out, materials, timeout)
+    if saved is not None:
         doc = json.loads(saved)
         sequences = doc.get("sequences") or {"levels": doc["sequence"]}
         _write(out, doc["records"], sequences, doc["materials"], doc["quick"])
@@ -90,6 +75,32 @@ def converge(
     with cluster.client() as client:
         records = run_study(levels, chosen, client, materials, settings, on_record=note)
     _write(out, records, sequences, materials, quick)
+
+
+def _plan(quick, replay, cases, directions, mesh, factors, out, materials, timeout):
+    """The options as typed, checked: (levels, sequences, cases, solver settings, the
+    earlier run's JSON with --replay else None)."""
+    from farm.specs import TIMEOUT_S, SolverSettings
+    from jobs.convergence import levels as lv
+    from jobs.validate import reading, scalars
+    from tyre_farm_cli.checks import output_folder
+
+    with usage():
+        check_materials(materials)
+        output_folder(out, "--out")
+        scalars.number(timeout, "--timeout", low=TIMEOUT_S[0], high=TIMEOUT_S[1])
+        settings = SolverSettings(timeout=timeout)
+        if directions:
+            levels, sequences = lv.direction_study(
+                lv.chosen_directions(directions), mesh, quick, _factors(factors))
+            chosen = lv.chosen_cases(cases, quick, default=lv.POINT_CASES)
+        else:
+            levels = lv.QUICK_LEVELS if quick else lv.LEVELS
+            sequences = {"levels": [level.name for level in levels if level.ratio]}
+            chosen = lv.chosen_cases(cases, quick)
+        saved = (reading.read_text(out / "convergence.json", "convergence records")
+                 if replay else None)
+    return levels, sequences, chosen, settings, saved
 
 
 def _write(out: Path, records: list[dict], sequences: dict[str, list[str]], materials: str,
