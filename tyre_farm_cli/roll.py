@@ -34,27 +34,34 @@ from tyre_farm_cli.progress import LogLines
 MAX_SAMPLES = 100
 
 
+PRESSURE = typer.Option(200.0, "--pressure", "-p", help="Inflation pressure, kPa.")
+DEFLECTION = typer.Option(15.0, "--deflection", "-d", help="Deflection, mm.")
+FRICTION = typer.Option(0.6, "--friction", help="Coulomb mu, 0-2.")
+SLIP_RATIO = typer.Option(0.0, "--slip-ratio", help="Longitudinal slip kappa (SAE): > 0 "
+                          "drives, < 0 brakes, -1 locks the wheel.")
+SLIP_ANGLE = typer.Option(0.0, "--slip-angle", help="Slip angle, degrees, -20 to 20.")
+TILT = typer.Option(0.0, "--tilt", help="Road tilt about x (camber), degrees.")
+DISTANCE = typer.Option(150.0, "--distance", help="Road travel of the roll, mm.")
+ROLLING_RADIUS = typer.Option(
+    "free", "--rolling-radius", help="Free-rolling radius r_e in mm that turns travel into "
+    "spin, or 'free' to find it first (rolls until Fx = 0 at kappa = 0).")
+SAMPLES = typer.Option(10, "--samples", help="States written along the roll.")
+MATERIALS = typer.Option("table-3.1", "--materials", help=MATERIALS_HELP)
+MESH = typer.Option("thesis", "--mesh", help=MESH_HELP)
+OVERRIDES = typer.Option(
+    [], "--set", help="Override a model setting, e.g. --set mesh.circumferential=64.")
+THREADS_OPTION = typer.Option(1, "--threads", help="Solver threads.")
+TIMEOUT = typer.Option(3600.0, "--timeout", help="Seconds per ccx run.")
+JSON_OPTION = typer.Option(False, "--json", help="Print one JSON document.")
+
+
 def roll(
-    pressure: float = typer.Option(200.0, "--pressure", "-p", help="Inflation pressure, kPa."),
-    deflection: float = typer.Option(15.0, "--deflection", "-d", help="Deflection, mm."),
-    friction: float = typer.Option(0.6, "--friction", help="Coulomb mu, 0-2."),
-    slip_ratio: float = typer.Option(0.0, "--slip-ratio", help="Longitudinal slip kappa "
-                                     "(SAE): > 0 drives, < 0 brakes, -1 locks the wheel."),
-    slip_angle: float = typer.Option(0.0, "--slip-angle", help="Slip angle, degrees, "
-                                     "-20 to 20."),
-    tilt: float = typer.Option(0.0, "--tilt", help="Road tilt about x (camber), degrees."),
-    distance: float = typer.Option(150.0, "--distance", help="Road travel of the roll, mm."),
-    rolling_radius: str = typer.Option(
-        "free", "--rolling-radius", help="Free-rolling radius r_e in mm that turns travel "
-        "into spin, or 'free' to find it first (rolls until Fx = 0 at kappa = 0)."),
-    samples: int = typer.Option(10, "--samples", help="States written along the roll."),
-    materials: str = typer.Option("table-3.1", "--materials", help=MATERIALS_HELP),
-    mesh: str = typer.Option("thesis", "--mesh", help=MESH_HELP),
-    overrides: list[str] = typer.Option(
-        [], "--set", help="Override a model setting, e.g. --set mesh.circumferential=64."),
-    threads: int = typer.Option(1, "--threads", help="Solver threads."),
-    timeout: float = typer.Option(3600.0, "--timeout", help="Seconds per ccx run."),
-    as_json: bool = typer.Option(False, "--json", help="Print one JSON document."),
+    pressure: float = PRESSURE, deflection: float = DEFLECTION, friction: float = FRICTION,
+    slip_ratio: float = SLIP_RATIO, slip_angle: float = SLIP_ANGLE, tilt: float = TILT,
+    distance: float = DISTANCE, rolling_radius: str = ROLLING_RADIUS,
+    samples: int = SAMPLES, materials: str = MATERIALS, mesh: str = MESH,
+    overrides: list[str] = OVERRIDES, threads: int = THREADS_OPTION,
+    timeout: float = TIMEOUT, as_json: bool = JSON_OPTION,
 ) -> None:
     """Roll the tyre once: forces, moments and stick/slip along the roll."""
     with usage():
@@ -81,12 +88,7 @@ def roll(
         lines.log("roll: finding the free-rolling radius (rolls at kappa = 0)")
         stage[0] = "finding the free-rolling radius"
         with reporting(report):
-            radius, tried = free_rolling_radius(spec, m, deflection, mpa, motion, settings)
-        found = {"radius_mm": radius,
-                 # Fx and Fz of each roll: means over its last element pitch (its end
-                 # state for a roll shorter than a pitch)
-                 "tried": [{"radius_mm": t.radius, "fx_n": t.fx, "fz_n": t.fz} for t in tried]}
-        motion = dataclasses.replace(motion, rolling_radius=radius)
+            motion, found = _free_radius(spec, m, deflection, mpa, motion, settings)
     lines.log(f"roll: rolling {distance:g} mm at r_e {motion.rolling_radius:.2f} mm")
     fractions = tuple(float(f) for f in np.round(np.linspace(0, 1, samples + 1), 9))
     stage[0] = f"rolling {distance:g} mm"
@@ -98,6 +100,15 @@ def roll(
         dump(_document(spec, pressure, deflection, motion, states, radius0, found))
     else:
         _print(motion, pressure, deflection, states, radius0, found)
+
+
+def _free_radius(spec, m, deflection: float, mpa: float, motion, settings):
+    """The motion at the free-rolling radius, and what the search tried (Fx and Fz of
+    each roll: means over its last element pitch, or its end state when shorter)."""
+    radius, tried = free_rolling_radius(spec, m, deflection, mpa, motion, settings)
+    found = {"radius_mm": radius,
+             "tried": [{"radius_mm": t.radius, "fx_n": t.fx, "fz_n": t.fz} for t in tried]}
+    return dataclasses.replace(motion, rolling_radius=radius), found
 
 
 def _checked(spec, kpa: float, deflection: float, samples: int, threads: int,
