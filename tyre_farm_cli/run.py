@@ -43,36 +43,44 @@ PEAK_NOTE = ("* the largest nodal contact pressure: mesh-dependent, it does not 
              "with refinement (docs/mesh-convergence.md); compare it only on one mesh")
 
 
+MODEL = typer.Option("full", "--model", "-m", help="Tyre model: full or reduced.")
+PRESSURE = typer.Option(
+    None, "--pressure", "-p", help="Inflation pressure, kPa [default: 200 full, 0 reduced].")
+DEFLECTION = typer.Option(
+    "10:40:5", "--deflection", "-d", help="Deflections, mm: start:stop:step or a list.")
+ROAD = typer.Option(
+    None, "--road", help="Road boundary: iterative or contact [default: contact for the full "
+    "model, iterative for the reduced one].")
+MATERIALS = typer.Option("table-3.1", "--materials", help=MATERIALS_HELP)
+MESH = typer.Option("thesis", "--mesh", help=MESH_HELP)
+OVERRIDES = typer.Option(
+    [], "--set", help="Override a model setting, e.g. --set mesh.circumferential=80.")
+THREADS_OPTION = typer.Option(1, "--threads", help="Solver threads.")
+TIMEOUT = typer.Option(1800.0, "--timeout", help="Seconds per ccx run.")
+OUT = typer.Option(None, "--out", help="Save the arrays to this .npz file [default: none "
+                   "saved].")
+KEEP = typer.Option(False, "--keep", help="Keep the solver's scratch directories.")
+VTU = typer.Option(None, "--vtu", help="Write the deformed tyre per deflection as ParaView "
+                   "VTU files into this folder [default: none].")
+FRICTION = typer.Option(0.0, "--friction", help="Combined loads (contact road): Coulomb "
+                        "friction coefficient mu, 0-2 [default: 0, none].")
+SHIFT_X = typer.Option(0.0, "--shift-x", help="Combined loads: slide the road along x after "
+                       "the last deflection, mm, -50 to 50.")
+SHIFT_Y = typer.Option(0.0, "--shift-y", help="Combined loads: slide the road along its "
+                       "lateral axis after the last deflection, mm.")
+TILT = typer.Option(0.0, "--tilt", help="Combined loads: road tilt about x (camber, +y side "
+                    "up), degrees, -10 to 10.")
+JSON_OPTION = typer.Option(False, "--json", help="Print the results as one JSON document "
+                           "instead of the table.")
+
+
 def run(
-    model: str = typer.Option("full", "--model", "-m", help="Tyre model: full or reduced."),
-    pressure: float = typer.Option(
-        None, "--pressure", "-p", help="Inflation pressure, kPa [default: 200 full, 0 reduced]."),
-    deflection: str = typer.Option(
-        "10:40:5", "--deflection", "-d", help="Deflections, mm: start:stop:step or a list."),
-    road: str = typer.Option(
-        None, "--road", help="Road boundary: iterative or contact [default: contact for the full "
-        "model, iterative for the reduced one]."),
-    materials: str = typer.Option("table-3.1", "--materials", help=MATERIALS_HELP),
-    mesh: str = typer.Option("thesis", "--mesh", help=MESH_HELP),
-    overrides: list[str] = typer.Option(
-        [], "--set", help="Override a model setting, e.g. --set mesh.circumferential=80."),
-    threads: int = typer.Option(1, "--threads", help="Solver threads."),
-    timeout: float = typer.Option(1800.0, "--timeout", help="Seconds per ccx run."),
-    out: Path = typer.Option(None, "--out", help="Save the arrays to this .npz file "
-                             "[default: none saved]."),
-    keep: bool = typer.Option(False, "--keep", help="Keep the solver's scratch directories."),
-    vtu: Path = typer.Option(None, "--vtu", help="Write the deformed tyre per deflection "
-                             "as ParaView VTU files into this folder [default: none]."),
-    friction: float = typer.Option(0.0, "--friction", help="Combined loads (contact road): "
-                                   "Coulomb friction coefficient mu, 0-2 [default: 0, none]."),
-    shift_x: float = typer.Option(0.0, "--shift-x", help="Combined loads: slide the road "
-                                  "along x after the last deflection, mm, -50 to 50."),
-    shift_y: float = typer.Option(0.0, "--shift-y", help="Combined loads: slide the road "
-                                  "along its lateral axis after the last deflection, mm."),
-    tilt: float = typer.Option(0.0, "--tilt", help="Combined loads: road tilt about x "
-                               "(camber, +y side up), degrees, -10 to 10."),
-    as_json: bool = typer.Option(False, "--json", help="Print the results as one JSON "
-                                 "document instead of the table."),
+    model: str = MODEL, pressure: float = PRESSURE, deflection: str = DEFLECTION,
+    road: str = ROAD, materials: str = MATERIALS, mesh: str = MESH,
+    overrides: list[str] = OVERRIDES, threads: int = THREADS_OPTION, timeout: float = TIMEOUT,
+    out: Path = OUT, keep: bool = KEEP, vtu: Path = VTU, friction: float = FRICTION,
+    shift_x: float = SHIFT_X, shift_y: float = SHIFT_Y, tilt: float = TILT,
+    as_json: bool = JSON_OPTION,
 ) -> None:
     """Solve one load path (one model, one pressure, several deflections) and print a table."""
     with usage():
@@ -92,6 +100,11 @@ def run(
         _print_table(result, kpa, _patches(result))  # on stdout; the notes on stderr
     if keep:
         Console(stderr=True).print(f"solver files kept in {scratch}")
+    _save(result, spec, out, vtu)
+
+
+def _save(result, spec, out: Path | None, vtu: Path | None) -> None:
+    """The arrays (``--out``) and the deformed tyre (``--vtu``), where asked for."""
     if out is not None:
         result.save(out, mesh_for(spec))
         Console(stderr=True).print(f"arrays saved to {out}")
