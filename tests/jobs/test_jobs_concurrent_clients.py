@@ -88,6 +88,7 @@ def test_two_embedded_clusters_on_one_store_solve_each_experiment_once(write_stu
     assert os.listdir(claims) == []  # every claim was given back
 
 
+@pytest.mark.e2e  # two `farm sweep submit` processes, ~40 s: run by .ci/run (--e2e)
 def test_two_embedded_clusters_on_one_tree_study_share_its_trunks(tmp_path, counting_ccx):
     """Issue 50: two clients on one tree study each solved both trunks (2 of 6 ccx runs
     repeated). The second waits on the trunk's claim, then reads the saved trunk."""

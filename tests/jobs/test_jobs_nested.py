@@ -166,6 +166,7 @@ def _forces(store, name: str = "road_reaction") -> dict[str, np.ndarray]:
 
 
 @pytest.mark.ccx
+@pytest.mark.e2e  # two sweeps on embedded clusters, ~90 s: run by .ci/run (--e2e)
 def test_tree_sweep_stores_the_results_of_the_plain_sweep_in_fewer_runs(tmp_path):
     tree = _quick_example(tmp_path / "tree.zarr")
     assert tree.tree == _study(tmp_path / "s.zarr").tree  # the design of this file's tests
