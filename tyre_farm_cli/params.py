@@ -10,6 +10,8 @@ from __future__ import annotations
 
 from typing import Any
 
+import typer
+
 from farm.errors import SpecError
 from farm.presets import default_model
 from farm.specs import ModelSpec
@@ -73,6 +75,10 @@ MESH_HELP = ("Mesh preset: thesis (Table 3.1's element counts), patch (full mode
              "with the sidewall and the wall's depth refined) or lean (full model only: "
              "converged with one element through the wall, belts at depth by equations, "
              "1.7-1.8x patch's cost: the one for results; docs/mesh-convergence.md).")
+#: The model options ``farm run`` and ``farm roll`` share (typer reads them per command).
+MATERIALS_OPTION = typer.Option("table-3.1", "--materials", help=MATERIALS_HELP)
+MESH_OPTION = typer.Option("thesis", "--mesh", help=MESH_HELP)
+THREADS_OPTION = typer.Option(1, "--threads", help="Solver threads.")
 KPA_HINT_BELOW = 5.0  # no tyre is inflated to under 5 kPa; 0.08-0.4 is a pressure in MPa
 
 

@@ -28,7 +28,13 @@ from jobs.errors import StudyError
 from jobs.validate import scalars
 from tyre_farm_cli.errors import usage
 from tyre_farm_cli.jsondoc import dump
-from tyre_farm_cli.params import MATERIALS_HELP, MESH_HELP, build_model, kpa_hint
+from tyre_farm_cli.params import (
+    MATERIALS_OPTION,
+    MESH_OPTION,
+    THREADS_OPTION,
+    build_model,
+    kpa_hint,
+)
 from tyre_farm_cli.progress import LogLines
 
 MAX_SAMPLES = 100
@@ -46,11 +52,8 @@ ROLLING_RADIUS = typer.Option(
     "free", "--rolling-radius", help="Free-rolling radius r_e in mm that turns travel into "
     "spin, or 'free' to find it first (rolls until Fx = 0 at kappa = 0).")
 SAMPLES = typer.Option(10, "--samples", help="States written along the roll.")
-MATERIALS = typer.Option("table-3.1", "--materials", help=MATERIALS_HELP)
-MESH = typer.Option("thesis", "--mesh", help=MESH_HELP)
 OVERRIDES = typer.Option(
     [], "--set", help="Override a model setting, e.g. --set mesh.circumferential=64.")
-THREADS_OPTION = typer.Option(1, "--threads", help="Solver threads.")
 TIMEOUT = typer.Option(3600.0, "--timeout", help="Seconds per ccx run.")
 JSON_OPTION = typer.Option(False, "--json", help="Print one JSON document.")
 
@@ -59,7 +62,7 @@ def roll(
     pressure: float = PRESSURE, deflection: float = DEFLECTION, friction: float = FRICTION,
     slip_ratio: float = SLIP_RATIO, slip_angle: float = SLIP_ANGLE, tilt: float = TILT,
     distance: float = DISTANCE, rolling_radius: str = ROLLING_RADIUS,
-    samples: int = SAMPLES, materials: str = MATERIALS, mesh: str = MESH,
+    samples: int = SAMPLES, materials: str = MATERIALS_OPTION, mesh: str = MESH_OPTION,
     overrides: list[str] = OVERRIDES, threads: int = THREADS_OPTION,
     timeout: float = TIMEOUT, as_json: bool = JSON_OPTION,
 ) -> None:

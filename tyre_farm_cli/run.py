@@ -36,7 +36,14 @@ from jobs.wording import plural
 from tyre_farm_cli.checks import output_file, output_folder
 from tyre_farm_cli.errors import usage
 from tyre_farm_cli.jsondoc import dump
-from tyre_farm_cli.params import MATERIALS_HELP, MESH_HELP, build_model, kpa_hint, parse_range
+from tyre_farm_cli.params import (
+    MATERIALS_OPTION,
+    MESH_OPTION,
+    THREADS_OPTION,
+    build_model,
+    kpa_hint,
+    parse_range,
+)
 from tyre_farm_cli.progress import LogLines, console, interactive
 
 PEAK_NOTE = ("* the largest nodal contact pressure: mesh-dependent, it does not converge "
@@ -51,11 +58,8 @@ DEFLECTION = typer.Option(
 ROAD = typer.Option(
     None, "--road", help="Road boundary: iterative or contact [default: contact for the full "
     "model, iterative for the reduced one].")
-MATERIALS = typer.Option("table-3.1", "--materials", help=MATERIALS_HELP)
-MESH = typer.Option("thesis", "--mesh", help=MESH_HELP)
 OVERRIDES = typer.Option(
     [], "--set", help="Override a model setting, e.g. --set mesh.circumferential=80.")
-THREADS_OPTION = typer.Option(1, "--threads", help="Solver threads.")
 TIMEOUT = typer.Option(1800.0, "--timeout", help="Seconds per ccx run.")
 OUT = typer.Option(None, "--out", help="Save the arrays to this .npz file [default: none "
                    "saved].")
@@ -76,7 +80,7 @@ JSON_OPTION = typer.Option(False, "--json", help="Print the results as one JSON 
 
 def run(
     model: str = MODEL, pressure: float = PRESSURE, deflection: str = DEFLECTION,
-    road: str = ROAD, materials: str = MATERIALS, mesh: str = MESH,
+    road: str = ROAD, materials: str = MATERIALS_OPTION, mesh: str = MESH_OPTION,
     overrides: list[str] = OVERRIDES, threads: int = THREADS_OPTION, timeout: float = TIMEOUT,
     out: Path = OUT, keep: bool = KEEP, vtu: Path = VTU, friction: float = FRICTION,
     shift_x: float = SHIFT_X, shift_y: float = SHIFT_Y, tilt: float = TILT,

@@ -45,6 +45,18 @@ def _in_threads(*calls):
     return results
 
 
+def _two_clients(study_file) -> list[str]:
+    """Two `farm sweep submit` processes (two embedded clusters) on one study at once;
+    both must succeed. Their outputs."""
+    clients = [subprocess.Popen([sys.executable, "-m", "farm", "sweep", "submit",
+                                 str(study_file), "--workers", "1"], stdout=subprocess.PIPE,
+                                stderr=subprocess.STDOUT, text=True, env=os.environ.copy())
+               for _ in range(2)]
+    outputs = [c.communicate(timeout=300)[0] for c in clients]
+    assert [c.returncode for c in clients] == [0, 0], outputs
+    return outputs
+
+
 def _consistent(study) -> None:
     ds = storage.open_dataset(study.store, study.group_name).compute(scheduler="sync")
     assert sorted(ds["deflection"].values.tolist()) == [10.0, 20.0]  # each id once
@@ -76,12 +88,7 @@ def test_two_embedded_clusters_on_one_store_solve_each_experiment_once(write_stu
     path = write_study(deflections=DEFLECTIONS)
     study = load_study(path)
     ensure_group(study, f"CalculiX {ccx_version()}")  # an existing group, as on a resume
-    clients = [subprocess.Popen([sys.executable, "-m", "farm", "sweep", "submit", str(path),
-                                 "--workers", "1"], stdout=subprocess.PIPE,
-                                stderr=subprocess.STDOUT, text=True, env=os.environ.copy())
-               for _ in range(2)]
-    outputs = [c.communicate(timeout=300)[0] for c in clients]
-    assert [c.returncode for c in clients] == [0, 0], outputs
+    outputs = _two_clients(path)
     assert ccx_runs(counting_ccx) == 2, outputs
     _consistent(study)
     claims = os.path.join(study.store, ".claims", study.group_name)
@@ -101,12 +108,7 @@ def test_two_embedded_clusters_on_one_tree_study_share_its_trunks(tmp_path, coun
                                  f'store = "{tmp_path / "tree.zarr"}"'))
     study = load_study(path)
     ensure_group(study, f"CalculiX {ccx_version()}")
-    clients = [subprocess.Popen([sys.executable, "-m", "farm", "sweep", "submit", str(path),
-                                 "--workers", "1"], stdout=subprocess.PIPE,
-                                stderr=subprocess.STDOUT, text=True, env=os.environ.copy())
-               for _ in range(2)]
-    outputs = [c.communicate(timeout=300)[0] for c in clients]
-    assert [c.returncode for c in clients] == [0, 0], outputs
+    outputs = _two_clients(path)
     assert ccx_runs(counting_ccx) == 6, outputs  # 2 trunks and 4 slides, each once
     assert storage.status_counts(study.store, study.group_name) == {
         "pending": 0, "done": 12, "failed": 0}
