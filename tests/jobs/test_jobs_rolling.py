@@ -183,6 +183,7 @@ def _stored(study, ids: list[str]) -> dict[str, object]:
 
 
 @pytest.mark.ccx
+@pytest.mark.e2e  # two sweeps of a partial roll, ~50 s: run by .ci/run (--e2e)
 def test_a_roll_that_stops_keeps_the_states_it_reached_and_resume_rolls_for_the_rest(
         tmp_path):
     """A roll of two states that runs out of increments between them (no retry): the
