@@ -150,15 +150,17 @@ def _trunk_parts(task: TreeTask, todo: list[Experiment], trunk: Trunk | None, re
         parts.append(PathOutcome(tree.key, solve_seconds=trunk.solution.solve_seconds,
                                  ccx_runs=trunk.solution.ccx_runs))
     rest = [e for e in todo if level[e.id] >= reached]
+    if not rest:
+        return parts
     plain = task.path_task(tree.key, tuple(rest), tree.motion)
-    if rest and trunk is None:
+    if trunk is None:
         # stopped before its first deflection, after the guard's retry: its first step
         # is the one-run path's deck up to there, so from rest would stop at the same
         # place (the first touch, as a rule); recorded, not repeated
         parts.append(write_outcome(plain, rest, Failed(
             f"{reason} (the trunk, before its first deflection; the same path from "
             "rest was not tried again)")))
-    elif rest:  # the levels a partial trunk did not reach: as the plain sweep does
+    else:  # the levels a partial trunk did not reach: as the plain sweep does
         parts.append(solve_experiments(plain, rest, should_stop))
     return parts
 

@@ -18,7 +18,7 @@ from typing import Any, cast
 
 import numpy as np
 
-from farm.errors import ResultsError
+from farm.errors import FarmError, ResultsError
 from farm.solve.states import PathSolution, SolvedState
 from farm.solve.tree import Trunk
 from farm.specs import LoadPath, RoadMotion
@@ -90,7 +90,9 @@ def loads(data: bytes) -> Trunk:
                 tuple(_read_state(s, f"state{k}", npz) for k, s in enumerate(header["states"])),
                 header["solve_seconds"], header["ccx_runs"], header["increments"])
             restarts = tuple(npz[f"restart{k}"].tobytes() for k in range(header["restarts"]))
-    except (OSError, EOFError, ValueError, KeyError, TypeError, zipfile.BadZipFile) as e:
+            return Trunk(path, solution, restarts, header["touch_z"],
+                         tuple(header["fractions"]), header["failure"],
+                         tuple(header["reroots"]))
+    except (OSError, EOFError, ValueError, KeyError, TypeError, zipfile.BadZipFile,
+            FarmError) as e:  # FarmError: a value the specs refuse (SpecError)
         raise ResultsError(f"a saved trunk does not read back ({type(e).__name__}: {e})") from e
-    return Trunk(path, solution, restarts, header["touch_z"], tuple(header["fractions"]),
-                 header["failure"], tuple(header["reroots"]))

@@ -69,11 +69,24 @@ def _npz(**arrays) -> bytes:
     return out.getvalue()
 
 
+def _edited(change) -> bytes:
+    """A saved trunk whose header ``change`` edited, written back as a valid .npz."""
+    import json
+
+    with np.load(io.BytesIO(trunk_file.dumps(_trunk(None)))) as npz:
+        arrays = {name: npz[name] for name in npz.files}
+    header = json.loads(arrays["header"].tobytes())
+    change(header)
+    arrays["header"] = np.frombuffer(json.dumps(header).encode(), dtype=np.uint8)
+    return _npz(**arrays)
+
+
 @pytest.mark.parametrize("data", [
     b"", b"not a trunk", trunk_file.dumps(_trunk(None))[:200],
     _npz(header=np.frombuffer(b'{"format": "other"}', dtype=np.uint8)),
     _npz(header=np.array([{"a": 1}], dtype=object)),  # a pickle: never unpickled
-], ids=["empty", "text", "cut", "other-format", "pickled"])
+    _edited(lambda h: h["path"].update(pressure=-5.0)),  # a pressure no spec takes
+], ids=["empty", "text", "cut", "other-format", "pickled", "refused-by-the-spec"])
 def test_what_is_not_a_trunk_is_one_error(data):
     with pytest.raises(ResultsError, match="a saved trunk does not read back"):
         trunk_file.loads(data)
