@@ -245,7 +245,6 @@ def verify(store: StoreLike, group: str | None = None, *, repair: bool = False) 
     lock = [d for d in root_damage if d.what == LOCK_NAME]
     if repair and lock:
         raise StoreError(f"cannot repair {where}: {lock[0].reason}")
-    attributes = _restore_attributes(zs, root_damage, copies) if repair else []
     if repair and root_doc is None and get_bytes(zs, "zarr.json") is None \
             and _experiment_groups(zs):
         # a lost root, intact groups (issue 50: repair refused, "not a Zarr v3 store"):
@@ -254,6 +253,7 @@ def verify(store: StoreLike, group: str | None = None, *, repair: bool = False) 
     if group is not None:
         check_group(zs, group)
     with _lock(zs, repair):  # repairs write metadata: one client at a time
+        attributes = _restore_attributes(zs, root_damage, copies) if repair else []
         names = [group] if group is not None else _experiment_groups(zs)
         checks = [_GroupCheck(zs, name, copies, repair) for name in names]
         reports = tuple(c.run() for c in checks)
