@@ -26,7 +26,7 @@ import numpy as np
 import zarr
 from zarr.abc.store import Store
 
-from storage._zarr import delete_key, get_bytes, read
+from storage._zarr import delete_key, key_exists, read
 from storage.checksum import checksum
 from storage.group import crc_guarded
 from storage.schema import DONE, checked_names
@@ -46,7 +46,7 @@ def signed_again(zs: Store, group: str, arrays: Mapping[str, zarr.Array], experi
     values: dict[str, np.ndarray] = {}
     for name in names:
         a = arrays[name]
-        if name != "error" and get_bytes(zs, chunk_key(group, name, a, i)) is None:
+        if name != "error" and not key_exists(zs, chunk_key(group, name, a, i)):
             return None  # lost, or never written: not proven either way
         try:
             values[name] = np.asarray(read(a, slice(i, i + 1)))[0]

@@ -758,12 +758,9 @@ class _GroupCheck:
     def _missing_chunks(self, i: int, state: int) -> str:
         if state != DONE:
             return ""
-        lost = []
-        for name in CHECKED_NAMES:
-            a = self.arrays[name]
-            key = f"{self.group}/{name}/c/{i}" + "/0" * (a.ndim - 1)
-            if name != "error" and get_bytes(self.zs, key) is None:
-                lost.append(key)
+        keys = [chunk_key(self.group, name, self.arrays[name], i)
+                for name in CHECKED_NAMES if name != "error"]
+        lost = [key for key in keys if not key_exists(self.zs, key)]
         return f"; missing chunk(s): {', '.join(lost)}" if lost else ""
 
     def _recover_status(self, ids: list, used: int, status: np.ndarray, params: dict
@@ -826,29 +823,17 @@ class _GroupCheck:
         """Damaged experiments and orphan slots back to pending (``error`` says why)."""
         if not self.repair:
             return
-        if self.restore:
-            status = self._writable("status")
-            for i, state in sorted(self.restore.items()):
-                status[i] = state
-            self.repaired.append(f"{self.group}: {len(self.restore)} slot(s) given back the "
-                                 "status their checksum verifies")
-        if self.relabel:
-            experiment = self._writable("experiment")
-            for i, e in sorted(self.relabel.items()):
-                experiment[i] = e
-            self.repaired.append(f"{self.group}: {len(self.relabel)} id(s) put back where "
-                                 "their checksums were signed")
+        self._write_slots("status", self.restore,
+                          "slot(s) given back the status their checksum verifies")
+        self._write_slots("experiment", self.relabel,
+                          "id(s) put back where their checksums were signed")
         if self.keep:
             self.repaired.append(f"{self.group}: {len(self.keep)} slot(s) kept as they are: "
                                  "their load case is lost; `farm sweep resume STUDY` restores "
                                  "it from the study")
             self._drop_undecodable_parameters()
-        if self.resign:
-            sums = self._writable("checksum")
-            for i, text in sorted(self.resign.items()):
-                sums[i] = text
-            self.repaired.append(f"{self.group}: {len(self.resign)} checksum(s) signed again: "
-                                 "their data chunks pass their CRC32C")
+        self._write_slots("checksum", self.resign,
+                          "checksum(s) signed again: their data chunks pass their CRC32C")
         skip = set(self.restore) | self.keep | set(self.relabel) | set(self.resign)
         marked = sorted({d.index for d in self.damage
                          if d.index is not None and d.index not in skip})
@@ -872,6 +857,15 @@ class _GroupCheck:
             f"{self.group}: {len(marked)} slot(s) marked pending"
             + (f" ({_few(ids)})" if ids else "")
             + ": `farm sweep resume STUDY` re-solves them")
+
+    def _write_slots(self, name: str, values: dict[int, Any], what: str) -> None:
+        """Write ``values`` (slot -> value) into array ``name``; say how many, and what."""
+        if not values:
+            return
+        a = self._writable(name)
+        for i, value in sorted(values.items()):
+            a[i] = value
+        self.repaired.append(f"{self.group}: {len(values)} {what}")
 
     def _writable(self, name: str) -> zarr.Array:
         return zarr.open_array(store=self.zs, path=f"{self.group}/{name}", mode="r+")
