@@ -20,6 +20,7 @@ from typing import Any
 
 from jobs.errors import ClusterError
 
+PROBE_SECONDS = 2.0  # the plain probe of what answers instead, after the handshake failed
 HINT = ("give the address of a running Dask scheduler (`dask scheduler` prints it, port 8786 "
         "by default; not its dashboard, 8787)")
 
@@ -55,13 +56,12 @@ def _check_listening(address: str, timeout: float) -> None:
     socket.create_connection((host, port), timeout=timeout).close()  # OSError: unreachable
 
 
-def _who_answers(address: str, error: BaseException, first: str | None = None) -> str:
+def _who_answers(first: str, error: BaseException) -> str:
     """What answers at ``address`` instead of Dask, in words: its first line when a plain
     request gets one (an HTTP server or proxy, an SSH server's banner), else the error
     Dask's reader raised. Dask read an HTTP reply's first bytes as a frame length, "Unable
     to allocate 3.07 EiB" (issue 50: on a network whose proxy answers for every address,
     an unroutable host looked like that)."""
-    first = _first_line(address) if first is None else first
     if first.startswith("HTTP/"):
         return (f"an HTTP server answers there, {first!r}: a web service or a proxy; "
                 "behind a proxy an unreachable host can look like this")
@@ -72,7 +72,7 @@ def _who_answers(address: str, error: BaseException, first: str | None = None) -
     return f"{type(error).__name__}{': ' + str(error)[:120] if str(error) else ''}"
 
 
-def _first_line(address: str, timeout: float = 2.0) -> str:
+def _first_line(address: str, timeout: float = PROBE_SECONDS) -> str:
     """The first line (at most 60 characters) a plain TCP peer at ``address`` sends after
     an HTTP request; empty when it sends none or is not plain TCP."""
     scheme, _, rest = address.partition("://")
@@ -95,8 +95,9 @@ def _first_line(address: str, timeout: float = 2.0) -> str:
 def check_scheduler(address: str, timeout: float, connection_args: dict[str, Any] | None = None
                     ) -> dict[str, Any]:
     """The scheduler's identity; raises :class:`ClusterError` within about ``timeout``
-    seconds when ``address`` does not answer as a Dask scheduler, and ``OSError`` when
-    nothing can be reached there (refused, unroutable, a TLS handshake refused)."""
+    seconds (plus at most twice :data:`PROBE_SECONDS` to name what answers instead) when
+    ``address`` does not answer as a Dask scheduler, and ``OSError`` when nothing can be
+    reached there (refused, unroutable, a TLS handshake refused)."""
     _check_listening(address, timeout)
     if connection_args is None:  # TLS files set in dask's config, as a Client reads them
         from distributed.security import Security
@@ -107,15 +108,15 @@ def check_scheduler(address: str, timeout: float, connection_args: dict[str, Any
         try:
             reply = future.result(timeout + 5.0)
         except (TimeoutError, concurrent.futures.TimeoutError) as e:
-            first = _first_line(address, min(timeout, 2.0))
-            said = f" ({_who_answers(address, e, first)})" if first else ""
+            first = _first_line(address, min(timeout, PROBE_SECONDS))
+            said = f" ({_who_answers(first, e)})" if first else ""
             raise ClusterError(f"{address} accepted no Dask handshake within {timeout:g} s"
                                f"{said}: {HINT}") from e
         except OSError:  # the caller says "cannot reach" with its own hints (TLS ...)
             raise
         except Exception as e:  # whatever the bytes were, they were not Dask's
             raise ClusterError(f"{address} does not speak Dask's protocol "
-                               f"({_who_answers(address, e)}): {HINT}") from e
+                               f"({_who_answers(_first_line(address), e)}): {HINT}") from e
     if not (isinstance(reply, dict) and reply.get("type") == "Scheduler"):
         kind = reply.get("type") if isinstance(reply, dict) else type(reply).__name__
         raise ClusterError(f"{address} answered as {kind!r}, not as a Dask scheduler: {HINT}")

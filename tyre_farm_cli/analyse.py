@@ -125,10 +125,13 @@ app = typer.Typer(
 )
 
 
+_NO_REFERENCE = object()  # the analysis takes no reference deflection
+
+
 def _analyse(name: str, command: str, *, store: str, options: list[str] | None,
              group: str | None, pressure: float | None, deflection: float | None = None,
              out: Path | None, scheduler: str | None, as_json: bool, axes: str | None = None,
-             reference: object = None, **kwargs) -> None:
+             reference: object = _NO_REFERENCE, **kwargs) -> None:
     """The scaffold of every store analysis: the output folder checked, the selection
     loaded on the scheduler (turned to ``axes``), ``reference`` checked against it when
     the analysis takes one, the study run, what it wrote reported."""
@@ -140,9 +143,6 @@ def _analyse(name: str, command: str, *, store: str, options: list[str] | None,
         if reference is not _NO_REFERENCE:
             kwargs["reference_deflection"] = _reference(ds, reference)  # type: ignore[arg-type]
         _done(_study(name).run(ds, folder, **kwargs), as_json)
-
-
-_NO_REFERENCE = object()  # the analysis takes no reference deflection
 
 
 def load_selection(store: str, options: list[str] | None, group: str | None, pressure: float | None,
@@ -204,7 +204,7 @@ def pca(store: Store, group: Group = None, out: Out = None, pressure: Pressure =
     """Cross-covariance PCA per direction: singular values, eigen-maps, importance (§5.3)."""
     _analyse("crosscov", "pca", store=store, options=storage_option, group=group,
              pressure=pressure, deflection=deflection, out=out, scheduler=scheduler,
-             as_json=as_json, reference=_NO_REFERENCE, inputs=inputs, n_modes=components,
+             as_json=as_json, inputs=inputs, n_modes=components,
              component=force_component)
 
 
@@ -292,7 +292,7 @@ def combined(store: Store, group: Group = None, out: Out = None, pressure: Press
         _axes(axes)
     _analyse("combined", "combined", store=store, options=storage_option, group=group,
              pressure=pressure, out=out, scheduler=scheduler, as_json=as_json, axes=axes,
-             reference=_NO_REFERENCE, inputs=inputs, test_fraction=test_fraction,
+             inputs=inputs, test_fraction=test_fraction,
              folds=folds, seed=seed, max_components=max_components, draws=draws)
 
 
@@ -350,7 +350,7 @@ def sensor(store: Store, group: Group = None, out: Out = None, pressure: Pressur
         _repeats_and_edges(repeats, edges)
     _analyse("sensor", "sensor", store=store, options=storage_option, group=group,
              pressure=pressure, out=out, scheduler=scheduler, as_json=as_json, axes=axes_,
-             reference=_NO_REFERENCE, sensor=spec, learner_names=names,
+             sensor=spec, learner_names=names,
              test_fraction=test_fraction, folds=folds, draws=draws,
              max_components=max_components, seed=seed, repeats=repeats, edges=edges, **grid)
 
@@ -401,7 +401,7 @@ def surrogate(store: Store, group: Group = None, out: Out = None, pressure: Pres
             raise ParameterError(f"--field must be {' or '.join(fields)}, got {field!r}")
     _analyse("surrogate", "surrogate", store=store, options=storage_option, group=group,
              pressure=pressure, out=out, scheduler=scheduler, as_json=as_json,
-             reference=_NO_REFERENCE, field=field, folds=folds, seed=seed, restarts=restarts)
+             field=field, folds=folds, seed=seed, restarts=restarts)
 
 
 # ------------------------------------------------------------------ sensitivity (issue 15)
