@@ -132,15 +132,20 @@ def rim_lines(mesh: TyreMesh, spin: float, start: float,
 
 def roll_deck(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: float,
               roll: Roll, settings: SolverSettings, touch_z: float,
-              fractions: Sequence[float]) -> tuple[str, list[float], D.Road, float]:
+              fractions: Sequence[float], *, model: Sequence[str] = (),
+              ahead: float = 0.0) -> tuple[str, list[float], D.Road, float]:
     """The one-run deck of a roll; returns (deck, output times of the fractions, road,
-    road start z)."""
+    road start z).
+
+    ``model`` lines go at the end of the model definition and ``ahead`` (mm) lengthens
+    the road past the roll's end: a rolling trunk's restart output, its branches' time
+    points and their travel (:mod:`farm.solve.rolling_tree`)."""
     gap = tilted_gap(spec, roll.tilt)
     travel = gap + deflection
     z_start = touch_z - gap
     radius = spec.geometry.outer_radius
     # the road must reach past the patch after it has travelled: longer ahead (+x)
-    road = D.road_slab(mesh, z_start, half_length=0.8 * radius + roll.distance,
+    road = D.road_slab(mesh, z_start, half_length=0.8 * radius + roll.distance + ahead,
                        half_width=0.6 * spec.geometry.section_width, divisions=(16, 4))
     # camber as a rig gives it: the road pushed along its own normal (no side slide)
     duration = roll_time(roll)
@@ -160,7 +165,7 @@ def roll_deck(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: floa
         D.contact_lines(mesh, spec.contact, (roll.friction, D.stick_slope(spec.contact))
                         if roll.friction > 0 else None),
         amplitudes, rim_amplitudes, D.time_points_lines(sorted({1.0, 2.0, *times})),
-        D.measured_set_lines((*D.written_sets(mesh), "ROAD")),
+        D.measured_set_lines((*D.written_sets(mesh), "ROAD")), model,
         D.static_step_lines(2.0 + duration, _capped(settings, roll)),
         D.friction_controls_lines(settings.grow_after) if roll.friction > 0 else [],
         rim, boundary, D.cavity_pressure_lines(mesh, pressure, "INFLATE"),
@@ -287,18 +292,25 @@ def _unturned(state: SolvedState, start: float, mesh: TyreMesh, *,
 
 def _rolled(state: SolvedState, reference: SolvedState, mesh: TyreMesh, roll: Roll,
             fraction: float, start: float = 0.0) -> RolledState:
-    """A roll's state from the combined-load state at its time (the road's reaction and
+    """A roll's state at ``fraction`` of ``roll`` (:func:`rolled_at`)."""
+    return rolled_at(state, reference, mesh, roll.rolling_radius, fraction,
+                     fraction * roll.distance, fraction * roll.spin, start)
+
+
+def rolled_at(state: SolvedState, reference: SolvedState, mesh: TyreMesh, radius: float,
+              fraction: float, travelled: float, spin: float,
+              start: float = 0.0) -> RolledState:
+    """A rolled state from the combined-load state at its time (the road's reaction and
     moment, tread forces, stick/slip) and the inflated tyre's, both referred to the
-    stored ``mesh`` (:func:`_unturned`); its ``solved`` state carries the radius the rim
-    turned with."""
+    stored ``mesh`` (:func:`_unturned`), ``travelled`` mm and ``spin`` rad from the
+    roll's start; its ``solved`` state carries the radius the rim turned with."""
     state = dataclasses.replace(_unturned(state, start, mesh, whole=False),
-                                rolling_radius=float(roll.rolling_radius))
+                                rolling_radius=float(radius))
     reference = _unturned(reference, start, mesh, whole=True)
-    spin = fraction * roll.spin
     assert state.road_moment is not None and state.contact_status is not None
     camera = state.displacement - (turned(mesh.nodes + reference.displacement,
                                           start + spin) - mesh.nodes)
-    return RolledState(fraction, fraction * roll.distance, spin, state.road_reaction,
+    return RolledState(fraction, travelled, spin, state.road_reaction,
                        state.road_moment, state.tread_force, state.contact_status,
                        state.displacement, camera, state, reference, start)
 

@@ -1,0 +1,128 @@
+"""Rolling trees (issue 45, farm/solve/rolling_tree.py) against physics, on the real solver.
+
+Model: the coarse full model of tests/farm/test_rolling.py (16 elements round,
+table-3.1), 200 kPa, 15 mm. A branch reads the trunk's end state from ccx's restart
+file and rolls on in a new step; on a frictionless road nothing remembers the path, so
+a branch must be the roll done in one run, to the solver's tolerance. With friction the
+patch remembers its increments (docs/rolling.md), so the frictional checks hold by
+symmetry and ordering: mirrored slip angles mirror Fy and Mz, Fx grows with the slip
+ratio, the tread forces balance the road's reaction.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from farm.errors import SpecError
+from farm.mesh import mesh_for
+from farm.presets import default_model
+from farm.solve.rolling import solve_roll
+from farm.solve.rolling_tree import solve_rolling_branch, solve_rolling_trunk
+from farm.specs import MeshDensity, Roll, SolverSettings
+
+PRESSURE, DEFLECTION, MU = 0.2, 15.0, 0.6
+R_E = 403.8  # the coarse model's free-rolling radius (tests/farm/test_rolling.py)
+TRUNK, BRANCH = 40.0, 30.0  # mm
+
+pytestmark = pytest.mark.ccx
+
+
+@pytest.fixture(scope="module")
+def coarse():
+    spec = default_model("full", mesh=MeshDensity(tread=4, sidewall=2, bead=1,
+                                                   circumferential=16))
+    return spec, mesh_for(spec)
+
+
+def _trunk(coarse, friction: float):
+    spec, mesh = coarse
+    return solve_rolling_trunk(spec, mesh, DEFLECTION, PRESSURE,
+                               Roll(friction=friction, distance=TRUNK, rolling_radius=R_E),
+                               SolverSettings(), branch_mm=BRANCH, fractions=(0.5, 1.0),
+                               branch_fractions=(0.5, 1.0))
+
+
+@pytest.fixture(scope="module")
+def gripping(coarse):
+    return _trunk(coarse, MU)
+
+
+def _branch(trunk, **kw):
+    roll = Roll(**{"friction": trunk.roll.friction, "distance": BRANCH,
+                   "rolling_radius": R_E, **kw})
+    return solve_rolling_branch(trunk, roll, SolverSettings())
+
+
+def _balanced(state, rtol=5e-3):
+    np.testing.assert_allclose(state.tread_force.sum(axis=0), state.force,
+                               atol=rtol * abs(state.force[2]))
+
+
+def test_a_frictionless_branch_is_the_roll_done_in_one_run(coarse):
+    """Restart, road and rim carried on from the trunk's end: with no friction to
+    remember the path, the branch's states are those of one roll of the whole travel,
+    forces and every camera displacement (a wrong spin, a road that jumps or a rim that
+    starts over would show at once)."""
+    spec, mesh = coarse
+    trunk = _trunk(coarse, 0.0)
+    branch = _branch(trunk, slip_angle=2.0)
+    one = solve_roll(spec, mesh, DEFLECTION, PRESSURE,
+                     Roll(friction=0.0, distance=TRUNK + BRANCH, rolling_radius=R_E),
+                     SolverSettings(),
+                     fractions=(TRUNK / 2 / (TRUNK + BRANCH), TRUNK / (TRUNK + BRANCH), 1.0))
+    for mine, its in zip(trunk.states, one, strict=False):  # the trunk is that roll
+        np.testing.assert_allclose(mine.force, its.force, atol=1e-4 * its.force[2])
+    turned = Roll(friction=0.0, distance=BRANCH, rolling_radius=R_E, slip_angle=2.0)
+    end = branch[-1]
+    assert end.travelled == pytest.approx(TRUNK + BRANCH)
+    assert end.spin == pytest.approx(one[-1].spin + turned.spin
+                                     - BRANCH / R_E)  # cos(2 deg) of the branch's travel
+    # a frictionless road takes no shear, and a slip angle changes nothing else
+    for state in (*trunk.states, *branch):
+        assert np.abs(state.force[:2]).max() < 1e-3 * state.force[2]
+        _balanced(state)
+    straight = _branch(trunk)[-1]
+    np.testing.assert_allclose(straight.force, one[-1].force, atol=1e-3 * one[-1].force[2])
+    scale = np.abs(one[-1].camera).max()
+    np.testing.assert_allclose(straight.camera, one[-1].camera, atol=1e-3 * scale)
+    np.testing.assert_allclose(straight.displacement, one[-1].displacement,
+                               atol=1e-3 * scale)
+
+
+def test_branches_at_mirrored_slip_angles_mirror_fy_and_mz(gripping):
+    left, right = (_branch(gripping, slip_angle=a)[-1] for a in (3.0, -3.0))
+    mirror = np.array([1.0, -1.0, 1.0])
+    np.testing.assert_allclose(right.force, mirror * left.force, atol=1e-3 * left.force[2])
+    np.testing.assert_allclose(right.moment, -mirror * left.moment,
+                               atol=1e-3 * abs(left.moment).max())
+    assert left.force[1] < 0  # the road pushes against the wheel's lateral travel
+    _balanced(left)
+
+
+@pytest.mark.slow
+def test_fx_of_branches_grows_with_their_slip_ratio(gripping):
+    fx = [_branch(gripping, slip_ratio=k)[-1].force[0] for k in (-0.05, 0.0, 0.05)]
+    assert fx[0] < fx[1] < fx[2]
+    assert fx[0] < 0 < fx[2]
+
+
+@pytest.mark.parametrize(("change", "field"), [
+    ({"friction": 0.3}, "friction"), ({"tilt": 2.0}, "tilt"),
+    ({"rolling_radius": 400.0}, "rolling_radius"), ({"distance": BRANCH + 1}, "made for"),
+])
+def test_a_branch_that_does_not_continue_its_trunk_is_refused(gripping, change, field):
+    roll = dataclasses.replace(Roll(friction=MU, distance=BRANCH, rolling_radius=R_E),
+                               **change)
+    with pytest.raises(SpecError, match=field):
+        solve_rolling_branch(gripping, roll, SolverSettings())
+
+
+def test_the_trunk_s_states_are_experiments_along_its_roll(gripping):
+    half, end = gripping.states
+    assert (half.travelled, end.travelled) == pytest.approx((TRUNK / 2, TRUNK))
+    assert end.spin == pytest.approx(TRUNK / R_E)
+    for state in gripping.states:
+        _balanced(state)
