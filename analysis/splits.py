@@ -22,20 +22,29 @@ from analysis.errors import ParameterError
 #: The parameter that tells the states of one roll apart: the rest of the load case
 #: is the roll's own (jobs.expand.parameters)
 TRAVEL = "travel"
+#: A rolling tree's parameter (issue 45): how far its branches rolled straight, on the
+#: trunk, before their slips applied. Every state of a tree shares the trunk's history,
+#: and a branch's first states are nearly the trunk's last, so a tree is one group:
+#: its slips and ``roll_from`` tell its branches apart, as ``travel`` tells states apart.
+ROLL_FROM = "roll_from"
+TREE_PARAMETERS = (ROLL_FROM, "slip_ratio", "slip_angle")
 
 
 def path_groups(ds: xr.Dataset) -> np.ndarray:
     """Group label of each experiment, (K,) int: experiments whose load cases differ in
-    ``travel`` alone are states of one roll and share a label; any other experiment
-    has a label of its own. Labels number the groups in order of first appearance."""
+    ``travel`` alone are states of one roll and share a label; in a store of rolling
+    trees (a ``roll_from`` parameter), those that differ in travel, slips and
+    ``roll_from`` alone are one tree's and share one; any other experiment has a label
+    of its own. Labels number the groups in order of first appearance."""
     K = ds.sizes["experiment"]
     if TRAVEL not in ds.variables or K == 0:
         return np.arange(K)
+    within = (TRAVEL, *TREE_PARAMETERS) if ROLL_FROM in ds.variables else (TRAVEL,)
     # the store marks its parameters; an in-memory dataset: its other per-experiment
     # coordinates
-    names = [n for n in storage.parameters(ds) if n != TRAVEL] or [
+    names = [n for n in storage.parameters(ds) if n not in within] or [
         str(n) for n, c in ds.coords.items() if c.dims == ("experiment",)
-        and n not in (TRAVEL, "experiment")]
+        and n not in (*within, "experiment")]
     cases = np.column_stack([np.round(np.asarray(ds[n].values, dtype=float), 9)
                              for n in names])
     _, first, labels = np.unique(cases, axis=0, return_index=True, return_inverse=True)

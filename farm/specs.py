@@ -455,6 +455,10 @@ class RoadMotion:
         the roll (:class:`Roll`).
     rolling_radius : the free-rolling radius r_e (mm) that turns the road's travel into
         the rim's spin; None: found for each experiment (Fx = 0 at kappa = 0).
+    roll_from : mm of the roll rolled straight at kappa = 0 before ``slip_ratio`` and
+        ``slip_angle`` apply (issue 45, :mod:`farm.solve.rolling_tree`: a branch of a
+        rolling tree, continued from its trunk's end); 0: the slips from the start. A
+        roll without slips is the same roll whatever this says, and is stored as 0.
 
     All at their defaults the motion is no motion at all: :class:`LoadPath` then holds
     None, so decks, results and ids are those of a vertical experiment.
@@ -472,6 +476,7 @@ class RoadMotion:
     slip_ratio: float = 0.0
     slip_angle: float = 0.0
     rolling_radius: float | None = None
+    roll_from: float = 0.0
 
     def __post_init__(self) -> None:
         self._check_roll()
@@ -494,10 +499,16 @@ class RoadMotion:
 
     def _check_roll(self) -> None:
         if self.roll == 0.0:
-            if self.slip_ratio or self.slip_angle or self.rolling_radius is not None:
-                raise SpecError("motion.slip_ratio, slip_angle and rolling_radius belong to "
-                                "a roll: give motion.roll, the road travel in mm")
+            if (self.slip_ratio or self.slip_angle or self.rolling_radius is not None
+                    or self.roll_from):
+                raise SpecError("motion.slip_ratio, slip_angle, rolling_radius and roll_from "
+                                "belong to a roll: give motion.roll, the road travel in mm")
             return
+        if not 0.0 <= self.roll_from < self.roll:
+            raise SpecError(f"motion.roll_from = {self.roll_from!r}: the straight part of a "
+                            f"roll lies in [0, roll = {self.roll!r}) mm")
+        if not (self.slip_ratio or self.slip_angle):  # the same roll, straight throughout
+            object.__setattr__(self, "roll_from", 0.0)
         _within("motion.roll", self.roll, ROLL_MM, "mm")
         _within("motion.slip_ratio", self.slip_ratio, SLIP_RATIO, "")
         _within("motion.slip_angle", self.slip_angle, SLIP_ANGLE_DEG, "degrees")
@@ -519,6 +530,10 @@ class RoadMotion:
         radius = self.rolling_radius if self.rolling_radius is not None else rolling_radius
         if not self.rolls or radius is None:
             raise SpecError("not a roll, or a free-rolling radius still to be found")
+        if self.roll_from:
+            raise SpecError(f"a roll that turns to its slips after {self.roll_from:g} mm is "
+                            "a rolling tree's branch: it is solved from its trunk "
+                            "([loads.roll] branch_from_mm, farm.solve.rolling_tree)")
         return Roll(friction=self.friction, slip_ratio=self.slip_ratio,
                     slip_angle=self.slip_angle, tilt=self.tilt, distance=self.roll,
                     rolling_radius=radius)
@@ -552,10 +567,13 @@ class RoadMotion:
         if self.rise == "vertical":  # the rise of before: ids and decks as they were
             del data["rise"]
         if not self.rolls:  # ids of slides and standing tyres as before rolling existed
-            for name in ("roll", "slip_ratio", "slip_angle", "rolling_radius"):
+            for name in ("roll", "slip_ratio", "slip_angle", "rolling_radius", "roll_from"):
                 del data[name]
-        elif self.rolling_radius is None:  # free: found by the worker
+            return data
+        if self.rolling_radius is None:  # free: found by the worker
             del data["rolling_radius"]
+        if not self.roll_from:  # rolls from rest keep the ids they had before trees
+            del data["roll_from"]
         return data
 
     @classmethod
@@ -567,6 +585,9 @@ class RoadMotion:
 SLIP_RATIO = (-1.0, 1.0)  # kappa: full lock to twice the free-rolling spin
 SLIP_ANGLE_DEG = (-20.0, 20.0)
 ROLL_MM = (1.0, 2000.0)  # road travel of one roll (under a revolution: about 2540 mm)
+#: The longest branch of a rolling tree, mm (:mod:`farm.solve.rolling_tree`): a branch
+#: lasts one unit of step time, its increments capped at 5 mm of travel as a roll's are
+MAX_BRANCH_MM = 320.0
 ROLLING_RADIUS_MM = (100.0, 1000.0)
 
 

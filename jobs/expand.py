@@ -123,7 +123,8 @@ def _motion_key(m: RoadMotion | None) -> tuple:
     return () if m is None else tuple(sorted(m.to_dict().items()))
 
 
-def plan(study: Study, solver: str, held: frozenset[str] = frozenset()) -> list[PathPlan]:
+def plan(study: Study, solver: str, held: frozenset[str] = frozenset()
+         ) -> list[PathPlan | RollTreePlan]:
     """Load paths of the study, each with its experiments sorted by deflection.
 
     ``held``: the ids the study's group already holds; an experiment stored under its
@@ -135,13 +136,16 @@ def plan(study: Study, solver: str, held: frozenset[str] = frozenset()) -> list[
     state of its own experiment; but the shift is ramped after the LAST deflection
     only (``LoadPath``: the states at the earlier deflections are unshifted). A case
     with a shift therefore gets a path of its own, one deflection, and its experiment
-    is the path's final state.
+    is the path's final state. With ``[loads.roll] branch_from_mm`` the rolls are
+    rolling trees instead (:func:`roll_tree_plan`).
     """
+    if study.rolling is not None and study.rolling.branch_from:
+        return list(roll_tree_plan(study, solver))
     groups: dict[tuple, tuple[float, RoadMotion | None, set[float]]] = {}
     for d, p, m in cases(study):
         key = (p, _motion_key(m))
         groups.setdefault(key, (p, m, set()))[2].add(d)
-    paths = []
+    paths: list[PathPlan | RollTreePlan] = []
     for key in sorted(groups):
         p, m, ds = groups[key]
         found = sorted(ds)
@@ -174,6 +178,73 @@ def _roll_plan(study: Study, solver: str, deflection: float, pressure: float,
                            for t in study.rolling.travels))
     label = load_label(pressure, (deflection,), motion)
     return PathPlan(path_key((e.id for e in exps), label), pressure, exps, motion)
+
+
+@dataclass(frozen=True)
+class RollBranchPlan:
+    """One branch of a rolling tree: the trunk's roll continued at ``slip_ratio`` and
+    ``slip_angle`` (degrees); one experiment per state it keeps."""
+
+    key: str
+    slip_ratio: float
+    slip_angle: float
+    experiments: tuple[Experiment, ...]
+
+
+@dataclass(frozen=True)
+class RollTreePlan:
+    """A rolling tree (issue 45, :mod:`farm.solve.rolling_tree`): the cases of a rolling
+    study that share pressure, deflection, friction, camber and rolling radius. The trunk
+    rolls ``motion.roll`` mm (``[loads.roll] branch_from_mm``) straight at kappa = 0 and
+    keeps the states of the study's travels it passes (``trunk``); each case is a branch
+    that rolls on from there to the study's distance at its own slips."""
+
+    key: str
+    pressure: float
+    deflection: float
+    motion: RoadMotion  # the trunk's roll: friction, tilt, radius, roll = branch_from
+    trunk: tuple[Experiment, ...]
+    branches: tuple[RollBranchPlan, ...]
+
+    @property
+    def experiments(self) -> tuple[Experiment, ...]:
+        return (*self.trunk, *(e for b in self.branches for e in b.experiments))
+
+
+def roll_tree_plan(study: Study, solver: str) -> list[RollTreePlan]:
+    """The rolling trees of a study with ``[loads.roll] branch_from_mm``, with the ids
+    their states have (a branch without slips is the straight roll from rest, and has its
+    id: :attr:`farm.specs.RoadMotion.roll_from`)."""
+    rolling = study.rolling
+    assert rolling is not None and rolling.branch_from > 0
+    start = rolling.branch_from
+    trees: dict[tuple, list[RoadMotion]] = {}
+    for d, p, m in cases(study):
+        assert m is not None and m.rolls
+        key = (p, d, m.friction, m.tilt, m.rolling_radius, m.stick_slope)
+        if m not in trees.setdefault(key, []):
+            trees[key].append(m)
+
+    def exp(d: float, p: float, m: RoadMotion) -> Experiment:
+        return Experiment(experiment_id(study.model, d, p, solver, m), d, p, m)
+
+    out = []
+    for (p, d, *_), motions in sorted(trees.items(), key=lambda kv: str(kv[0])):
+        trunk_roll = dataclasses.replace(motions[0], roll=start, slip_ratio=0.0,
+                                         slip_angle=0.0, roll_from=0.0)
+        trunk = tuple(exp(d, p, dataclasses.replace(trunk_roll, roll=t))
+                      for t in rolling.travels if t <= start)
+        branches = []
+        for m in motions:
+            exps = tuple(exp(d, p, dataclasses.replace(m, roll=t, roll_from=start))
+                         for t in rolling.travels if t > start)
+            label = load_label(p, (d,), m)
+            branches.append(RollBranchPlan(path_key((e.id for e in exps), label, "branch"),
+                                           m.slip_ratio, m.slip_angle, exps))
+        ids = [e.id for e in trunk] + [b.key for b in branches]
+        out.append(RollTreePlan(path_key(ids, load_label(p, (d,), trunk_roll), "rolltree"),
+                                p, d, trunk_roll, trunk, tuple(branches)))
+    return out
 
 
 @dataclass(frozen=True)
@@ -233,18 +304,20 @@ def tree_plan(study: Study, solver: str) -> list[TreePlan]:
     return out
 
 
-def experiments(paths: Sequence[PathPlan | TreePlan]) -> list[Experiment]:
+def experiments(paths: Sequence[PathPlan | TreePlan | RollTreePlan]) -> list[Experiment]:
     """All experiments of a plan, in path order."""
     return [e for path in paths for e in path.experiments]
 
 
 def parameters(exps: list[Experiment], combined: bool = False,
-               rolling: bool = False) -> dict[str, np.ndarray]:
+               rolling: bool = False, trees: bool = False) -> dict[str, np.ndarray]:
     """The load-case parameters the store keeps per experiment: deflection (mm) and
     pressure (MPa); with ``combined`` (a study with combined-load keys) also friction,
     shift_x (mm), shift_y (mm) and tilt (deg), 0 for a vertical case among them; with
     ``rolling`` (issue 30) also slip_ratio and slip_angle (deg), and ``travel`` (mm, issue
-    45): how far the road had travelled at the state."""
+    45): how far the road had travelled at the state; with ``trees`` (rolling trees,
+    issue 45) also ``roll_from`` (mm): how far the roll went straight before its slips
+    applied (:attr:`farm.specs.RoadMotion.roll_from`)."""
     out = {"deflection": np.array([e.deflection for e in exps]),
            "pressure": np.array([e.pressure for e in exps])}
     names = (*(MOTION_PARAMETERS if combined else ()), *(ROLL_PARAMETERS if rolling else ()))
@@ -252,4 +325,6 @@ def parameters(exps: list[Experiment], combined: bool = False,
         out[name] = np.array([getattr(e.motion, name) if e.motion else 0.0 for e in exps])
     if rolling:
         out["travel"] = np.array([e.motion.roll if e.motion else 0.0 for e in exps])
+    if trees:
+        out["roll_from"] = np.array([e.motion.roll_from if e.motion else 0.0 for e in exps])
     return out

@@ -41,6 +41,7 @@ A study names a store, a model and its load cases::
     # distance_mm = 150               # road travel of every roll
     # rolling_radius_mm = "free"      # or mm
     # states = 1                      # states kept along each roll (issue 45)
+    # branch_from_mm = 0              # > 0: rolling trees (straight trunk, then branches)
 
     # or a nested design solved as load-path trees (jobs/nested.py, issue 29)
     # [loads.tree]
@@ -82,6 +83,7 @@ import storage
 from farm.errors import SpecError
 from farm.specs import (
     FRICTION,
+    MAX_BRANCH_MM,
     MAX_PRESSURE_MPA,
     RISES,
     ROLL_MM,
@@ -128,7 +130,8 @@ CASE_PARAMETERS = (*MOTION_PARAMETERS, *ROLL_PARAMETERS)
 LOAD_KEYS = {"pressure_kpa", "deflection_mm", "sample", "tree", "rise", "roll", *CASE_KEYS}
 #: [loads.roll]: the road travel of every roll (mm), the free-rolling radius and how
 #: many states along each roll are stored experiments (issue 45)
-ROLL_DEFAULTS = {"distance_mm": 150.0, "rolling_radius_mm": "free", "states": 1}
+ROLL_DEFAULTS = {"distance_mm": 150.0, "rolling_radius_mm": "free", "states": 1,
+                 "branch_from_mm": 0.0}
 #: The most states one roll may keep (a 2000 mm roll's are then 10 mm apart)
 MAX_ROLL_STATES = 200
 
@@ -138,11 +141,17 @@ class Rolling:
     """``[loads.roll]`` of a rolling study: how far every roll goes (mm), the
     free-rolling radius (mm; None: found for each experiment) and ``states``: how many
     states along each roll are experiments of their own, evenly spaced in travel, the
-    last at the roll's end (issue 45: a roll is a load path; 1 keeps the end alone)."""
+    last at the roll's end (issue 45: a roll is a load path; 1 keeps the end alone).
+
+    ``branch_from`` (mm, issue 45: rolling trees, :mod:`jobs.rolling_trees`): the cases
+    that share pressure, deflection, friction and camber roll straight at kappa = 0 in
+    one trunk for this far, and each case's slips apply from there on, in a branch
+    continued from the trunk's end; 0: every case rolls from rest at its slips."""
 
     distance: float = 150.0
     rolling_radius: float | None = None
     states: int = 1
+    branch_from: float = 0.0
 
     @property
     def travels(self) -> tuple[float, ...]:
@@ -329,7 +338,22 @@ def _rolling(data: Any, given: set[str], model: ModelSpec) -> Rolling:
     if distance / states < ROLL_MM[0]:
         raise fail("loads.roll.states", f"{states} states of a {distance:g} mm roll lie "
                    f"closer than {ROLL_MM[0]:g} mm: keep at most {int(distance // ROLL_MM[0])}")
-    return Rolling(float(distance), None if radius == "free" else float(radius), states)
+    branch_from = _branch_from(t, distance)
+    return Rolling(float(distance), None if radius == "free" else float(radius), states,
+                   branch_from)
+
+
+def _branch_from(t: dict, distance: float) -> float:
+    """``[loads.roll] branch_from_mm``: where a rolling tree's branches leave its trunk."""
+    where = "loads.roll.branch_from_mm"
+    value = scalars.number(t.get("branch_from_mm", 0.0), where, low=0.0, high=distance)
+    if value >= distance:
+        raise fail(where, f"must lie below distance_mm = {distance:g}: the branches roll "
+                   f"on from the trunk's end, got {value:g}")
+    if value and distance - value > MAX_BRANCH_MM:
+        raise fail(where, f"leaves branches of {distance - value:g} mm; a branch rolls at "
+                   f"most {MAX_BRANCH_MM:g} mm: give at least {distance - MAX_BRANCH_MM:g}")
+    return float(value)
 
 
 def _rise(t: dict, where: str) -> str:

@@ -29,8 +29,18 @@ import storage
 from jobs.cluster import Attempts, ClusterSpec
 from jobs.design import model_design
 from jobs.driver import Strategy, cluster_spec, drive, solver_version
-from jobs.expand import Experiment, PathPlan, TreePlan, experiments, parameters, plan, tree_plan
+from jobs.expand import (
+    Experiment,
+    PathPlan,
+    RollTreePlan,
+    TreePlan,
+    experiments,
+    parameters,
+    plan,
+    tree_plan,
+)
 from jobs.progress import Progress, RunReport, Session
+from jobs.rolling_trees import RollTreeTask, run_rolling_tree
 from jobs.storeio import ensure_group
 from jobs.study import Study
 from jobs.tasks import PathOutcome, PathTask, run_path
@@ -208,16 +218,24 @@ class Sweep(Strategy[SweepReport]):
         ids = [e.id for e in exps]
         rolling = study.rolling is not None
         storage.reserve(study.store, study.group_name, ids,
-                        parameters(exps, study.combined, rolling))
+                        parameters(exps, study.combined, rolling,
+                                   trees=study.rolling is not None
+                                   and bool(study.rolling.branch_from)))
         status = storage.statuses(study.store, study.group_name, ids)
         self._status.update(status)  # a tree's slides to submit (_submit_tree)
         todo = _todo(paths, status, self.retry_failed)
         self._before |= _account(self.report, study, paths, status, todo)
         return todo
 
-    def _add(self, s: Study, p: PathPlan | TreePlan) -> None:
+    def _add(self, s: Study, p: PathPlan | TreePlan | RollTreePlan) -> None:
         if isinstance(p, TreePlan):
             self._submit_tree(s, p)
+        elif isinstance(p, RollTreePlan):  # one task: the trunk, then its branches
+            task = RollTreeTask(p, s.model, s.settings, s.store, s.group_name,
+                                s.retry_smaller_increments)
+            attempts = Attempts(self._client, run_rolling_tree, (task,), key=p.key,
+                                retries=TASK_RETRIES)
+            self._pending[attempts] = (s, PathPlan(p.key, p.pressure, p.experiments, p.motion))
         else:
             self._pending[self._submit(s, p)] = (s, p)
 

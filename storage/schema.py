@@ -144,6 +144,7 @@ KNOWN_PARAMETER_UNITS = {
     "slip_ratio": "1",
     "slip_angle": "deg",
     "travel": "mm",
+    "roll_from": "mm",
 }
 #: The combined-load parameters (farm.specs.RoadMotion's fields, store units above):
 #: reserving any of them makes a group a combined one (:data:`COMBINED_VARIABLES`).
@@ -159,6 +160,8 @@ COMBINED_LONG_NAMES = {
     "slip_angle": "slip angle of the roll: between the wheel plane and its travel",
     # issue 45: every state along a roll is an experiment of its own
     "travel": "road travel of the roll from rest at this state",
+    # issue 45: rolling trees, whose branches turn to their slips after a straight trunk
+    "roll_from": "road travel rolled straight at kappa 0 before the slips applied",
 }
 
 RESULT_VARIABLES = (

@@ -400,8 +400,7 @@ def roll_path(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: SolverS
     radius = motion.rolling_radius
     if radius is None:
         radius, tried = cached_free_radius(spec, mesh, deflection, path.pressure,
-                                           motion.as_roll(free_roll_mm(spec)), settings,
-                                           should_stop)
+                                           search_roll(spec, motion), settings, should_stop)
         spent, runs = sum(t.seconds for t in tried), len(tried)
         increments = sum(t.increments for t in tried)
     try:
@@ -442,6 +441,18 @@ FREE_ROLL_WINDOWED_MM = 150.0
 def free_roll_mm(spec: ModelSpec) -> float:
     """Road travel (mm) of a free-rolling radius search's rolls on ``spec``'s mesh."""
     return FREE_ROLL_WINDOWED_MM if spec.mesh.windowed else FREE_ROLL_MM
+
+
+def search_roll(spec: ModelSpec, motion: RoadMotion) -> Roll:
+    """The roll a free-rolling radius search of ``motion`` tries radii with: the motion's
+    friction, slip angle and tilt over :func:`free_roll_mm` (its radius is the search's
+    to set). Until 2026-11-29 the search rolled the experiment's own distance (the
+    search length was passed where a radius stands in), so a 60 mm roll on a 16-round
+    mesh searched with 60 mm rolls read at their end, not 400 mm rolls averaged over
+    a pitch as this module says."""
+    free = dataclasses.replace(motion, roll=free_roll_mm(spec), slip_ratio=0.0, roll_from=0.0,
+                               rolling_radius=None)
+    return free.as_roll(spec.geometry.outer_radius)
 
 
 def cached_free_radius(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: float,

@@ -56,7 +56,7 @@ from farm.solve.rolling import (
 )
 from farm.solve.states import SolvedState
 from farm.solve.tree import split_restart
-from farm.specs import ModelSpec, RoadMotion, Roll, SolverSettings
+from farm.specs import MAX_BRANCH_MM, ModelSpec, RoadMotion, Roll, SolverSettings
 
 #: The ``*TIME POINTS`` a branch writes its states at (defined by the trunk's deck:
 #: ccx takes time points only before the first step).
@@ -72,9 +72,6 @@ BRANCH_POINTS = "BRANCH"
 #: growth factor of 4 did): the one-run roll takes that place with 5 mm increments.
 BRANCH_GROW_AFTER = 10
 
-#: The longest branch, mm: a branch lasts one unit of step time (its increments are
-#: capped at :data:`~farm.solve.rolling.MAX_TRAVEL_MM` of travel as a roll's are).
-MAX_BRANCH_MM = 320.0
 
 
 @dataclass(frozen=True, eq=False)

@@ -202,6 +202,11 @@ def test_the_states_of_one_roll_are_one_load_path():
         train, test = combined.split(rolls, 0.34, seed)
         assert not set(path_groups(rolls)[train]) & set(path_groups(rolls)[test])
     assert path_groups(ds(deflection=[10, 10, 20], pressure=[0.2] * 3)).tolist() == [0, 1, 2]
+    # rolling trees (issue 45): a tree's trunk and branches are one group, trees apart
+    trees = ds(deflection=[15] * 6, pressure=[0.2] * 6, friction=[0.4] * 3 + [0.8] * 3,
+               slip_angle=[0, 2, -2, 0, 2, -2], roll_from=[0, 40, 40, 0, 40, 40],
+               travel=[40, 70, 70, 40, 70, 70])
+    assert path_groups(trees).tolist() == [0, 0, 0, 1, 1, 1]
 
 
 def test_vertical_only_group_is_refused_in_one_line(tmp_path):

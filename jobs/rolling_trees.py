@@ -1,0 +1,184 @@
+"""What a worker runs for a rolling tree (issue 45): the trunk, then every branch.
+
+A rolling tree (:class:`jobs.expand.RollTreePlan`, :mod:`farm.solve.rolling_tree`) is
+one Dask task: it rolls the trunk straight at kappa = 0 (after a free-rolling radius
+search where the study asks for one, cached as for plain rolls), stores the trunk's
+states, then rolls every branch with states still to do on from the trunk's end, one
+after another. Why one task and not a task per branch, as the static trees have
+(:mod:`jobs.trees`): a branch starts from ccx's restart file of the trunk, several
+hundred kB that would have to travel between workers or be saved in the store, and a
+rolling study's parallelism lies across its trees (one per pressure, deflection,
+friction and camber). What it costs: a task re-run after its worker died, or a resumed
+study, rolls the trunk again when a branch is still to do (its states are not written
+twice: the task skips what the store holds as done).
+
+Failures are data, as everywhere: the guard's retry with smaller increments for the
+trunk and for each branch; a trunk that still fails fails every experiment of its tree
+still to do, with its reason; a branch that still fails fails its own states.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import storage
+from farm.measure.camera import camera_state
+from farm.measure.measurement import measure
+from farm.mesh import TyreMesh, mesh_for
+from farm.solve.rolling import RolledState, cached_free_radius, search_roll
+from farm.solve.rolling_tree import RollingTrunk, solve_rolling_branch, solve_rolling_trunk
+from farm.solve.states import PathSolution
+from farm.specs import ModelSpec, Roll, SolverSettings
+from jobs.expand import Experiment, PathPlan, RollBranchPlan, RollTreePlan
+from jobs.guard import Failed, Solved, cancellation_check, guarded
+from jobs.tasks import PathOutcome, PathTask, write_outcome
+
+
+@dataclass(frozen=True)
+class RollTreeTask:
+    """A rolling tree as plain picklable values (as :class:`jobs.tasks.PathTask`)."""
+
+    tree: RollTreePlan
+    model: ModelSpec
+    settings: SolverSettings
+    store: storage.StoreLike
+    group: str
+    retry_smaller_increments: bool = True
+
+    def path_task(self, key: str, exps: tuple[Experiment, ...]) -> PathTask:
+        """The plain task :func:`jobs.tasks.write_outcome` writes ``exps`` with."""
+        tree = self.tree
+        return PathTask(PathPlan(key, tree.pressure, exps, tree.motion), self.model,
+                        self.settings, self.store, self.group, self.retry_smaller_increments)
+
+
+def run_rolling_tree(task: RollTreeTask) -> PathOutcome:
+    """Worker entry point: solve the tree's states not yet done and write them, under
+    the tree's claim (:func:`storage.claim`, as :func:`jobs.tasks.run_path`)."""
+    tree = task.tree
+    should_stop = cancellation_check()
+    with storage.claim(task.store, task.group, tree.key, should_stop=should_stop) as go:
+        if not go:
+            return PathOutcome(tree.key)
+        status = storage.statuses(task.store, task.group, [e.id for e in tree.experiments])
+        done = {i for i, s in status.items() if s == storage.DONE}
+        skipped = tuple(e.id for e in tree.experiments if e.id in done)
+        trunk = [e for e in tree.trunk if e.id not in done]
+        branches = [b for b in tree.branches if any(e.id not in done for e in b.experiments)]
+        if not trunk and not branches:
+            return PathOutcome(tree.key, skipped=skipped)
+        parts = _solve(task, trunk, branches, done, should_stop)
+        return PathOutcome(tree.key, sum((p.done for p in parts), ()),
+                           sum((p.failed for p in parts), ()), skipped,
+                           sum(p.solve_seconds for p in parts), sum(p.ccx_runs for p in parts))
+
+
+def _solve(task: RollTreeTask, trunk_todo: list[Experiment], branches: list[RollBranchPlan],
+           done: set[str], should_stop: Callable[[], bool] | None) -> list[PathOutcome]:
+    """The trunk, then each branch; what each wrote."""
+    tree, spec = task.tree, task.model
+    mesh = mesh_for(spec)
+    radius, seconds, runs = _radius(task, mesh, should_stop)
+    if isinstance(radius, Failed):
+        todo = tuple(e for e in tree.experiments if e.id not in done)
+        return [write_outcome(task.path_task(tree.key, todo), list(todo), radius)]
+    roll = tree.motion.as_roll(radius)
+    branch_mm = _travel(tree.branches[0].experiments[-1]) - roll.distance
+    along = [(_travel(e) - roll.distance) / branch_mm for e in tree.branches[0].experiments]
+    own = [_travel(e) / roll.distance for e in tree.trunk] or [1.0]
+
+    def solve_trunk(settings: SolverSettings) -> RollingTrunk:
+        return solve_rolling_trunk(spec, mesh, tree.deflection, tree.pressure, roll, settings,
+                                   branch_mm=branch_mm, fractions=own,
+                                   branch_fractions=along, should_stop=should_stop)
+
+    trunk = guarded(solve_trunk, task.settings, retry=task.retry_smaller_increments)
+    if isinstance(trunk, Failed):
+        todo = tuple(e for e in tree.experiments if e.id not in done)
+        failed = dataclasses.replace(trunk, reason=f"the tree's trunk ({roll.distance:g} mm "
+                                     f"straight) stopped: {trunk.reason}", partial=None)
+        return [write_outcome(task.path_task(tree.key, todo), list(todo), failed)]
+    parts = []
+    if trunk_todo:
+        states = trunk.states[:len(tree.trunk)]
+        solved = _measured(mesh, states, tree.trunk, tree.pressure, seconds + trunk.seconds,
+                           runs + 1, trunk.increments)
+        keep = [k for k, e in enumerate(tree.trunk) if e.id not in done]
+        parts.append(write_outcome(task.path_task(tree.key, tuple(trunk_todo)), trunk_todo,
+                                   dataclasses.replace(solved, measurements=tuple(
+                                       solved.measurements[k] for k in keep))))
+    else:  # its states were stored before: what rolling it again cost
+        parts.append(PathOutcome(tree.key, solve_seconds=seconds + trunk.seconds,
+                                 ccx_runs=runs + 1))
+    for b in branches:
+        parts.append(_branch(task, mesh, trunk, b, done, should_stop))
+    return parts
+
+
+def _radius(task: RollTreeTask, mesh: TyreMesh, should_stop: Callable[[], bool] | None
+            ) -> tuple[float | Failed, float, int]:
+    """The trunk's rolling radius (the study's, or found by a search: cached per model,
+    pressure, deflection and roll as for plain rolls), with the search's seconds and runs."""
+    motion = task.tree.motion
+    if motion.rolling_radius is not None:
+        return motion.rolling_radius, 0.0, 0
+
+    def search(settings: SolverSettings) -> float:
+        radius, tried = cached_free_radius(task.model, mesh, task.tree.deflection,
+                                           task.tree.pressure, search_roll(task.model, motion),
+                                           settings, should_stop)
+        found.extend(tried)
+        return radius
+
+    found: list = []
+    radius = guarded(search, task.settings, retry=task.retry_smaller_increments)
+    if isinstance(radius, Failed):
+        return dataclasses.replace(radius, reason=f"no free-rolling radius for the tree's "
+                                   f"trunk: {radius.reason}", partial=None), 0.0, 0
+    return radius, sum(t.seconds for t in found), len(found)
+
+
+def _branch(task: RollTreeTask, mesh: TyreMesh, trunk: RollingTrunk, b: RollBranchPlan,
+            done: set[str], should_stop: Callable[[], bool] | None) -> PathOutcome:
+    """Roll one branch on from the trunk's end and write its states still to do."""
+    roll = trunk.roll
+    branch = Roll(friction=roll.friction, slip_ratio=b.slip_ratio, slip_angle=b.slip_angle,
+                  tilt=roll.tilt, distance=trunk.branch_mm, rolling_radius=roll.rolling_radius)
+
+    def solve(settings: SolverSettings) -> Solved:
+        states = solve_rolling_branch(trunk, branch, settings, should_stop)
+        seconds = max(s.solved.solve_seconds for s in states)
+        return _measured(mesh, states, b.experiments, task.tree.pressure, seconds, 1, 0)
+
+    todo = [e for e in b.experiments if e.id not in done]
+    result = guarded(solve, task.settings, retry=task.retry_smaller_increments)
+    if isinstance(result, Failed):
+        result = dataclasses.replace(result, reason=f"the branch at kappa {b.slip_ratio:g}, "
+                                     f"alpha {b.slip_angle:g} deg from the trunk's "
+                                     f"{roll.distance:g} mm: {result.reason}", partial=None)
+    else:
+        keep = {e.id for e in todo}
+        result = dataclasses.replace(result, measurements=tuple(
+            m for e, m in zip(b.experiments, result.measurements, strict=True)
+            if e.id in keep))
+    return write_outcome(task.path_task(b.key, tuple(todo)), todo, result)
+
+
+def _measured(mesh: TyreMesh, states: Sequence[RolledState], exps: Sequence[Experiment],
+              pressure: float, seconds: float, runs: int, increments: int) -> Solved:
+    """Rolled states measured as the camera sees them (as
+    :func:`farm.measure.camera.rolling_solution` does), each with its experiment's motion."""
+    seen = tuple(dataclasses.replace(camera_state(s, mesh), motion=e.motion)
+                 for s, e in zip(states, exps, strict=True))
+    solution = PathSolution(states[0].reference, seen, seconds, runs, increments)
+    return Solved(tuple(measure(mesh, solution, pressure, inflated=True)), seconds, runs,
+                  increments)
+
+
+
+def _travel(e: Experiment) -> float:
+    """Road travel (mm) of a rolling experiment's state."""
+    assert e.motion is not None and e.motion.rolls
+    return e.motion.roll

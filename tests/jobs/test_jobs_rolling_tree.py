@@ -1,0 +1,133 @@
+"""Rolling trees (issue 45) through study files, identities, the store and a sweep.
+
+The solver side (a branch continued from a trunk's restart file) is tested in
+tests/farm/test_rolling_tree.py; here: ``[loads.roll] branch_from_mm`` makes one tree per
+pressure, deflection, friction and camber, its states get ids and parameters that say
+what they are (a straight branch is the straight roll from rest), bad values are one
+error before anything runs, and examples/rolling_tree_quick.toml runs end to end and
+resumes only what is missing.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import ccx_runs
+
+from jobs.errors import StudyError
+from jobs.expand import RollTreePlan, experiments, parameters, plan
+from jobs.study import load_study, parse_study
+
+SOLVER = "CalculiX 2.20"
+ROOT = Path(__file__).resolve().parents[2]
+MODEL = """
+[model]
+kind = "full"
+[model.mesh]
+tread = 4
+sidewall = 2
+bead = 1
+circumferential = 16
+"""
+
+
+def _study(tmp_path, loads: str, roll: str) -> str:
+    return (f'[study]\nname = "r"\nstore = "{tmp_path / "s.zarr"}"\n' + MODEL
+            + f"\n[loads]\npressure_kpa = [200]\ndeflection_mm = [15]\n{loads}\n"
+            + f"[loads.roll]\n{roll}\n")
+
+
+def test_cases_that_share_a_trunk_are_one_tree_whose_states_say_what_they_are(tmp_path):
+    loads = "friction = [0.4, 0.8]\nslip_ratio = [0, 0.05]\nslip_angle_deg = [-2, 2]\n"
+    roll = "distance_mm = 90\nstates = 3\nrolling_radius_mm = 403.8\n"
+    trees = plan(parse_study(_study(tmp_path, loads, roll + "branch_from_mm = 30\n")), SOLVER)
+    assert len(trees) == 2 and all(isinstance(t, RollTreePlan) for t in trees)  # a friction each
+    for tree in trees:
+        assert tree.motion.roll == 30.0 and not (tree.motion.slip_ratio or tree.motion.slip_angle)
+        assert [e.motion.roll for e in tree.trunk] == [30.0]  # the states it passes
+        assert len(tree.branches) == 4
+        for b in tree.branches:
+            assert [e.motion.roll for e in b.experiments] == [60.0, 90.0]
+            assert {e.motion.roll_from for e in b.experiments} == {30.0}
+    exps = experiments(trees)
+    assert len({e.id for e in exps}) == len(exps) == 2 * (1 + 4 * 2)
+    params = parameters(exps, True, True, trees=True)
+    assert sorted(set(params["roll_from"].tolist())) == [0.0, 30.0]
+    # the same cases rolled from rest: other load histories, other ids, but the trunk's
+    # states are straight rolls from rest and share theirs
+    plain = experiments(plan(parse_study(_study(tmp_path, loads, roll)), SOLVER))
+    assert {e.id for e in trees[0].trunk} <= {e.id for e in experiments(plan(parse_study(
+        _study(tmp_path, "friction = [0.4]\n", roll)), SOLVER))}
+    assert not {e.id for t in trees for b in t.branches for e in b.experiments} & {
+        e.id for e in plain}
+
+
+def test_a_straight_branch_is_the_straight_roll_from_rest(tmp_path):
+    roll = "distance_mm = 90\nstates = 3\nrolling_radius_mm = 403.8\n"
+    [tree] = plan(parse_study(_study(tmp_path, "friction = [0.6]\nslip_ratio = [0, 0.05]\n",
+                                     roll + "branch_from_mm = 30\n")), SOLVER)
+    straight = next(b for b in tree.branches if b.slip_ratio == 0)
+    rest = experiments(plan(parse_study(_study(tmp_path, "friction = [0.6]\n", roll)), SOLVER))
+    assert [e.id for e in (*tree.trunk, *straight.experiments)] == [e.id for e in rest]
+
+
+@pytest.mark.parametrize(("roll", "match"), [
+    ("distance_mm = 90\nbranch_from_mm = 90", "below distance_mm"),
+    ("distance_mm = 90\nbranch_from_mm = -1", "loads.roll.branch_from_mm"),
+    ("distance_mm = 900\nbranch_from_mm = 100", "at most 320"),
+])
+def test_bad_branch_points_are_one_study_error(tmp_path, roll, match):
+    with pytest.raises(StudyError, match=match) as info:
+        parse_study(_study(tmp_path, "friction = [0.6]\n", roll))
+    assert "\n" not in str(info.value)
+
+
+def _quick(tmp_path, slip_angles: str) -> Path:
+    text = (ROOT / "examples" / "rolling_tree_quick.toml").read_text()
+    text = text.replace('store = "results/rolling_tree_quick.zarr"',
+                        f'store = "{tmp_path / "tree.zarr"}"')
+    text = text.replace("slip_angle_deg = [-3, 0, 3]", f"slip_angle_deg = {slip_angles}")
+    assert str(tmp_path) in text and slip_angles in text
+    path = tmp_path / "tree.toml"
+    path.write_text(text)
+    return path
+
+
+@pytest.mark.ccx
+@pytest.mark.e2e  # end to end: run by .ci/run through `scripts/test.sh --e2e`
+def test_quick_rolling_tree_study_end_to_end_and_grown(tmp_path, counting_ccx, capsys):
+    """examples/rolling_tree_quick.toml through `farm sweep submit`, first with the slip
+    angle 3 degrees alone (one trunk, 3 branches), then with -3 and 3: the second sweep
+    rolls the trunk again and the 3 new branches only, and stores their states alone;
+    mirrored slip angles mirror Fy, Fx grows with the slip ratio, the trunk's states are
+    straight; resume solves nothing."""
+    import storage
+    from tyre_farm_cli import main
+
+    main(["sweep", "submit", str(_quick(tmp_path, "[3]")), "--workers", "2"])
+    assert "13 │      0 │" in capsys.readouterr().out  # 4 + 3 x 3 done now, 0 failed
+    first = ccx_runs(counting_ccx)
+    assert 4 <= first <= 6  # trunk and 3 branches (and the inflation, cached per worker)
+    path = _quick(tmp_path, "[-3, 3]")
+    main(["sweep", "submit", str(path), "--workers", "1"])
+    out = capsys.readouterr().out
+    assert "22 │          13 │        9 │      0 │" in out, out  # 13 kept, 9 done now
+    assert 4 <= ccx_runs(counting_ccx) - first <= 5  # the trunk again, 3 new branches
+    study = load_study(path)
+    ds = storage.done(storage.open_dataset(study.store, study.group_name))
+    assert ds.sizes["experiment"] == 22
+    road = ds["road_reaction"].values
+    kappa, alpha, travel = (ds[n].values for n in ("slip_ratio", "slip_angle", "travel"))
+    assert np.all(np.abs(road[travel <= 40, 1]) < 1e-6 * road[0, 2])
+    end = travel == 70
+    for k in (-0.05, 0.0, 0.05):
+        fy = {a: road[end & (kappa == k) & (alpha == a)][0] for a in (-3.0, 3.0)}
+        np.testing.assert_allclose(fy[3.0] * [1, -1, 1], fy[-3.0], atol=1e-3 * fy[3.0][2])
+        assert fy[3.0][1] < 0  # against the wheel's lateral travel
+    fx = [road[end & (kappa == k) & (alpha == 3.0)][0][0] for k in (-0.05, 0.0, 0.05)]
+    assert fx[0] < fx[1] < fx[2]
+    runs = ccx_runs(counting_ccx)
+    main(["sweep", "resume", str(path), "--workers", "1"])
+    assert ccx_runs(counting_ccx) == runs  # all done: nothing solved
