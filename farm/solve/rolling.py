@@ -194,10 +194,26 @@ def roll_time(roll: Roll) -> float:
     return max(1.0, roll.distance / ROLL_UNIT_MM)
 
 
+def travel_cap(settings: SolverSettings) -> float:
+    """The most road travel (mm) one increment may take under ``settings``:
+    :data:`MAX_TRAVEL_MM`, scaled down with a ``max_increment`` below the default.
+
+    Why: the guard's retry (:func:`jobs.guard.smaller_increments`) divides
+    ``max_increment`` by 4, but a roll's increments are capped by travel far below it
+    (5 mm of a 150 mm roll is 0.033 of its step), so until 2026-11-29 a retried roll ran
+    the same deck again and stopped where it had. With the cap scaled, the retry rolls in
+    1.25 mm increments: on 32 elements round (mu 0.6, r 403.8 mm) a 135 mm trunk and a
+    165 mm roll at 2 degrees that stopped "increment below minimum" at 5 mm went through
+    at 1.25 mm (docs/rolling.md, "Rolling trees"). At the default settings nothing changes.
+    """
+    scale = min(1.0, settings.max_increment / SolverSettings().max_increment)
+    return MAX_TRAVEL_MM * scale
+
+
 def _capped(settings: SolverSettings, roll: Roll) -> SolverSettings:
-    """``settings`` with the increments capped to :data:`MAX_TRAVEL_MM` of road travel
+    """``settings`` with the increments capped to :func:`travel_cap` of road travel
     (an increment is a fraction of step time; the roll lasts :func:`roll_time`)."""
-    cap = min(settings.max_increment, MAX_TRAVEL_MM * roll_time(roll) / roll.distance)
+    cap = min(settings.max_increment, travel_cap(settings) * roll_time(roll) / roll.distance)
     return dataclasses.replace(settings, max_increment=cap,
                                initial_increment=min(settings.initial_increment, cap),
                                min_increment=min(settings.min_increment, cap))

@@ -45,12 +45,12 @@ from farm.errors import ResultsError, SolverError, SpecError
 from farm.mesh.tyremesh import TyreMesh
 from farm.solve.contact import combined_state, slave_faces, tilted_gap, touch_height
 from farm.solve.rolling import (
-    MAX_TRAVEL_MM,
     RIM_PIECE_RAD,
     RIM_PIECES,
     RolledState,
     roll_deck,
     rolled_at,
+    travel_cap,
     turned,
     turned_mesh,
 )
@@ -228,7 +228,7 @@ def branch_deck(trunk: RollingTrunk, branch: Roll, settings: SolverSettings) -> 
     rise = trunk.centre_z - trunk.road.z_top  # the road's travel to the deflection
     before = (rise, roll.travel)
     after = (rise, (roll.travel[0] + branch.travel[0], roll.travel[1] + branch.travel[1]))
-    cap = MAX_TRAVEL_MM * (1.0 - D.STEP_DWELL) / branch.distance
+    cap = travel_cap(settings) * (1.0 - D.STEP_DWELL) / branch.distance
     capped = dataclasses.replace(settings, max_increment=min(settings.max_increment, cap),
                                  initial_increment=min(settings.initial_increment, cap),
                                  min_increment=min(settings.min_increment, cap))

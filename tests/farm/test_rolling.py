@@ -194,6 +194,25 @@ def test_a_long_roll_lasts_longer_so_that_its_rise_keeps_a_short_roll_s_incremen
     assert a[3] == b[3] == pytest.approx(5.0 / 320.0)  # the same cap, 5 mm of travel
 
 
+def test_the_guard_s_retry_rolls_in_smaller_increments(coarse):
+    """The guard's retry divides max_increment by 4; a roll's increments are capped by
+    travel far below it, so the cap must shrink with it, or the retry runs the same deck
+    again and stops where the first try did (it did until 2026-11-29)."""
+    from jobs.guard import smaller_increments
+
+    spec, mesh = coarse
+    roll = Roll(friction=MU, distance=150.0, rolling_radius=R_E)
+
+    def static(settings):
+        text = roll_deck(spec, mesh, DEFLECTION, PRESSURE, roll, settings, -400.0, (1.0,))[0]
+        return [float(v) for v in text.split("*STATIC\n")[1].split("\n")[0].split(", ")]
+
+    first, retry = static(SolverSettings()), static(smaller_increments(SolverSettings()))
+    assert first[3] == pytest.approx(5.0 / 150.0)  # 5 mm of travel
+    assert retry[3] == pytest.approx(1.25 / 150.0)  # 1.25 mm: another deck
+    assert retry[0] <= retry[3]
+
+
 @pytest.mark.ccx
 def test_mirrored_slip_angles_mirror_fy_mx_mz(coarse):
     left, right = (_roll(coarse, slip_angle=a, distance=30.0)[-1] for a in (3.0, -3.0))
