@@ -24,6 +24,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import storage
+from farm.errors import SolverError
 from farm.measure.camera import camera_state
 from farm.measure.measurement import measure
 from farm.mesh import TyreMesh, mesh_for
@@ -142,27 +143,37 @@ def _radius(task: RollTreeTask, mesh: TyreMesh, should_stop: Callable[[], bool] 
 
 def _branch(task: RollTreeTask, mesh: TyreMesh, trunk: RollingTrunk, b: RollBranchPlan,
             done: set[str], should_stop: Callable[[], bool] | None) -> PathOutcome:
-    """Roll one branch on from the trunk's end and write its states still to do."""
+    """Roll one branch on from the trunk's end and write its states still to do; a
+    branch that stops stores the states it reached (as a roll from rest does)."""
     roll = trunk.roll
     branch = Roll(friction=roll.friction, slip_ratio=b.slip_ratio, slip_angle=b.slip_angle,
                   tilt=roll.tilt, distance=trunk.branch_mm, rolling_radius=roll.rolling_radius)
+    todo = [e for e in b.experiments if e.id not in done]
+    keep = {e.id for e in todo}
+
+    def kept(states: Sequence[RolledState], seconds: float) -> Solved:
+        """The states of ``todo`` among those solved (a prefix of the branch's)."""
+        solved = _measured(mesh, states, b.experiments[:len(states)], task.tree.pressure,
+                           seconds, 1, 0)
+        return dataclasses.replace(solved, measurements=tuple(
+            m for e, m in zip(b.experiments, solved.measurements, strict=False)
+            if e.id in keep))
 
     def solve(settings: SolverSettings) -> Solved:
-        states = solve_rolling_branch(trunk, branch, settings, should_stop)
-        seconds = max(s.solved.solve_seconds for s in states)
-        return _measured(mesh, states, b.experiments, task.tree.pressure, seconds, 1, 0)
+        try:
+            states = solve_rolling_branch(trunk, branch, settings, should_stop)
+        except SolverError as e:
+            if isinstance(e.partial, tuple):  # the states it reached, measured
+                reached = kept(e.partial, max(s.solved.solve_seconds for s in e.partial))
+                raise e.with_partial(reached.measurements or None) from e
+            raise
+        return kept(states, max(s.solved.solve_seconds for s in states))
 
-    todo = [e for e in b.experiments if e.id not in done]
     result = guarded(solve, task.settings, retry=task.retry_smaller_increments)
     if isinstance(result, Failed):
         result = dataclasses.replace(result, reason=f"the branch at kappa {b.slip_ratio:g}, "
                                      f"alpha {b.slip_angle:g} deg from the trunk's "
-                                     f"{roll.distance:g} mm: {result.reason}", partial=None)
-    else:
-        keep = {e.id for e in todo}
-        result = dataclasses.replace(result, measurements=tuple(
-            m for e, m in zip(b.experiments, result.measurements, strict=True)
-            if e.id in keep))
+                                     f"{roll.distance:g} mm: {result.reason}")
     return write_outcome(task.path_task(b.key, tuple(todo)), todo, result)
 
 

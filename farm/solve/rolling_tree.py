@@ -40,8 +40,9 @@ import numpy as np
 
 from farm.ccx import deck as D
 from farm.ccx.frd import FrdFile, read_frd
-from farm.ccx.runner import run_ccx, scratch_dir
-from farm.errors import ResultsError, SolverError, SpecError
+from farm.ccx.outcome import Outcome
+from farm.ccx.runner import failure, run_ccx, scratch_dir
+from farm.errors import ResultsError, SpecError
 from farm.mesh.tyremesh import TyreMesh
 from farm.solve.contact import combined_state, slave_faces, tilted_gap, touch_height
 from farm.solve.rolling import (
@@ -252,24 +253,40 @@ def solve_rolling_branch(trunk: RollingTrunk, branch: Roll, settings: SolverSett
 
     Returns one state per fraction f of ``trunk.fractions``: the road travelled by the
     trunk's roll and f of the branch's, the rim turned by the trunk's spin and f of the
-    branch's. A branch that stops raises :class:`~farm.errors.SolverError`.
+    branch's. A branch that stops raises :class:`~farm.errors.SolverError` holding the
+    states it reached (``partial``, as a roll from rest does; None: none).
     """
     check_branch(trunk, branch)
     deck = branch_deck(trunk, branch, settings)
-    with scratch_dir(keep=settings.keep_scratch, prefix="rbranch-") as workdir:
-        try:
-            run = run_ccx(deck, workdir, jobname="branch", threads=settings.threads,
-                          timeout=settings.timeout, should_stop=should_stop,
-                          inputs={"rin": zlib.decompress(trunk.restart)})
-        except SolverError as e:
-            where = f"in the branch rolled on from the trunk's {trunk.roll.distance:g} mm"
-            raise (e.located(where) if e.reached is not None else e) from e
-        frd = read_frd(run.file("frd"))
-    times = sorted({b.time for b in frd.results_named("DISP")})
-    if len(times) != len(trunk.fractions):
-        raise ResultsError(f"the branch wrote {len(times)} states for "
-                           f"{len(trunk.fractions)} fractions")
     roll = trunk.roll
-    return [trunk.read(frd, t, f, roll.distance + f * branch.distance,
-                       roll.spin + f * branch.spin, run.seconds_to(t))
-            for t, f in zip(times, trunk.fractions, strict=True)]
+
+    def states(frd: FrdFile, seconds: Callable[[float], float]) -> list[RolledState]:
+        times = sorted({b.time for b in frd.results_named("DISP")})
+        if len(times) > len(trunk.fractions):
+            raise ResultsError(f"the branch wrote {len(times)} states for "
+                               f"{len(trunk.fractions)} fractions")
+        return [trunk.read(frd, t, f, roll.distance + f * branch.distance,
+                           roll.spin + f * branch.spin, seconds(t))
+                for t, f in zip(times, trunk.fractions, strict=False)]
+
+    with scratch_dir(keep=settings.keep_scratch, prefix="rbranch-") as workdir:
+        run = run_ccx(deck, workdir, jobname="branch", threads=settings.threads,
+                      timeout=settings.timeout, should_stop=should_stop, check=False,
+                      inputs={"rin": zlib.decompress(trunk.restart)})
+        if run.outcome is Outcome.CONVERGED:
+            done = states(read_frd(run.file("frd")), run.seconds_to)
+            if len(done) != len(trunk.fractions):
+                raise ResultsError(f"the branch wrote {len(done)} states for "
+                                   f"{len(trunk.fractions)} fractions")
+            return done
+        error = failure(run)
+        if run.outcome is Outcome.CANCELLED:
+            raise error
+        where = f"in the branch rolled on from the trunk's {roll.distance:g} mm"
+        error = error.located(where) if error.reached is not None else error
+        try:  # what it reached before it stopped (the reader drops a diverged output)
+            reached = states(read_frd(run.file("frd"), allow_truncated=True),
+                             lambda t: run.seconds)
+        except ResultsError:
+            reached = []
+        raise error.with_partial(tuple(reached) or None)

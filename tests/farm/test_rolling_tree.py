@@ -126,3 +126,19 @@ def test_the_trunk_s_states_are_experiments_along_its_roll(gripping):
     assert end.spin == pytest.approx(TRUNK / R_E)
     for state in gripping.states:
         _balanced(state)
+
+
+def test_a_branch_that_stops_keeps_the_states_it_reached(gripping):
+    """Out of increments between its two states (24 of the 26 the branch takes with
+    ccx 2.20), a branch raises with the state it reached, equal to the whole branch's:
+    the same deck up to there."""
+    from farm.errors import SolverError
+
+    whole = _branch(gripping, slip_angle=3.0)
+    roll = Roll(friction=MU, distance=BRANCH, rolling_radius=R_E, slip_angle=3.0)
+    with pytest.raises(SolverError, match="max_increments") as info:
+        solve_rolling_branch(gripping, roll, SolverSettings(max_increments=24))
+    [reached] = info.value.partial
+    assert reached.travelled == pytest.approx(TRUNK + BRANCH / 2)
+    np.testing.assert_allclose(reached.force, whole[0].force, rtol=1e-9)
+    np.testing.assert_allclose(reached.camera, whole[0].camera, rtol=1e-9, atol=1e-12)
