@@ -91,15 +91,24 @@ def _solve(task: RollTreeTask, trunk_todo: list[Experiment], branches: list[Roll
     own = [_travel(e) / roll.distance for e in tree.trunk] or [1.0]
 
     def solve_trunk(settings: SolverSettings) -> RollingTrunk:
-        return solve_rolling_trunk(spec, mesh, tree.deflection, tree.pressure, roll, settings,
-                                   branch_mm=branch_mm, fractions=own,
-                                   branch_fractions=along, should_stop=should_stop)
+        try:
+            return solve_rolling_trunk(spec, mesh, tree.deflection, tree.pressure, roll,
+                                       settings, branch_mm=branch_mm, fractions=own,
+                                       branch_fractions=along, should_stop=should_stop)
+        except SolverError as e:  # the trunk's states it reached, measured, still to do
+            if not isinstance(e.partial, tuple) or not tree.trunk:
+                raise  # (a trunk without stored states keeps nothing)
+            reached = _measured(mesh, e.partial, tree.trunk[:len(e.partial)], tree.pressure,
+                                e.partial[-1].solved.solve_seconds, 1, 0).measurements
+            kept = tuple(m for x, m in zip(tree.trunk, reached, strict=False)
+                         if x.id not in done)
+            raise e.with_partial(kept or None) from e
 
     trunk = guarded(solve_trunk, task.settings, retry=task.retry_smaller_increments)
-    if isinstance(trunk, Failed):
+    if isinstance(trunk, Failed):  # the trunk's states it reached stored, the rest failed
         todo = tuple(e for e in tree.experiments if e.id not in done)
         failed = dataclasses.replace(trunk, reason=f"the tree's trunk ({roll.distance:g} mm "
-                                     f"straight) stopped: {trunk.reason}", partial=None)
+                                     f"straight) stopped: {trunk.reason}")
         return [write_outcome(task.path_task(tree.key, todo), list(todo), failed)]
     parts = []
     if trunk_todo:

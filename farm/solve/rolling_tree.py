@@ -169,22 +169,44 @@ def solve_rolling_trunk(spec: ModelSpec, mesh: TyreMesh, deflection: float,
     deck, times, road, z_start = roll_deck(spec, solved, deflection, pressure, roll,
                                            settings, touch_z, fractions, model=model,
                                            ahead=branch_mm)
+    centre_z = z_start + tilted_gap(spec, roll.tilt) + deflection
+
+    def trunk_of(frd: FrdFile, restart: bytes) -> RollingTrunk:
+        reference = combined_state(frd, solved, slave_faces(solved), road, 1.0, 0.0, np.nan,
+                                   RoadMotion(friction=roll.friction))
+        return RollingTrunk(roll, deflection, pressure, (), restart, float(branch_mm), along,
+                            mesh, solved, start, reference, road, centre_z, run.seconds,
+                            run.increments)
+
+    def states(trunk: RollingTrunk, frd: FrdFile, at: Sequence[tuple[float, float]],
+               seconds: Callable[[float], float]) -> tuple[RolledState, ...]:
+        return tuple(trunk.read(frd, t, f, f * roll.distance, f * roll.spin, seconds(t))
+                     for t, f in at)
+
     with scratch_dir(keep=settings.keep_scratch, prefix="rtrunk-") as workdir:
         run = run_ccx(deck, workdir, jobname="trunk", threads=settings.threads,
-                      timeout=settings.timeout, should_stop=should_stop)
+                      timeout=settings.timeout, should_stop=should_stop, check=False)
+        if run.outcome is not Outcome.CONVERGED:
+            error = failure(run)
+            if run.outcome is Outcome.CANCELLED or error.reached is None:
+                raise error
+            # a trunk that stops keeps the states it reached, as a roll from rest does
+            at = [(t, f) for t, f in zip(times, fractions, strict=True)
+                  if t <= error.reached + 1e-9]
+            try:
+                cut = read_frd(run.file("frd"), allow_truncated=True)
+                reached = states(trunk_of(cut, b""), cut, at, lambda t: run.seconds)
+            except ResultsError:
+                reached = ()
+            raise error.located(f"in the trunk's straight roll of {roll.distance:g} mm"
+                                ).with_partial(reached or None)
         frd = read_frd(run.file("frd"))
         blocks = split_restart((workdir / "trunk.rout").read_bytes())
     if len(blocks) != 1:
         raise ResultsError(f"the rolling trunk wrote {len(blocks)} restart blocks, not 1")
-    reference = combined_state(frd, solved, slave_faces(solved), road, 1.0, 0.0, np.nan,
-                               RoadMotion(friction=roll.friction))
-    centre_z = z_start + tilted_gap(spec, roll.tilt) + deflection
-    trunk = RollingTrunk(roll, deflection, pressure, (), zlib.compress(blocks[0], 1),
-                         float(branch_mm), along, mesh, solved, start, reference, road,
-                         centre_z, run.seconds, run.increments)
-    states = tuple(trunk.read(frd, t, f, f * roll.distance, f * roll.spin, run.seconds_to(t))
-                   for t, f in zip(times, fractions, strict=True))
-    return dataclasses.replace(trunk, states=states)
+    trunk = trunk_of(frd, zlib.compress(blocks[0], 1))
+    return dataclasses.replace(trunk, states=states(trunk, frd, list(zip(
+        times, fractions, strict=True)), run.seconds_to))
 
 
 def rim_step_lines(mesh: TyreMesh, before: float, after: float) -> list[str]:

@@ -142,3 +142,21 @@ def test_a_branch_that_stops_keeps_the_states_it_reached(gripping):
     assert reached.travelled == pytest.approx(TRUNK + BRANCH / 2)
     np.testing.assert_allclose(reached.force, whole[0].force, rtol=1e-9)
     np.testing.assert_allclose(reached.camera, whole[0].camera, rtol=1e-9, atol=1e-12)
+
+
+def test_a_trunk_that_stops_keeps_the_states_it_reached(coarse, gripping):
+    """Out of increments between its two states (28 of the 31 the trunk takes with
+    ccx 2.20), a trunk raises with the state it reached, equal to the whole trunk's."""
+    from farm.errors import SolverError
+
+    spec, mesh = coarse
+    with pytest.raises(SolverError, match="max_increments") as info:
+        solve_rolling_trunk(spec, mesh, DEFLECTION, PRESSURE,
+                            Roll(friction=MU, distance=TRUNK, rolling_radius=R_E),
+                            SolverSettings(max_increments=28), branch_mm=BRANCH,
+                            fractions=(0.5, 1.0), branch_fractions=(0.5, 1.0))
+    [reached] = info.value.partial
+    assert reached.travelled == pytest.approx(TRUNK / 2)
+    np.testing.assert_allclose(reached.force, gripping.states[0].force, rtol=1e-9)
+    np.testing.assert_allclose(reached.camera, gripping.states[0].camera, rtol=1e-9,
+                               atol=1e-12)
