@@ -160,3 +160,27 @@ def test_a_trunk_that_stops_keeps_the_states_it_reached(coarse, gripping):
     np.testing.assert_allclose(reached.force, gripping.states[0].force, rtol=1e-9)
     np.testing.assert_allclose(reached.camera, gripping.states[0].camera, rtol=1e-9,
                                atol=1e-12)
+
+
+def test_a_tree_on_a_windowed_mesh_ends_its_straight_branch_as_the_roll_from_rest():
+    """A windowed mesh's trunk starts with the window ahead by the trunk's and a straight
+    branch's spin (trunk_start), as the roll from rest of both lengths does, so a
+    frictionless straight branch ends as that roll: with the window under the road, read
+    at the stored mesh's own nodes (turn 0)."""
+    spec = default_model("full", mesh=MeshDensity(tread=2, sidewall=2, bead=1,
+                                                   circumferential=24, window=32.0,
+                                                   window_elements=4))
+    mesh = mesh_for(spec)
+    trunk = solve_rolling_trunk(spec, mesh, DEFLECTION, PRESSURE,
+                                Roll(friction=0.0, distance=TRUNK, rolling_radius=R_E),
+                                SolverSettings(), branch_mm=BRANCH)
+    [end] = solve_rolling_branch(trunk, Roll(friction=0.0, distance=BRANCH,
+                                             rolling_radius=R_E), SolverSettings())
+    [one] = solve_roll(spec, mesh, DEFLECTION, PRESSURE,
+                       Roll(friction=0.0, distance=TRUNK + BRANCH, rolling_radius=R_E),
+                       SolverSettings())
+    assert trunk.start == pytest.approx(-(TRUNK + BRANCH) / R_E)
+    assert end.turn == pytest.approx(0.0, abs=1e-12) and one.turn == pytest.approx(0.0)
+    np.testing.assert_allclose(end.force, one.force, atol=1e-3 * one.force[2])
+    scale = np.abs(one.camera).max()
+    np.testing.assert_allclose(end.camera, one.camera, atol=1e-3 * scale)
