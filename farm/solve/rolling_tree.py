@@ -41,7 +41,7 @@ import numpy as np
 from farm.ccx import deck as D
 from farm.ccx.frd import FrdFile, read_frd
 from farm.ccx.outcome import Outcome
-from farm.ccx.runner import failure, run_ccx, scratch_dir
+from farm.ccx.runner import CcxRun, failure, run_ccx, scratch_dir
 from farm.errors import ResultsError, SpecError
 from farm.mesh.tyremesh import TyreMesh
 from farm.solve.contact import combined_state, slave_faces, tilted_gap, touch_height
@@ -116,6 +116,13 @@ class RollingTrunk:
         return rolled_at(state, self.reference, self.mesh, roll.rolling_radius, fraction,
                          travelled, spin, self.start)
 
+    def read_all(self, frd: FrdFile, at: Sequence[tuple[float, float]],
+                 seconds: Callable[[float], float]) -> tuple[RolledState, ...]:
+        """The trunk's own states at (time, fraction of its roll) ``at``."""
+        roll = self.roll
+        return tuple(self.read(frd, t, f, f * roll.distance, f * roll.spin, seconds(t))
+                     for t, f in at)
+
 
 def branch_time(fraction: float) -> float:
     """Step time of a branch at ``fraction`` of its travel: road and rim hold still for
@@ -152,8 +159,9 @@ def solve_rolling_trunk(spec: ModelSpec, mesh: TyreMesh, deflection: float,
     branch that will roll on from it (the road is made long enough); ``branch_fractions``:
     where along a branch its states are written.
 
-    Raises :class:`~farm.errors.SolverError` when the trunk's roll stops: without the
-    roll's end no branch can start.
+    Raises :class:`~farm.errors.SolverError` when the trunk's roll stops, holding the
+    states it reached (``partial``, as a roll from rest does): without the roll's end no
+    branch can start.
     """
     if not 0 < branch_mm <= MAX_BRANCH_MM:
         raise SpecError(f"a branch rolls 0-{MAX_BRANCH_MM:g} mm, got {branch_mm!r}")
@@ -170,19 +178,18 @@ def solve_rolling_trunk(spec: ModelSpec, mesh: TyreMesh, deflection: float,
                                            settings, touch_z, fractions, model=model,
                                            ahead=branch_mm)
     centre_z = z_start + tilted_gap(spec, roll.tilt) + deflection
+    blank = RollingTrunk(roll, deflection, pressure, (), b"", float(branch_mm), along, mesh,
+                         solved, start, None, road, centre_z, 0.0, 0)  # type: ignore[arg-type]
+    return _run_trunk(blank, deck, list(zip(times, fractions, strict=True)), settings,
+                      should_stop)
 
-    def trunk_of(frd: FrdFile, restart: bytes) -> RollingTrunk:
-        reference = combined_state(frd, solved, slave_faces(solved), road, 1.0, 0.0, np.nan,
-                                   RoadMotion(friction=roll.friction))
-        return RollingTrunk(roll, deflection, pressure, (), restart, float(branch_mm), along,
-                            mesh, solved, start, reference, road, centre_z, run.seconds,
-                            run.increments)
 
-    def states(trunk: RollingTrunk, frd: FrdFile, at: Sequence[tuple[float, float]],
-               seconds: Callable[[float], float]) -> tuple[RolledState, ...]:
-        return tuple(trunk.read(frd, t, f, f * roll.distance, f * roll.spin, seconds(t))
-                     for t, f in at)
-
+def _run_trunk(blank: RollingTrunk, deck: str, at: list[tuple[float, float]],
+               settings: SolverSettings, should_stop: Callable[[], bool] | None
+               ) -> RollingTrunk:
+    """Run the trunk's deck; ``blank`` is the trunk but for what the run gives (its
+    reference, restart block, states, seconds and increments); ``at``: (time, fraction)
+    of each of its states."""
     with scratch_dir(keep=settings.keep_scratch, prefix="rtrunk-") as workdir:
         run = run_ccx(deck, workdir, jobname="trunk", threads=settings.threads,
                       timeout=settings.timeout, should_stop=should_stop, check=False)
@@ -190,23 +197,28 @@ def solve_rolling_trunk(spec: ModelSpec, mesh: TyreMesh, deflection: float,
             error = failure(run)
             if run.outcome is Outcome.CANCELLED or error.reached is None:
                 raise error
-            # a trunk that stops keeps the states it reached, as a roll from rest does
-            at = [(t, f) for t, f in zip(times, fractions, strict=True)
-                  if t <= error.reached + 1e-9]
-            try:
+            reached = [(t, f) for t, f in at if t <= error.reached + 1e-9]
+            try:  # what it reached before it stopped (the reader drops a diverged output)
                 cut = read_frd(run.file("frd"), allow_truncated=True)
-                reached = states(trunk_of(cut, b""), cut, at, lambda t: run.seconds)
+                kept = _filled(blank, cut, run, b"").read_all(cut, reached, lambda t: run.seconds)
             except ResultsError:
-                reached = ()
-            raise error.located(f"in the trunk's straight roll of {roll.distance:g} mm"
-                                ).with_partial(reached or None)
+                kept = ()
+            raise error.located(f"in the trunk's straight roll of {blank.roll.distance:g} mm"
+                                ).with_partial(kept or None)
         frd = read_frd(run.file("frd"))
         blocks = split_restart((workdir / "trunk.rout").read_bytes())
     if len(blocks) != 1:
         raise ResultsError(f"the rolling trunk wrote {len(blocks)} restart blocks, not 1")
-    trunk = trunk_of(frd, zlib.compress(blocks[0], 1))
-    return dataclasses.replace(trunk, states=states(trunk, frd, list(zip(
-        times, fractions, strict=True)), run.seconds_to))
+    trunk = _filled(blank, frd, run, zlib.compress(blocks[0], 1))
+    return dataclasses.replace(trunk, states=trunk.read_all(frd, at, run.seconds_to))
+
+
+def _filled(blank: RollingTrunk, frd: FrdFile, run: CcxRun, restart: bytes) -> RollingTrunk:
+    """``blank`` with the run's inflated reference, restart block, seconds and increments."""
+    reference = combined_state(frd, blank.solved, slave_faces(blank.solved), blank.road, 1.0,
+                               0.0, np.nan, RoadMotion(friction=blank.roll.friction))
+    return dataclasses.replace(blank, reference=reference, restart=restart,
+                               seconds=run.seconds, increments=run.increments)
 
 
 def rim_step_lines(mesh: TyreMesh, before: float, after: float) -> list[str]:
