@@ -30,7 +30,13 @@ from jobs.identity import (
     path_key,
     resolve_ids,
 )
-from jobs.study import CASE_PARAMETERS, MOTION_PARAMETERS, ROLL_PARAMETERS, Study
+from jobs.study import (
+    CASE_PARAMETERS,
+    MOTION_PARAMETERS,
+    ROLL_PARAMETERS,
+    RollBranches,
+    Study,
+)
 
 
 @dataclass(frozen=True)
@@ -103,6 +109,29 @@ def cases(study: Study) -> list[tuple[float, float, RoadMotion | None]]:
             m = RoadMotion(**motion, rise=study.rise) if motion else None
             out.append((round(_value(case, "deflection"), 9), round(_value(case, "pressure"), 12),
                         None if m is None or m.is_identity else m))
+    if study.rolling is not None and study.rolling.branches is not None:
+        return _branched(out, study.rolling.branches)
+    return out
+
+
+def _branched(trunks: list[tuple[float, float, RoadMotion | None]], branches: RollBranches
+              ) -> list[tuple[float, float, RoadMotion | None]]:
+    """Each case of ``trunks`` (a rolling tree's trunk) with its ``branches.n`` sampled
+    slips: a design of its own per trunk, seeded by the study's branch seed and the
+    trunk's place (:func:`jobs.nested.sample`, as the static trees' levels are)."""
+    names = [name for name, _, _ in branches.ranges]
+    out: list[tuple[float, float, RoadMotion | None]] = []
+    for k, (d, p, m) in enumerate(trunks):
+        assert m is not None and m.rolls
+        points = nested.sample(branches.method, branches.n,
+                               [low for _, low, _ in branches.ranges],
+                               [high for _, _, high in branches.ranges],
+                               nested.sub_seed(branches.seed, k))
+        for row in points:
+            slips = {n: round(float(v), 9) + 0.0 for n, v in zip(names, row, strict=True)}
+            out.append((d, p, dataclasses.replace(
+                m, slip_ratio=slips.get("slip_ratio", 0.0),
+                slip_angle=slips.get("slip_angle", 0.0))))
     return out
 
 

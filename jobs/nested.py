@@ -161,7 +161,7 @@ def _fractions(value: Any, where: str) -> tuple[float, ...]:
     return out
 
 
-def _sample(method: str, n: int, lows: list[float], highs: list[float],
+def sample(method: str, n: int, lows: list[float], highs: list[float],
             seed: int) -> np.ndarray:
     """n points of a design over [lows, highs], (n, d); a fixed dimension stays fixed."""
     d = len(lows)
@@ -175,27 +175,27 @@ def trunk_points(design: TreeDesign) -> list[TrunkPoint]:
     """The trunks of the design, each with its levels and slides (deterministic)."""
     names = ("pressure", "friction", "tilt")
     box = [design.range(n) for n in names]
-    trunks = _sample(design.method, design.trunks, [b[0] for b in box], [b[1] for b in box],
+    trunks = sample(design.method, design.trunks, [b[0] for b in box], [b[1] for b in box],
                      design.seed)
     d_low, d_high = design.range("deflection")
     (x_low, x_high), (y_low, y_high) = design.range("shift_x"), design.range("shift_y")
     out = []
     for k, (p, mu, tilt) in enumerate(trunks):
         # a trunk's levels: a 1-D design of its own, seeded by the study seed and the trunk
-        levels = _sample(design.method, design.levels, [d_low], [d_high],
-                         _seed(design.seed, k))[:, 0]
+        levels = sample(design.method, design.levels, [d_low], [d_high],
+                        sub_seed(design.seed, k))[:, 0]
         levels = np.unique(np.round(levels, 9))  # a ramp needs increasing deflections
         slides = tuple(
-            tuple(Slide(_r(sx), _r(sy)) for sx, sy in _sample(
+            tuple(Slide(_r(sx), _r(sy)) for sx, sy in sample(
                 design.method, design.slides, [x_low, y_low], [x_high, y_high],
-                _seed(design.seed, k, j + 1)))
+                sub_seed(design.seed, k, j + 1)))
             for j in range(len(levels)))
         out.append(TrunkPoint(round(float(p), 12) + 0.0, _r(mu), _r(tilt),
                               tuple(float(x) + 0.0 for x in levels), slides, design.rise))
     return out
 
 
-def _seed(*parts: int) -> int:
+def sub_seed(*parts: int) -> int:
     """A seed for a sub-design: different for each (study seed, trunk, level)."""
     return int(np.random.SeedSequence(list(parts)).generate_state(1)[0])
 

@@ -42,6 +42,10 @@ A study names a store, a model and its load cases::
     # rolling_radius_mm = "free"      # or mm
     # states = 1                      # states kept along each roll (issue 45)
     # branch_from_mm = 0              # > 0: rolling trees (straight trunk, then branches)
+    # [loads.roll.branches]           # optional: slips sampled per trunk, not listed
+    # n = 20                          #   branches of every trunk (each case of [loads])
+    # slip_ratio = [-0.1, 0.1]        #   ranges; method = "lhs" | "sobol", seed
+    # slip_angle_deg = [-4, 4]
 
     # or a nested design solved as load-path trees (jobs/nested.py, issue 29)
     # [loads.tree]
@@ -132,6 +136,22 @@ LOAD_KEYS = {"pressure_kpa", "deflection_mm", "sample", "tree", "rise", "roll", 
 #: many states along each roll are stored experiments (issue 45)
 ROLL_DEFAULTS = {"distance_mm": 150.0, "rolling_radius_mm": "free", "states": 1,
                  "branch_from_mm": 0.0}
+#: [loads.roll.branches]: a design of slips per trunk (issue 45/46: nested rolling trees)
+BRANCH_KEYS = {"n", "method", "seed", "slip_ratio", "slip_angle_deg"}
+
+
+@dataclass(frozen=True)
+class RollBranches:
+    """``[loads.roll.branches]``: each trunk of a rolling tree study (each case of the
+    grid or sample in ``[loads]``) gets ``n`` branches, their slips sampled over
+    ``ranges`` ((name, low, high): slip_ratio, slip_angle in degrees) by a design of
+    their own, seeded by ``seed`` and the trunk (a nested, sliced design, as
+    :mod:`jobs.nested` makes for the static trees)."""
+
+    n: int
+    method: str
+    seed: int
+    ranges: tuple[tuple[str, float, float], ...]
 #: The most states one roll may keep (a 2000 mm roll's are then 10 mm apart)
 MAX_ROLL_STATES = 200
 
@@ -152,6 +172,7 @@ class Rolling:
     rolling_radius: float | None = None
     states: int = 1
     branch_from: float = 0.0
+    branches: RollBranches | None = None  # [loads.roll.branches]: slips per trunk
 
     @property
     def travels(self) -> tuple[float, ...]:
@@ -309,13 +330,14 @@ def _loads(data: Any, model: ModelSpec):
     rolling = (_rolling(t.get("roll", {}), given, model)
                if "roll" in t or given & set(ROLL_PARAMETERS) else None)
     _check_count(pressures, deflections, sampling, motions=motions,
-                 states=rolling.states if rolling else 1)
+                 states=rolling.states if rolling else 1,
+                 branches=rolling.branches.n if rolling and rolling.branches else 1)
     return pressures, deflections, sampling, motions, _rise(t, "loads"), rolling
 
 
 def _rolling(data: Any, given: set[str], model: ModelSpec) -> Rolling:
     """``[loads.roll]`` (optional where a slip key is given: its defaults)."""
-    t = scalars.table(data, "loads.roll", set(ROLL_DEFAULTS))
+    t = scalars.table(data, "loads.roll", {*ROLL_DEFAULTS, "branches"})
     shifts = sorted(given & {"shift_x", "shift_y"})
     if shifts:
         raise fail(f"loads.{shifts[0]}_mm", "a rolling study rolls the tyre instead of "
@@ -339,8 +361,39 @@ def _rolling(data: Any, given: set[str], model: ModelSpec) -> Rolling:
         raise fail("loads.roll.states", f"{states} states of a {distance:g} mm roll lie "
                    f"closer than {ROLL_MM[0]:g} mm: keep at most {int(distance // ROLL_MM[0])}")
     branch_from = _branch_from(t, distance)
+    branches = _branches(t["branches"], branch_from, given) if "branches" in t else None
     return Rolling(float(distance), None if radius == "free" else float(radius), states,
-                   branch_from)
+                   branch_from, branches)
+
+
+def _branches(data: Any, branch_from: float, given: set[str]) -> RollBranches:
+    """``[loads.roll.branches]``: the slips of each trunk's branches, sampled."""
+    where = "loads.roll.branches"
+    t = scalars.table(data, where, BRANCH_KEYS, {"n"})
+    if not branch_from:
+        raise fail(where, "needs [loads.roll] branch_from_mm > 0: branches leave a trunk")
+    slips = sorted(given & set(ROLL_PARAMETERS))
+    if slips:
+        key = next(k for k, (name, _) in ROLL_KEYS.items() if name == slips[0])
+        raise fail(f"loads.{key}", f"comes from [{where}] in a study that has it: drop one")
+    n = scalars.integer(t["n"], f"{where}.n", low=1, high=limits.EXPERIMENTS.value())
+    method = scalars.choice(t.get("method", "lhs"), f"{where}.method", ("lhs", "sobol"))
+    seed = scalars.integer(t.get("seed", 0), f"{where}.seed", low=0, high=limits.MAX_SEED)
+    ranges = []
+    for key, (name, (bottom, top)) in ROLL_KEYS.items():
+        if key not in t:
+            continue
+        r = t[key]
+        if not (isinstance(r, list) and len(r) == 2):
+            raise fail(f"{where}.{key}", f"must be [low, high], got {shown(r)}")
+        low, high = (scalars.number(x, f"{where}.{key}", low=bottom, high=top) for x in r)
+        if low > high:
+            raise fail(f"{where}.{key}", f"needs low <= high, got {shown(r)}")
+        ranges.append((name, float(low), float(high)))
+    if not ranges:
+        raise fail(where, "gives no slip_ratio or slip_angle_deg range: the branches "
+                   "would all be the trunk's straight roll")
+    return RollBranches(n, method, seed, tuple(ranges))
 
 
 def _branch_from(t: dict, distance: float) -> float:
@@ -363,7 +416,7 @@ def _rise(t: dict, where: str) -> str:
 
 def _check_count(pressures: tuple, deflections: tuple, sampling: Sampling | None,
                  models: ModelsSpec | None = None, motions: tuple = (),
-                 states: int = 1) -> None:
+                 states: int = 1, branches: int = 1) -> None:
     """At most :data:`jobs.validate.limits.EXPERIMENTS` experiments, counted as
     :func:`jobs.expand.load_cases` will make them: the grid, or each design point with
     every listed value of the loads it does not sample; times the ``states`` each roll
@@ -376,6 +429,8 @@ def _check_count(pressures: tuple, deflections: tuple, sampling: Sampling | None
                 if name not in sampled and values]
     if models is not None:
         factors.insert(0, (f"{models.rows} models ({models.method} design)", models.rows))
+    if branches > 1:
+        factors.append((f"{branches} branches per trunk", branches))
     if states > 1:
         factors.append((f"{states} states per roll", states))
     count = 1

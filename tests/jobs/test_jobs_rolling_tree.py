@@ -84,6 +84,63 @@ def test_bad_branch_points_are_one_study_error(tmp_path, roll, match):
     assert "\n" not in str(info.value)
 
 
+NESTED = """[loads.sample]
+method = "lhs"
+n = 3
+friction = [0.3, 1.0]
+[loads.roll]
+distance_mm = 70
+rolling_radius_mm = 403.8
+states = 7
+branch_from_mm = 40
+[loads.roll.branches]
+n = 4
+slip_ratio = [-0.1, 0.1]
+slip_angle_deg = [-4, 4]
+"""
+
+
+def _nested(tmp_path, text: str = NESTED) -> str:
+    return (f'[study]\nname = "r"\nstore = "{tmp_path / "s.zarr"}"\n' + MODEL
+            + "\n[loads]\npressure_kpa = [200]\ndeflection_mm = [15]\n" + text)
+
+
+def test_branches_sample_their_own_slips_for_every_trunk(tmp_path):
+    """[loads.roll.branches]: each trunk of the sampled design (3 frictions) gets 4
+    branches whose slips a design of its own samples within the ranges (a nested,
+    sliced design: every trunk sees the whole slip box, no two trunks the same points);
+    the same file gives the same cases."""
+    study = parse_study(_nested(tmp_path))
+    trees = plan(study, SOLVER)
+    assert len(trees) == 3 and all(len(t.branches) == 4 for t in trees)
+    assert len({t.motion.friction for t in trees}) == 3
+    slips = [[(b.slip_ratio, b.slip_angle) for b in t.branches] for t in trees]
+    for points in slips:
+        kappa, alpha = np.array(points).T
+        assert np.all(np.abs(kappa) <= 0.1) and np.all(np.abs(alpha) <= 4)
+        # a Latin hypercube of 4: one point in each quarter of each range
+        assert sorted(np.floor((kappa + 0.1) / 0.05).astype(int).tolist()) == [0, 1, 2, 3]
+    assert slips[0] != slips[1] != slips[2]
+    assert [e.id for e in experiments(trees)] == [
+        e.id for e in experiments(plan(parse_study(_nested(tmp_path)), SOLVER))]
+    assert len(experiments(trees)) == 3 * (4 + 4 * 3)
+
+
+@pytest.mark.parametrize(("text", "match"), [
+    (NESTED.replace("branch_from_mm = 40\n", ""), "needs \\[loads.roll\\] branch_from_mm"),
+    (NESTED.replace("friction = [0.3, 1.0]", "friction = [0.3, 1.0]\nslip_ratio = [0, 0.1]"),
+     "loads.sample.slip_ratio|loads.slip_ratio"),
+    (NESTED.replace("slip_ratio = [-0.1, 0.1]\nslip_angle_deg = [-4, 4]\n", ""),
+     "no slip_ratio or slip_angle_deg range"),
+    (NESTED.replace("n = 4", "n = 0"), "loads.roll.branches.n"),
+    (NESTED.replace("slip_angle_deg = [-4, 4]", "slip_angle_deg = [4, -4]"), "low <= high"),
+])
+def test_bad_branch_designs_are_one_study_error(tmp_path, text, match):
+    with pytest.raises(StudyError, match=match) as info:
+        parse_study(_nested(tmp_path, text))
+    assert "\n" not in str(info.value)
+
+
 def _quick(tmp_path, slip_angles: str) -> Path:
     text = (ROOT / "examples" / "rolling_tree_quick.toml").read_text()
     text = text.replace('store = "results/rolling_tree_quick.zarr"',
