@@ -247,20 +247,35 @@ def save_model(path: str | os.PathLike, estimator: Any, manifest: Mapping) -> Pa
         raise ModelFileError(f"the model holds types load_model would refuse: {bad}; add them "
                              "to analysis.predict.persist.TRUSTED_TYPES only if they are plain "
                              "estimators (arrays and numbers)")
+    text = _manifest_text(manifest, data)
+    if path.suffix.lower() == ".zip":
+        return _write_zip(path, data, text)
+    return _write_dir(path, data, text)
+
+
+def _manifest_text(manifest: Mapping, data: bytes) -> str:
+    """The full manifest as JSON text (one line of error if the caller's part cannot be)."""
     full = _build_manifest(manifest, _sha256(data))
     try:
-        text = json.dumps(full, indent=2, default=_json_default)
+        return json.dumps(full, indent=2, default=_json_default)
     except (TypeError, ValueError) as exc:
         raise ParameterError(f"the manifest holds a value JSON cannot store ({exc}); give "
                              "numbers, strings, lists and dicts") from None
-    if path.suffix.lower() == ".zip":
-        path.parent.mkdir(parents=True, exist_ok=True)
-        buffer = io.BytesIO()
-        with zipfile.ZipFile(buffer, "w") as zf:
-            zf.writestr(MODEL, data, compress_type=zipfile.ZIP_STORED)
-            zf.writestr(MANIFEST, text, compress_type=zipfile.ZIP_DEFLATED)
-        _write_atomic(path, buffer.getvalue())
-        return path
+
+
+def _write_zip(path: Path, data: bytes, text: str) -> Path:
+    """The model and its manifest as one ``.zip`` archive, written atomically."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    buffer = io.BytesIO()
+    with zipfile.ZipFile(buffer, "w") as zf:
+        zf.writestr(MODEL, data, compress_type=zipfile.ZIP_STORED)
+        zf.writestr(MANIFEST, text, compress_type=zipfile.ZIP_DEFLATED)
+    _write_atomic(path, buffer.getvalue())
+    return path
+
+
+def _write_dir(path: Path, data: bytes, text: str) -> Path:
+    """The model and its manifest in a directory, the manifest last."""
     if path.exists() and not path.is_dir():
         raise ModelFileError(f"model path {path} is a file; give a directory or a .zip name")
     path.mkdir(parents=True, exist_ok=True)

@@ -207,15 +207,7 @@ def rigid_fit(source, target, scale: bool = False, weights=None) -> Transform:
     if src.shape != dst.shape:
         raise RegistrationError(f"source {src.shape} and target {dst.shape} must have the same "
                                 "shape: rigid_fit needs corresponding points (use icp otherwise)")
-    if weights is None:
-        w = np.full(src.shape[0], 1.0 / src.shape[0])
-    else:
-        w = np.asarray(weights, dtype=np.float64).reshape(-1)
-        if w.shape != (src.shape[0],) or not np.isfinite(w).all() or (w < 0).any() \
-                or w.sum() <= 0:
-            raise RegistrationError(f"weights must be {src.shape[0]} finite non-negative "
-                                    "numbers, not all zero")
-        w = w / w.sum()
+    w = _weights(weights, src.shape[0])
     mu_s, mu_t = w @ src, w @ dst
     S, D = src - mu_s, dst - mu_t
     sv = np.linalg.svd(S * np.sqrt(w)[:, None], compute_uv=False)
@@ -298,6 +290,17 @@ def icp(source, target, init: Transform | None = None, max_iter: int = 50,
     return current, rms
 
 
+def _weights(weights, m: int) -> np.ndarray:
+    """The pairs' weights normalised to sum 1, (m,); all equal by default."""
+    if weights is None:
+        return np.full(m, 1.0 / m)
+    w = np.asarray(weights, dtype=np.float64).reshape(-1)
+    if w.shape != (m,) or not np.isfinite(w).all() or (w < 0).any() or w.sum() <= 0:
+        raise RegistrationError(f"weights must be {m} finite non-negative numbers, not all "
+                                "zero")
+    return w / w.sum()
+
+
 def read_transform(path: str | os.PathLike) -> Transform:
     """Read a transform from a file.
 
@@ -336,17 +339,23 @@ def read_transform(path: str | os.PathLike) -> Transform:
             except ValueError as exc:
                 raise RegistrationError(f"not valid JSON ({exc})") from None
             return Transform.from_dict(data)
-        rows = []
-        for line in text.splitlines():
-            line = line.split("#", 1)[0].replace(",", " ").replace(";", " ").strip()
-            if line:
-                try:
-                    rows.append([float(v) for v in line.split()])
-                except ValueError:
-                    raise RegistrationError(f"{line[:40]!r} is not a row of numbers") from None
-        if len(rows) != 4 or any(len(r) != 4 for r in rows):
-            raise RegistrationError(f"{len(rows)} rows of {sorted({len(r) for r in rows})} "
-                                    "numbers; a transform is a 4x4 matrix")
-        return Transform.from_matrix(np.array(rows))
+        return Transform.from_matrix(_matrix_rows(text))
     except RegistrationError as exc:
         raise RegistrationError(f"transform file {path}: {exc}") from None
+
+
+def _matrix_rows(text: str) -> np.ndarray:
+    """A 4x4 matrix from text rows (comma, semicolon or whitespace separated, ``#``
+    comments); one line of error otherwise."""
+    rows = []
+    for line in text.splitlines():
+        line = line.split("#", 1)[0].replace(",", " ").replace(";", " ").strip()
+        if line:
+            try:
+                rows.append([float(v) for v in line.split()])
+            except ValueError:
+                raise RegistrationError(f"{line[:40]!r} is not a row of numbers") from None
+    if len(rows) != 4 or any(len(r) != 4 for r in rows):
+        raise RegistrationError(f"{len(rows)} rows of {sorted({len(r) for r in rows})} "
+                                "numbers; a transform is a 4x4 matrix")
+    return np.array(rows)
