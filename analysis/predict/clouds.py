@@ -59,6 +59,28 @@ MAX_COORDINATE_MM = 1e4
 is corrupt or in other units (issue 47: a coordinate of 1e300 printed Fx = 6.6e299 N)."""
 
 
+def _checked_file(path: Path, max_points: int) -> str:
+    """The file's lower-case extension, once it is a regular, non-empty file of a known
+    format and a size a cloud of at most ``max_points`` points can have."""
+    if not path.exists():
+        raise _fail(path, "no such file; check the path")
+    if path.is_dir():
+        raise _fail(path, "is a directory, not a file; give the cloud file inside it")
+    if not path.is_file():
+        raise _fail(path, "is not a regular file (a device or pipe?); give a cloud file")
+    suffix = path.suffix.lower()
+    if suffix not in TEXT_FORMATS and suffix not in MESH_FORMATS:
+        raise _fail(path, f"unknown extension {suffix or '(none)'!r}; use one of "
+                          f"{', '.join(TEXT_FORMATS + tuple(MESH_FORMATS))}")
+    size = path.stat().st_size
+    if size == 0:
+        raise _fail(path, "the file is empty; it holds no points")
+    if size > max_points * BYTES_PER_POINT:
+        raise _fail(path, f"the file is {size:,} bytes, more than a cloud of at most "
+                          f"{max_points:,} points needs; split it or pass a larger max_points")
+    return suffix
+
+
 def read_cloud(path: str | os.PathLike, *, units: str = "mm",
                max_points: int = MAX_POINTS) -> np.ndarray:
     """Read one point cloud from a text table or a mesh file.
@@ -86,22 +108,7 @@ def read_cloud(path: str | os.PathLike, *, units: str = "mm",
     path = Path(path)
     if units not in _UNITS:
         raise CloudError(f"units must be one of {sorted(_UNITS)}, got {units!r}")
-    if not path.exists():
-        raise _fail(path, "no such file; check the path")
-    if path.is_dir():
-        raise _fail(path, "is a directory, not a file; give the cloud file inside it")
-    if not path.is_file():
-        raise _fail(path, "is not a regular file (a device or pipe?); give a cloud file")
-    suffix = path.suffix.lower()
-    if suffix not in TEXT_FORMATS and suffix not in MESH_FORMATS:
-        raise _fail(path, f"unknown extension {suffix or '(none)'!r}; use one of "
-                          f"{', '.join(TEXT_FORMATS + tuple(MESH_FORMATS))}")
-    size = path.stat().st_size
-    if size == 0:
-        raise _fail(path, "the file is empty; it holds no points")
-    if size > max_points * BYTES_PER_POINT:
-        raise _fail(path, f"the file is {size:,} bytes, more than a cloud of at most "
-                          f"{max_points:,} points needs; split it or pass a larger max_points")
+    suffix = _checked_file(path, max_points)
     xyz = _read_table(path, max_points) if suffix in TEXT_FORMATS else _read_mesh(path, suffix)
     if xyz.shape[0] > max_points:
         raise _fail(path, f"more than {max_points:,} points; split the cloud or pass a "
@@ -226,23 +233,34 @@ def _read_table(path: Path, max_points: int) -> np.ndarray:
     delimiter = ";" if ";" in line else "," if "," in line else None
     if header_line:
         header = [t.lower() for t in _split(first[1], delimiter)]
-    tokens = _split(line, delimiter)
+    cols = _columns(path, number, _split(line, delimiter), header)
+    return _load(path, header_line, delimiter, cols, max_points)
+
+
+def _columns(path: Path, number: int, tokens: list[str], header: list[str] | None
+             ) -> list[int]:
+    """The x, y, z columns: those the header names, else the first three numeric ones
+    of the first data line (line ``number``, split into ``tokens``)."""
     if len(tokens) < 3:
         raise _fail(path, f"line {number} has {len(tokens)} column(s); a cloud needs x, y, z "
                           "(three columns)")
     named = _named_columns(header) if header else None
     if named is not None:
-        cols = named
-        if max(cols) >= len(tokens):
+        if max(named) >= len(tokens):
             raise _fail(path, f"line {number} has {len(tokens)} columns but the header puts "
-                              f"x, y, z in columns {[c + 1 for c in cols]}")
-    else:
-        numeric = [j for j, t in enumerate(tokens) if _is_number(t)]
-        if len(numeric) < 3:
-            bad = next(t for t in tokens if not _is_number(t))
-            raise _fail(path, f"line {number} has {len(numeric)} numeric column(s) "
-                              f"({bad!r} is not a number); a cloud needs x, y, z")
-        cols = numeric[:3]
+                              f"x, y, z in columns {[c + 1 for c in named]}")
+        return list(named)
+    numeric = [j for j, t in enumerate(tokens) if _is_number(t)]
+    if len(numeric) < 3:
+        bad = next(t for t in tokens if not _is_number(t))
+        raise _fail(path, f"line {number} has {len(numeric)} numeric column(s) "
+                          f"({bad!r} is not a number); a cloud needs x, y, z")
+    return numeric[:3]
+
+
+def _load(path: Path, header_line: int, delimiter: str | None, cols: list[int],
+          max_points: int) -> np.ndarray:
+    """The table's x, y, z columns below its header, finite, (M, 3)."""
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # numpy's "empty input file" and the like
