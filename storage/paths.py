@@ -75,6 +75,18 @@ _ZARR_MARKERS = ("zarr.json", ".zgroup", ".zarray")
 _URL_STORES: dict[tuple[str, bool], Store] = {}
 
 
+def _local(text: str, read_only: bool) -> LocalStore:
+    """A local directory store; a path that looks like a URL missing its ``//`` is
+    refused, not made a folder named ``s3:``."""
+    first = text.split("/", 1)[0]
+    if "/" in text and _SCHEME_ONLY.fullmatch(first):
+        raise StoreError(
+            f"store {text[:80]!r} looks like a URL without the '//' after {first!r}: "
+            f"write {first}//..., or ./{text[:40]} for a directory"
+        )
+    return LocalStore(Path(text).expanduser(), read_only=read_only)
+
+
 def open_store(
     store: StoreLike, *, read_only: bool = False, storage_options: dict[str, Any] | None = None
 ) -> Store:
@@ -109,13 +121,7 @@ def open_store(
     if text.startswith("file://"):
         text = text.removeprefix("file://")
     if "://" not in text:
-        first = text.split("/", 1)[0]
-        if "/" in text and _SCHEME_ONLY.fullmatch(first):
-            raise StoreError(
-                f"store {text[:80]!r} looks like a URL without the '//' after {first!r}: "
-                f"write {first}//..., or ./{text[:40]} for a directory"
-            )
-        return LocalStore(Path(text).expanduser(), read_only=read_only)
+        return _local(text, read_only)
     _check_url(text)
     key = (text, read_only)
     if storage_options is None and key in _URL_STORES:
