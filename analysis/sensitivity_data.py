@@ -123,6 +123,22 @@ class DesignOutputs:
     table: pd.DataFrame
 
 
+def _case_columns(chosen: dict, unique: list[str], row_of: np.ndarray, case: tuple[float, float],
+                  request: OutputRequest, columns: list[np.ndarray], meta: list[dict]) -> None:
+    """Append one load case's output columns (its scalars, then its field's scores) and
+    their descriptions: ``chosen`` holds each group's experiment at the case."""
+    for name in request.scalars:
+        per_group = np.array([_scalar(chosen[g], name) for g in unique])
+        columns.append(per_group[row_of])
+        meta.append(_meta(name, case, UNITS[name], np.nan))
+    if request.field is not None:
+        scores, explained = _field_scores(chosen, unique, row_of, request)
+        unit = "mm" if request.field == "displacement" else "1"
+        for i in range(scores.shape[1]):
+            columns.append(scores[:, i])
+            meta.append(_meta(f"{request.field} PC{i + 1}", case, unit, explained[i]))
+
+
 def read_outputs(store: Any, groups: Sequence[str], request: OutputRequest) -> DesignOutputs:
     """Outputs y (rows, k) of a design whose row i lives in store group ``groups[i]``.
 
@@ -167,16 +183,7 @@ def read_outputs(store: Any, groups: Sequence[str], request: OutputRequest) -> D
     for case in cases:
         chosen = {g: storage.verify_done(datasets[g].isel(experiment=[picks[g, case]]))
                   for g in unique}
-        for name in request.scalars:
-            per_group = np.array([_scalar(chosen[g], name) for g in unique])
-            columns.append(per_group[row_of])
-            meta.append(_meta(name, case, UNITS[name], np.nan))
-        if request.field is not None:
-            scores, explained = _field_scores(chosen, unique, row_of, request)
-            for i in range(scores.shape[1]):
-                columns.append(scores[:, i])
-                unit = "mm" if request.field == "displacement" else "1"
-                meta.append(_meta(f"{request.field} PC{i + 1}", case, unit, explained[i]))
+        _case_columns(chosen, unique, row_of, case, request, columns, meta)
     table = pd.DataFrame(meta)
     return DesignOutputs(np.column_stack(columns), tuple(table["output"]), table)
 
