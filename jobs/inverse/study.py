@@ -367,24 +367,9 @@ def _paths(head: dict, base: Path) -> tuple[str, str]:
     return store, locations.location(cache, "study.cache", "a directory path", base)
 
 
-def _parse(data: dict, source: str, base: Path) -> InverseStudy:
-    scalars.table(data, "study file", {"study", "model", "reference", "noise", "optimizers",
-                                       "mask", "conditions", "solver", "distribution"},
-                  {"study", "model"})
-    head = scalars.table(data["study"], "study",
-                         {"name", "store", "group", "cache", "seed", "storage_options"}, {"store"})
-    name = scalars.identifier(head.get("name", Path(source).stem), "study.name")
-    group = scalars.identifier(head.get("group", f"inverse-{name}"), "study.group")
-    store, cache = _paths(head, base)
-    model = spec_tables.model(data["model"])
-    if model.kind != "reduced" or model.road != "iterative":
-        raise fail("model", "the inverse problem uses the reduced model with the iterative "
-                   f"road (thesis §4.1); got kind={model.kind!r}, road={model.road!r}")
-    ref = scalars.table(data.get("reference", {}), "reference", {"deflection_mm"})
-    deflection = _positive(ref, "deflection_mm", "reference", 30.0)
-    noise_t = scalars.table(data.get("noise", {}), "noise", {"displacement_mm", "strain"})
-    noise = NoiseSettings(_positive(noise_t, "displacement_mm", "noise", 1.0, MAX_NOISE_MM),
-                          _positive(noise_t, "strain", "noise", 4e-4, MAX_NOISE_STRAIN))
+def _optimizers_and_conditions(data: dict) -> tuple[tuple, tuple]:
+    """``[optimizers]`` (default: Nelder-Mead) and ``[[conditions]]`` (default: the
+    thesis' conditions), within the study's loop limit."""
     opt_t = scalars.table(data.get("optimizers", {"nelder-mead": {}}), "optimizers",
                           set(OPTIMIZERS))
     if not opt_t:
@@ -404,6 +389,28 @@ def _parse(data: dict, source: str, base: Path) -> InverseStudy:
     if loops > limits.MAX_LOOPS:
         raise fail("conditions", f"methods x optimisers x repeats is {loops} loops, above "
                    f"the limit of {limits.MAX_LOOPS}")
+    return optimizers, conditions
+
+
+def _parse(data: dict, source: str, base: Path) -> InverseStudy:
+    scalars.table(data, "study file", {"study", "model", "reference", "noise", "optimizers",
+                                       "mask", "conditions", "solver", "distribution"},
+                  {"study", "model"})
+    head = scalars.table(data["study"], "study",
+                         {"name", "store", "group", "cache", "seed", "storage_options"}, {"store"})
+    name = scalars.identifier(head.get("name", Path(source).stem), "study.name")
+    group = scalars.identifier(head.get("group", f"inverse-{name}"), "study.group")
+    store, cache = _paths(head, base)
+    model = spec_tables.model(data["model"])
+    if model.kind != "reduced" or model.road != "iterative":
+        raise fail("model", "the inverse problem uses the reduced model with the iterative "
+                   f"road (thesis §4.1); got kind={model.kind!r}, road={model.road!r}")
+    ref = scalars.table(data.get("reference", {}), "reference", {"deflection_mm"})
+    deflection = _positive(ref, "deflection_mm", "reference", 30.0)
+    noise_t = scalars.table(data.get("noise", {}), "noise", {"displacement_mm", "strain"})
+    noise = NoiseSettings(_positive(noise_t, "displacement_mm", "noise", 1.0, MAX_NOISE_MM),
+                          _positive(noise_t, "strain", "noise", 4e-4, MAX_NOISE_STRAIN))
+    optimizers, conditions = _optimizers_and_conditions(data)
     settings = spec_tables.solver(data.get("solver", {})).settings
     seed = scalars.integer(head.get("seed", 0), "study.seed", low=0, high=limits.MAX_SEED)
     mask = _mask(data["mask"], base) if "mask" in data else None
