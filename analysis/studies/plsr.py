@@ -16,6 +16,15 @@ from analysis.selection import select_n_components
 from analysis.studies.common import Report, Selection, fit_simpls, model_inputs
 
 
+def _prediction_figure(report: Report, sel: Selection, by_count: dict, name: str
+                       ) -> tuple[str, Path]:
+    """(caption, file) of the tread forces predicted from ``name`` by each count."""
+    return (f"Tread forces predicted from {name}",
+            plots.predictions(sel.tread, sel.y_ref, by_count,
+                              report.out / f"predictions_{name}.png",
+                              f"PLSR (SIMPLS) from {name}"))
+
+
 def run(
     ds: xr.Dataset,
     out: Path,
@@ -43,18 +52,7 @@ def run(
             a: SIMPLSRegression(a).fit_moments(moments).predict(x_ref)[0] for a in range(1, A + 1)
         }
         preds.append(tables.predictions(sel.tread, sel.y_ref, by_count, name))
-        figures.append(
-            (
-                f"Tread forces predicted from {name}",
-                plots.predictions(
-                    sel.tread,
-                    sel.y_ref,
-                    by_count,
-                    report.out / f"predictions_{name}.png",
-                    f"PLSR (SIMPLS) from {name}",
-                ),
-            )
-        )
+        figures.append(_prediction_figure(report, sel, by_count, name))
         if pcr_ratio is None:
             pcr_ratio = PCRegression().fit_moments(moments).y_explained_variance_ratio_
         if nipals or cv:
