@@ -28,11 +28,19 @@ from analysis.errors import ParameterError, UndefinedVarianceWarning
 from analysis.render import markdown
 from analysis.render.plots import DPI, new_figure
 from analysis.sensitivity import MIN_SWAPPED_ROWS, MorrisScreening, SobolIndices
-from analysis.sensitivity_data import OutputRequest, read_outputs
+from analysis.sensitivity_data import DesignOutputs, OutputRequest, read_outputs
 from analysis.studies.common import Report
 
 METHODS = ("sobol", "morris")
 PANELS_PER_ROW = 3
+
+
+def _design_table(matrix: np.ndarray, names: Sequence[str], groups: Sequence[str],
+                  outputs: DesignOutputs) -> pd.DataFrame:
+    """Each design row: its parameters, store group and outputs."""
+    design = pd.DataFrame(matrix, columns=list(names)).assign(group=list(groups))
+    design = pd.concat([design, pd.DataFrame(outputs.y, columns=list(outputs.labels))], axis=1)
+    return design.rename_axis("row").reset_index()
 
 
 def run(
@@ -79,9 +87,7 @@ def run(
     table = est.to_frame(outputs.labels)
     report.csv("sensitivity", table)
     report.csv("outputs", outputs.table)
-    design = pd.DataFrame(matrix, columns=list(names)).assign(group=list(groups))
-    design = pd.concat([design, pd.DataFrame(outputs.y, columns=list(outputs.labels))], axis=1)
-    report.csv("design", design.rename_axis("row").reset_index())
+    report.csv("design", _design_table(matrix, names, groups, outputs))
     figure = _bars(table, method, conf_level, report.out / "sensitivity.png")
     report.files.append(figure)
     _summary(report, est, method, table, outputs.table, figure,
