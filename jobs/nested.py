@@ -129,12 +129,7 @@ def parse_tree(data: Any, where: str = "loads.tree") -> TreeDesign:
     for key, (name, scale, (bottom, top)) in {**TRUNK_KEYS, **BRANCH_KEYS}.items():
         if key not in t:
             continue
-        r = t[key]
-        if not (isinstance(r, list) and len(r) == 2):
-            raise fail(f"{where}.{key}", f"must be [low, high], got {shown(r)}")
-        low, high = (scalars.number(x, f"{where}.{key}", low=bottom, high=top) for x in r)
-        if low > high:
-            raise fail(f"{where}.{key}", f"needs low <= high, got {shown(r)}")
+        low, high = scalars.interval(t[key], f"{where}.{key}", low=bottom, high=top)
         ranges.append((name, low * scale, high * scale))
     design = TreeDesign(method, seed, trunks, levels, slides, fractions, tuple(ranges), solve,
                         rise)

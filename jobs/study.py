@@ -383,13 +383,8 @@ def _branches(data: Any, branch_from: float, given: set[str]) -> RollBranches:
     for key, (name, (bottom, top)) in ROLL_KEYS.items():
         if key not in t:
             continue
-        r = t[key]
-        if not (isinstance(r, list) and len(r) == 2):
-            raise fail(f"{where}.{key}", f"must be [low, high], got {shown(r)}")
-        low, high = (scalars.number(x, f"{where}.{key}", low=bottom, high=top) for x in r)
-        if low > high:
-            raise fail(f"{where}.{key}", f"needs low <= high, got {shown(r)}")
-        ranges.append((name, float(low), float(high)))
+        ranges.append((name, *scalars.interval(t[key], f"{where}.{key}", low=bottom,
+                                               high=top)))
     if not ranges:
         raise fail(where, "gives no slip_ratio or slip_angle_deg range: the branches "
                    "would all be the trunk's straight roll")

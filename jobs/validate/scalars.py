@@ -43,6 +43,17 @@ def number(value: Any, where: str, *, low: float | None = None, high: float | No
     return float(value)
 
 
+def interval(value: Any, where: str, *, low: float | None = None,
+             high: float | None = None) -> tuple[float, float]:
+    """A ``[low, high]`` pair of numbers within the bounds, low <= high (a design's range)."""
+    if not (isinstance(value, list) and len(value) == 2):
+        raise fail(where, f"must be [low, high], got {shown(value)}")
+    a, b = (number(x, where, low=low, high=high) for x in value)
+    if a > b:
+        raise fail(where, f"needs low <= high, got {shown(value)}")
+    return float(a), float(b)
+
+
 def integer(value: Any, where: str, *, low: int | None = None, high: int | None = None) -> int:
     """An integer (not a boolean) in ``[low, high]`` (either bound optional)."""
     if isinstance(value, bool) or not isinstance(value, int):
