@@ -43,22 +43,10 @@ def _design_table(matrix: np.ndarray, names: Sequence[str], groups: Sequence[str
     return design.rename_axis("row").reset_index()
 
 
-def run(
-    store: Any,
-    matrix: np.ndarray,
-    names: Sequence[str],
-    bounds: Sequence[tuple[float, float]],
-    groups: Sequence[str],
-    request: OutputRequest,
-    out: Path,
-    *,
-    method: str = "sobol",
-    num_levels: int = 4,
-    num_resamples: int = 1000,
-    conf_level: float = 0.95,
-    seed: int = 0,
-    source: str = "",
-) -> Report:
+def run(store: Any, matrix: np.ndarray, names: Sequence[str],
+        bounds: Sequence[tuple[float, float]], groups: Sequence[str], request: OutputRequest,
+        out: Path, *, method: str = "sobol", num_levels: int = 4, num_resamples: int = 1000,
+        conf_level: float = 0.95, seed: int = 0, source: str = "") -> Report:
     """Read the design's outputs from ``store``, fit the indices, write the report.
 
     Parameters
