@@ -226,6 +226,32 @@ def rigid_fit(source, target, scale: bool = False, weights=None) -> Transform:
     return Transform(R, mu_t - s * (R @ mu_s), s)
 
 
+def _icp_start(init: Transform | None, max_iter: int, max_distance: float | None
+               ) -> Transform:
+    """ICP's first guess (the identity by default), once its settings are valid."""
+    if max_iter < 1:
+        raise RegistrationError(f"max_iter must be >= 1, got {max_iter}")
+    if max_distance is not None and not max_distance > 0:
+        raise RegistrationError(f"max_distance must be positive, got {max_distance}")
+    current = init if init is not None else Transform.identity()
+    if not isinstance(current, Transform):
+        raise RegistrationError(f"init must be a Transform, got {type(current).__name__}")
+    return current
+
+
+def _pairs(tree: cKDTree, src: np.ndarray, t: Transform, max_distance: float | None
+           ) -> tuple[np.ndarray, np.ndarray, float]:
+    """Each moved source point's nearest target point: (kept pairs (M,) bool, target
+    index (M,), RMS distance of the kept pairs, mm)."""
+    dist, idx = tree.query(t.apply(src))
+    keep = np.ones(dist.shape, bool) if max_distance is None else dist <= max_distance
+    if keep.sum() < 3:
+        raise RegistrationError(f"only {int(keep.sum())} source point(s) lie within "
+                                f"max_distance={max_distance} mm of the target; give a "
+                                "better initial guess or a larger max_distance")
+    return keep, idx, float(np.sqrt(np.mean(dist[keep] ** 2)))
+
+
 def icp(source, target, init: Transform | None = None, max_iter: int = 50,
         tol: float = 1e-6, *, max_distance: float | None = None) -> tuple[Transform, float]:
     """Point-to-point ICP: the rigid transform putting ``source`` onto the surface that
@@ -261,28 +287,12 @@ def icp(source, target, init: Transform | None = None, max_iter: int = 50,
     """
     src = _points("source", source, 3)
     dst = _points("target", target, 3)
-    if max_iter < 1:
-        raise RegistrationError(f"max_iter must be >= 1, got {max_iter}")
-    if max_distance is not None and not max_distance > 0:
-        raise RegistrationError(f"max_distance must be positive, got {max_distance}")
+    current = _icp_start(init, max_iter, max_distance)
     tree = cKDTree(dst)
-    current = init if init is not None else Transform.identity()
-    if not isinstance(current, Transform):
-        raise RegistrationError(f"init must be a Transform, got {type(current).__name__}")
-
-    def pairs(t: Transform) -> tuple[np.ndarray, np.ndarray, float]:
-        dist, idx = tree.query(t.apply(src))
-        keep = np.ones(dist.shape, bool) if max_distance is None else dist <= max_distance
-        if keep.sum() < 3:
-            raise RegistrationError(f"only {int(keep.sum())} source point(s) lie within "
-                                    f"max_distance={max_distance} mm of the target; give a "
-                                    "better initial guess or a larger max_distance")
-        return keep, idx, float(np.sqrt(np.mean(dist[keep] ** 2)))
-
-    keep, idx, rms = pairs(current)
+    keep, idx, rms = _pairs(tree, src, current, max_distance)
     for _ in range(max_iter):
         current = rigid_fit(src[keep], dst[idx[keep]])
-        keep, idx, new = pairs(current)
+        keep, idx, new = _pairs(tree, src, current, max_distance)
         done = abs(rms - new) < tol
         rms = new
         if done:
