@@ -75,6 +75,20 @@ def describe_cv(cv: int, n_samples: int) -> str:
     return f"{kind} cross-validation over {n_samples} experiments"
 
 
+def _fold_mse(fit: SIMPLSRegression, X, Y, top: int) -> np.ndarray:
+    """Mean squared error of a held-out fold's forces predicted with 1..``top``
+    components of one fit, (top,): its first ``a`` components are the a-component fit."""
+    Xt, Yt = np.asarray(X, dtype=float), np.asarray(Y, dtype=float)
+    scores = (Xt - fit.x_mean_) @ fit.x_weights_
+    pred = np.broadcast_to(fit.y_mean_, Yt.shape).copy()
+    out = np.empty(top)
+    for a in range(top):  # beyond an exhausted fit the prediction stops changing
+        if a < fit.n_components:
+            pred += np.outer(scores[:, a], fit.y_loadings_[:, a])
+        out[a] = np.mean((pred - Yt) ** 2)
+    return out
+
+
 def cross_validate_simpls(
     X, Y, *, cv: int | None = None, max_components: int = 10, seed: int | None = 0
 ) -> tuple[int, pd.DataFrame]:
@@ -119,21 +133,9 @@ def cross_validate_simpls(
     mse = np.empty((cv, top))
     for f, (train, test) in enumerate(folds.split(np.zeros(K))):
         fit = fit_at_most(SIMPLSRegression, compute_moments(X[train], Y[train]), top)
-        Xt, Yt = np.asarray(X[test], dtype=float), np.asarray(Y[test], dtype=float)
-        scores = (Xt - fit.x_mean_) @ fit.x_weights_
-        pred = np.broadcast_to(fit.y_mean_, Yt.shape).copy()
-        for a in range(top):  # beyond an exhausted fit the prediction stops changing
-            if a < fit.n_components:
-                pred += np.outer(scores[:, a], fit.y_loadings_[:, a])
-            mse[f, a] = np.mean((pred - Yt) ** 2)
-    table = pd.DataFrame(
-        {
-            "n_components": np.arange(1, top + 1),
-            "mse_mean": mse.mean(0),
-            "mse_std": mse.std(0, ddof=0),
-            "folds": cv,
-        }
-    )
+        mse[f] = _fold_mse(fit, X[test], Y[test], top)
+    table = pd.DataFrame({"n_components": np.arange(1, top + 1), "mse_mean": mse.mean(0),
+                          "mse_std": mse.std(0, ddof=0), "folds": cv})
     return int(table.loc[table["mse_mean"].idxmin(), "n_components"]), table
 
 
