@@ -197,7 +197,6 @@ def _measured(mesh: TyreMesh, states: Sequence[RolledState], exps: Sequence[Expe
                   increments)
 
 
-
 def _travel(e: Experiment) -> float:
     """Road travel (mm) of a rolling experiment's state."""
     assert e.motion is not None and e.motion.rolls

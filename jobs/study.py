@@ -79,6 +79,7 @@ checked (fields, mesh size, the loads it must take) when the study is loaded.
 from __future__ import annotations
 
 import os
+from collections.abc import Set as AbstractSet
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -104,7 +105,7 @@ from farm.specs import (
 from jobs.design import ModelsSpec, design, parse_models
 from jobs.errors import StudyError
 from jobs.identity import model_hash
-from jobs.nested import TreeDesign, parse_tree
+from jobs.nested import METHODS, TreeDesign, parse_tree
 from jobs.validate import limits, lists, locations, reading, scalars, spec_tables
 from jobs.validate.adaptive import AdaptiveSpec, check_loads, parse_adaptive
 from jobs.validate.messages import fail, located, shown
@@ -132,10 +133,13 @@ ROLL_PARAMETERS = tuple(name for name, _ in ROLL_KEYS.values())
 CASE_KEYS = {**MOTION_KEYS, **ROLL_KEYS}
 CASE_PARAMETERS = (*MOTION_PARAMETERS, *ROLL_PARAMETERS)
 LOAD_KEYS = {"pressure_kpa", "deflection_mm", "sample", "tree", "rise", "roll", *CASE_KEYS}
-#: [loads.roll]: the road travel of every roll (mm), the free-rolling radius and how
-#: many states along each roll are stored experiments (issue 45)
+#: [loads.roll]: the road travel of every roll (mm), the free-rolling radius, how many
+#: states along each roll are stored experiments and where rolling trees branch (issue 45)
 ROLL_DEFAULTS = {"distance_mm": 150.0, "rolling_radius_mm": "free", "states": 1,
                  "branch_from_mm": 0.0}
+#: The most states one roll may keep (a 2000 mm roll's are then 10 mm apart)
+MAX_ROLL_STATES = 200
+
 #: [loads.roll.branches]: a design of slips per trunk (issue 45/46: nested rolling trees)
 BRANCH_KEYS = {"n", "method", "seed", "slip_ratio", "slip_angle_deg"}
 
@@ -152,8 +156,6 @@ class RollBranches:
     method: str
     seed: int
     ranges: tuple[tuple[str, float, float], ...]
-#: The most states one roll may keep (a 2000 mm roll's are then 10 mm apart)
-MAX_ROLL_STATES = 200
 
 
 @dataclass(frozen=True)
@@ -327,7 +329,7 @@ def _loads(data: Any, model: ModelSpec):
         pressures = (0.0,)
     pressures = pressures or ()
     given = {name for name, _ in motions} | sampled
-    rolling = (_rolling(t.get("roll", {}), given, model)
+    rolling = (_rolling(t.get("roll", {}), given, model, sampled)
                if "roll" in t or given & set(ROLL_PARAMETERS) else None)
     _check_count(pressures, deflections, sampling, motions=motions,
                  states=rolling.states if rolling else 1,
@@ -335,7 +337,8 @@ def _loads(data: Any, model: ModelSpec):
     return pressures, deflections, sampling, motions, _rise(t, "loads"), rolling
 
 
-def _rolling(data: Any, given: set[str], model: ModelSpec) -> Rolling:
+def _rolling(data: Any, given: set[str], model: ModelSpec,
+             sampled: AbstractSet[str] = frozenset()) -> Rolling:
     """``[loads.roll]`` (optional where a slip key is given: its defaults)."""
     t = scalars.table(data, "loads.roll", {*ROLL_DEFAULTS, "branches"})
     shifts = sorted(given & {"shift_x", "shift_y"})
@@ -361,12 +364,14 @@ def _rolling(data: Any, given: set[str], model: ModelSpec) -> Rolling:
         raise fail("loads.roll.states", f"{states} states of a {distance:g} mm roll lie "
                    f"closer than {ROLL_MM[0]:g} mm: keep at most {int(distance // ROLL_MM[0])}")
     branch_from = _branch_from(t, distance)
-    branches = _branches(t["branches"], branch_from, given) if "branches" in t else None
+    branches = (_branches(t["branches"], branch_from, given, sampled) if "branches" in t
+                else None)
     return Rolling(float(distance), None if radius == "free" else float(radius), states,
                    branch_from, branches)
 
 
-def _branches(data: Any, branch_from: float, given: set[str]) -> RollBranches:
+def _branches(data: Any, branch_from: float, given: set[str],
+              sampled: AbstractSet[str]) -> RollBranches:
     """``[loads.roll.branches]``: the slips of each trunk's branches, sampled."""
     where = "loads.roll.branches"
     t = scalars.table(data, where, BRANCH_KEYS, {"n"})
@@ -375,9 +380,10 @@ def _branches(data: Any, branch_from: float, given: set[str]) -> RollBranches:
     slips = sorted(given & set(ROLL_PARAMETERS))
     if slips:
         key = next(k for k, (name, _) in ROLL_KEYS.items() if name == slips[0])
-        raise fail(f"loads.{key}", f"comes from [{where}] in a study that has it: drop one")
+        place = "loads.sample" if slips[0] in sampled else "loads"
+        raise fail(f"{place}.{key}", f"comes from [{where}] in a study that has it: drop one")
     n = scalars.integer(t["n"], f"{where}.n", low=1, high=limits.EXPERIMENTS.value())
-    method = scalars.choice(t.get("method", "lhs"), f"{where}.method", ("lhs", "sobol"))
+    method = scalars.choice(t.get("method", "lhs"), f"{where}.method", METHODS)
     seed = scalars.integer(t.get("seed", 0), f"{where}.seed", low=0, high=limits.MAX_SEED)
     ranges = []
     for key, (name, (bottom, top)) in ROLL_KEYS.items():

@@ -74,7 +74,6 @@ BRANCH_POINTS = "BRANCH"
 BRANCH_GROW_AFTER = 10
 
 
-
 @dataclass(frozen=True, eq=False)
 class RollingTrunk:
     """A solved rolling trunk: its states and the solver's state at the roll's end.

@@ -129,7 +129,9 @@ def test_branches_sample_their_own_slips_for_every_trunk(tmp_path):
 @pytest.mark.parametrize(("text", "match"), [
     (NESTED.replace("branch_from_mm = 40\n", ""), "needs \\[loads.roll\\] branch_from_mm"),
     (NESTED.replace("friction = [0.3, 1.0]", "friction = [0.3, 1.0]\nslip_ratio = [0, 0.1]"),
-     "loads.sample.slip_ratio|loads.slip_ratio"),
+     "loads.sample.slip_ratio"),
+    (NESTED.replace("[loads.sample]", "slip_angle_deg = [2]\n[loads.sample]"),
+     "loads.slip_angle_deg"),
     (NESTED.replace("slip_ratio = [-0.1, 0.1]\nslip_angle_deg = [-4, 4]\n", ""),
      "no slip_ratio or slip_angle_deg range"),
     (NESTED.replace("n = 4", "n = 0"), "loads.roll.branches.n"),
