@@ -11,7 +11,8 @@ the reductions.
 
 Matrices follow the thesis' notation: ``X`` is K experiments by N inner nodes for one
 *direction* (Ux, Uy, Uz, exx, eyy, exy, or a CST surface strain), ``Y`` is K by M tread
-forces of one component (vertical by default).
+forces of one component (vertical by default); :func:`totals` gives the six totals of
+each experiment (Fx, Fy, Fz, Mx, My, Mz).
 """
 
 from __future__ import annotations
@@ -56,6 +57,9 @@ INPUT_SETS: dict[str, tuple[str, ...]] = {
     "strain": ("exx", "eyy", "exy"),
     "surface_strain": ("cst_exx", "cst_eyy", "cst_exy"),
 }
+
+#: the six totals of an experiment, in the order of :func:`totals`
+TOTALS = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
 
 _CHUNK_BYTES = 32 * 2**20  # target size of one dask chunk along `experiment`
 
@@ -262,6 +266,16 @@ def outputs(ds: xr.Dataset, component: str = "z") -> da.Array:
         raise MissingVariableError(f"force component must be x, y or z, got {component!r}")
     arr = _variable(ds, "reaction_force").sel(component=component)
     return _as_dask(arr.transpose("experiment", "tread_node"))
+
+
+def totals(ds: xr.Dataset) -> np.ndarray:
+    """(K, 6): Fx, Fy, Fz (N) from total_force, Mx, My, Mz (N mm) from moment."""
+    for var in ("total_force", "moment"):
+        if var not in ds:
+            raise MissingVariableError(f"group {ds.attrs.get('group', '?')!r} has no {var!r}")
+    f = np.asarray(ds["total_force"].sel(component=["x", "y", "z"]).values, dtype=float)
+    m = np.asarray(ds["moment"].sel(component=["x", "y", "z"]).values, dtype=float)
+    return np.concatenate([f, m], axis=1)
 
 
 def _as_dask(arr: xr.DataArray) -> da.Array:

@@ -82,6 +82,13 @@ def grouped_split(groups: np.ndarray, test_fraction: float,
     return np.flatnonzero(~held), np.flatnonzero(held)
 
 
+def split(ds: xr.Dataset, test_fraction: float, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """Seeded random (train, test) positions of ``ds``'s experiments that hold out whole
+    load paths (:func:`grouped_split`: the states of one roll together;
+    every other experiment alone, as before): round(paths x fraction) >= 1 of them."""
+    return grouped_split(path_groups(ds), test_fraction, seed)
+
+
 def folds(groups: np.ndarray, n_folds: int, seed: int | None) -> list[tuple[np.ndarray,
                                                                             np.ndarray]]:
     """``n_folds`` (train, test) CV folds that keep each group whole: shuffled

@@ -9,7 +9,7 @@ force that varies little, or not smoothly, into every score (measured on a synth
 combined store: Fx 9-11 % of range held out that way, 0.0004 % with its own GP). Each
 kernel - a constant times an anisotropic Matern 5/2 (one length scale per parameter)
 plus a small white noise - is fitted by the marginal likelihood, unlike
-:class:`analysis.learners.GPOnScores`: a ccx run is deterministic, so there are no noisy
+:class:`analysis.camera.learners.GPOnScores`: a ccx run is deterministic, so there are no noisy
 copies of one experiment for the likelihood to mistake for independent evidence.
 
 The predictive standard deviation of each score is scaled by its leave-one-out

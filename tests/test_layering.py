@@ -24,7 +24,7 @@ ALLOWED = {
     "analysis": {"analysis", "storage"},
     "tyre_farm_cli": set(PACKAGES),
 }
-# The virtual sensor (analysis.sensor) computes T2Cam's CST strain with the very function
+# The virtual sensor (analysis.camera.sensor) computes T2Cam's CST strain with the very function
 # that defines the stored ``surface_strain``: a pure-numpy module that imports nothing of
 # the farm (checked below), so the arrow costs analysis no gmsh or solver import.
 # The road's axes of a tilted road (issue 45: forces as TYDEX reads them) are shared the
@@ -42,7 +42,8 @@ def _module(path: Path) -> str:
 def _imports(path: Path) -> set[str]:
     """First-party modules ``path`` imports (anywhere in it), resolved to module names."""
     out = set()
-    package = _module(path).rsplit(".", 0 if path.name == "__init__.py" else 1)[0]
+    # a package's __init__.py or __init__.pyi (a lazy package's stub) is its own package
+    package = _module(path).rsplit(".", 0 if path.stem == "__init__" else 1)[0]
     for node in ast.walk(ast.parse(path.read_text())):
         if isinstance(node, ast.Import):
             names = [a.name for a in node.names]

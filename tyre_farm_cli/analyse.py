@@ -338,7 +338,7 @@ def sensor(store: Store, group: Group = None, out: Out = None, pressure: Pressur
            storage_option: StorageOption = None, as_json: Json = False) -> None:
     """Identifiability vs the sensor: held-out Fx, Fy, Fz, Mz errors over window, noise and
     point spacing of a virtual T2Cam, PLSR beside a Gaussian process (issue 27)."""
-    from analysis.sensor import sensor_spec
+    from analysis.camera.sensor import sensor_spec
 
     with usage():
         spec = sensor_spec(sensor_)
@@ -365,7 +365,7 @@ def _sensor_grid(windows: str, noises: str, spacings: str
 
 
 def _learners(text: str) -> tuple[str, ...]:
-    from analysis.learners import learner
+    from analysis.camera.learners import learner
 
     names = tuple(n.strip() for n in text.split(",") if n.strip())
     for name in names:

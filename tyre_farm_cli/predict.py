@@ -62,9 +62,9 @@ def fit(
     as_json: Json = False,
 ) -> None:
     """Train a force model on a store as a virtual T2Cam sees it; save it with a manifest."""
-    from analysis import predictor
-    from analysis.learners import learner as check_learner
-    from analysis.sensor import sensor_spec
+    from analysis.camera import predictor
+    from analysis.camera.learners import learner as check_learner
+    from analysis.camera.sensor import sensor_spec
 
     with usage():
         spec = sensor_spec(sensor)
@@ -104,9 +104,9 @@ def measure(
     experiment (named by its id) and truth.csv with the true Fx, Fy, Fz, Mz."""
     import pandas as pd
 
-    from analysis.predict.clouds import write_cloud
-    from analysis.sensor import InnerSurface, VirtualSensor, sensor_spec
-    from analysis.studies.sensor import TARGETS, displacements, targets
+    from analysis.camera.features import TARGETS, displacements, targets
+    from analysis.camera.predict.clouds import write_cloud
+    from analysis.camera.sensor import InnerSurface, VirtualSensor, sensor_spec
 
     with usage():
         spec = sensor_spec(sensor)
@@ -148,8 +148,8 @@ def predict(
 
     Exit status 3 (the table printed) when a cloud lies outside what the model was
     trained on (issue 47, docs/sensor.md)."""
-    from analysis import predictor
-    from analysis.predict.clouds import read_cloud
+    from analysis.camera import predictor
+    from analysis.camera.predict.clouds import read_cloud
 
     with usage():
         if transform is not None and align:
@@ -186,8 +186,8 @@ def _registered(fitted, reference: Path, ref: np.ndarray, paths: list[Path],
     """The clouds in the model's frame: moved by ``transform``, or by ICP of the
     reference onto the model's sensor points (``align``, whose residual is returned),
     or as given."""
+    from analysis.camera.predict.registration import icp, read_transform
     from analysis.errors import CloudError
-    from analysis.predict.registration import icp, read_transform
 
     for path, cloud in zip(paths, measured, strict=True):
         if cloud.shape != ref.shape:
@@ -217,8 +217,8 @@ def mismatch(
 ) -> None:
     """Apply a model to the clouds of another store (another model of the tyre): the error
     growth beside the model's own held-out error."""
-    from analysis import predictor
-    from analysis.mismatch import mismatch as run
+    from analysis.camera import predictor
+    from analysis.camera.mismatch import mismatch as run
 
     with usage():
         integer(draws, "--draws", low=1, high=MAX_DRAWS)

@@ -40,6 +40,7 @@ from analysis.combined import (
     cross_validate,
     latent_count,
 )
+from analysis.data import TOTALS, totals
 from analysis.errors import (
     MissingVariableError,
     NoVarianceError,
@@ -47,7 +48,7 @@ from analysis.errors import (
     TooFewExperimentsError,
 )
 from analysis.render import markdown, plots
-from analysis.splits import grouped_split, path_groups
+from analysis.splits import path_groups, split
 from analysis.studies.common import Report
 
 #: load parameters of a combined-load group (docs/combined-loads.md, RoadMotion.to_dict)
@@ -69,7 +70,6 @@ SCENARIOS = {
     "1 mm, 0.04 %": (1.0, 4e-4),
     "1 mm, 0.5 %": (1.0, 5e-3),
 }
-TOTALS = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
 #: published FE-plus-learning recovery from inner-liner strains on combined loads,
 #: % of range (issue 13), and the issue's goal for noise-free displacements + strains
 ANCHORS = {"Fz": (1.8, 1.5), "Fy": (3.0, 3.0), "Fx": (4.7, 4.0)}
@@ -99,13 +99,6 @@ def check_combined(ds: xr.Dataset) -> list[str]:
             "(e.g. examples/combined_quick.toml) or use `farm analyse plsr`"
         )
     return varying
-
-
-def split(ds: xr.Dataset, test_fraction: float, seed: int) -> tuple[np.ndarray, np.ndarray]:
-    """Seeded random (train, test) positions of ``ds``'s experiments that hold out whole
-    load paths (:func:`analysis.splits.grouped_split`: the states of one roll together;
-    every other experiment alone, as before): round(paths x fraction) >= 1 of them."""
-    return grouped_split(path_groups(ds), test_fraction, seed)
 
 
 def field_matrix(ds: xr.Dataset, var: str) -> np.ndarray:
@@ -366,16 +359,6 @@ def _input_sets(ds: xr.Dataset, spec: str | None) -> list[str]:
     if not items:
         raise ParameterError("no input set given")
     return items
-
-
-def totals(ds: xr.Dataset) -> np.ndarray:
-    """(K, 6): Fx, Fy, Fz (N) from total_force, Mx, My, Mz (N mm) from moment."""
-    for var in ("total_force", "moment"):
-        if var not in ds:
-            raise MissingVariableError(f"group {ds.attrs.get('group', '?')!r} has no {var!r}")
-    f = np.asarray(ds["total_force"].sel(component=["x", "y", "z"]).values, dtype=float)
-    m = np.asarray(ds["moment"].sel(component=["x", "y", "z"]).values, dtype=float)
-    return np.concatenate([f, m], axis=1)
 
 
 def _pct(rmse: float, span: float) -> float:

@@ -1,7 +1,7 @@
 """`farm analyse sensor`: which forces the camera recovers, as a function of the sensor (issue 27).
 
 Every other analysis reads every inner-surface node exactly. This one measures the
-group's experiments with a virtual T2Cam (:mod:`analysis.sensor`): a window about the
+group's experiments with a virtual T2Cam (:mod:`analysis.camera.sensor`): a window about the
 contact patch, points on a grid of their own, noisy reference and deformed clouds,
 strain by four CSTs from the noisy clouds (thesis §2.2). Around a base sensor it varies
 one thing at a time - the window (10°-360°), the position noise, the point spacing -
@@ -11,7 +11,7 @@ and for each sensor:
 - features of the training experiments from ``draws`` noisy measurements each (what a
   model trained on measurements sees), and again noise-free (``training`` column), and
   of the held-out ones from ``draws`` noisy measurements;
-- each learner of :mod:`analysis.learners` (PLSR with the count chosen by grouped CV on
+- each learner of :mod:`analysis.camera.learners` (PLSR with the count chosen by grouped CV on
   the training part; a Gaussian process on the PLS scores) fitted on the same rows;
 - held-out RMSE of Fx, Fy, Fz and Mz as % of each total's range over all selected
   experiments, beside the published anchors (Fz 1.8, Fy 3, Fx 4.7 %) and issue 27's
@@ -27,17 +27,16 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from analysis import learners
-from analysis.errors import MissingVariableError, ParameterError, TooFewExperimentsError
+from analysis.camera import learners
+from analysis.camera.features import TARGETS, UNITS, displacements, measured_features, targets
+from analysis.camera.sensor import InnerSurface, SensorSpec, VirtualSensor
+from analysis.camera.sensor.spec import NOISE_FIELDS
+from analysis.errors import ParameterError, TooFewExperimentsError
 from analysis.render import markdown, plots
-from analysis.sensor import InnerSurface, SensorSpec, VirtualSensor
-from analysis.sensor.spec import NOISE_FIELDS
-from analysis.splits import edge_split, path_groups
-from analysis.studies.combined import TOTALS, check_combined, split, totals
+from analysis.splits import edge_split, path_groups, split
+from analysis.studies.combined import check_combined
 from analysis.studies.common import Report
 
-TARGETS = ("Fx", "Fy", "Fz", "Mz")
-UNITS = {"Fx": "N", "Fy": "N", "Fz": "N", "Mz": "N mm"}
 #: published recovery from inner-liner strains (% of range) and issue 27's goals
 ANCHORS = {"Fz": 1.8, "Fy": 3.0, "Fx": 4.7, "Mz": float("nan")}
 GOALS = {"Fz": 1.5, "Fy": 2.5, "Fx": 4.0, "Mz": 5.0}
@@ -60,19 +59,6 @@ class Setup:
     max_components: int
     seed: int
     groups: np.ndarray  # (K,) load path of each experiment (analysis.splits.path_groups)
-
-
-def targets(ds: xr.Dataset) -> np.ndarray:
-    """(K, 4): Fx, Fy, Fz (N) from ``total_force``, Mz (N mm) from ``moment``."""
-    if "displacement" not in ds:
-        raise MissingVariableError(f"group {ds.attrs.get('group', '?')!r} has no 'displacement'")
-    return totals(ds)[:, [TOTALS.index(name) for name in ("Fx", "Fy", "Fz", "Mz")]]
-
-
-def displacements(ds: xr.Dataset) -> np.ndarray:
-    """(K, N, 3) inner-surface displacements in the store's node order."""
-    arr = ds["displacement"].transpose("experiment", "inner_node", "component")
-    return np.asarray(arr.sel(component=["x", "y", "z"]).values, dtype=float)
 
 
 def variants(base: SensorSpec, windows=WINDOWS, noises=NOISES,
@@ -226,21 +212,6 @@ def spread_table(errors: pd.DataFrame) -> pd.DataFrame:
     learners_ = sorted({lrn for _, lrn in cells})
     return pd.DataFrame([{"target": t, **{lrn: cells.get((t, lrn), "") for lrn in learners_}}
                          for t in TARGETS if any((t, lrn) in cells for lrn in learners_)])
-
-
-def measured_features(virtual: VirtualSensor, clean: np.ndarray, draws: int,
-                      rng: np.random.Generator, inputs=INPUTS) -> tuple[np.ndarray, list[int]]:
-    """Features of ``draws`` noisy measurements of each experiment, stacked draw by draw,
-    from the point displacements ``clean`` (K, pr, pc, 3) of :meth:`VirtualSensor.clean`;
-    0 draws, or a noise-free sensor: the noise-free measurement once.
-
-    Returns ``(X, blocks)``: X of shape (K x draws, n_features), the column count of each
-    input.
-    """
-    if draws == 0 or not virtual.spec.noisy:
-        return virtual.features(*virtual.measure(clean, None), inputs)
-    parts = [virtual.features(*virtual.measure(clean, rng), inputs) for _ in range(draws)]
-    return np.concatenate([p[0] for p in parts]), parts[0][1]
 
 
 def _pct(rmse: float, span: float) -> float:

@@ -5,7 +5,7 @@ k-fold cross-validation of :class:`analysis.surrogate.FieldSurrogate` on a group
 experiments: per target, the held-out RMSE in % of its range and the share of held-out
 errors within two predicted standard deviations (about 95 % for an honest Gaussian).
 Then the surrogate is refitted on every experiment and saved (``<out>/surrogate``, a
-model directory :func:`analysis.predict.persist.load_model` reads).
+model directory :func:`analysis.camera.predict.persist.load_model` reads).
 """
 
 from __future__ import annotations
@@ -17,8 +17,8 @@ import pandas as pd
 import xarray as xr
 from sklearn.model_selection import KFold
 
+from analysis.camera.predict.persist import save_model
 from analysis.errors import MissingVariableError, NoVarianceError, TooFewExperimentsError
-from analysis.predict.persist import save_model
 from analysis.render import markdown
 from analysis.studies.combined import TOTALS, field_matrix, totals, varying_parameters
 from analysis.studies.common import Report
@@ -104,5 +104,5 @@ def _summary(report: Report, params, n: int, folds: int, n_components: int,
          "row is a total that does not vary beyond floating-point round-off."),
         ("Held-out errors", report.tables["cv_errors"]),
         ("Model", "The surrogate fitted on every experiment is in `surrogate/` (read it with "
-         "`analysis.predict.persist.load_model`)."),
+         "`analysis.camera.predict.persist.load_model`)."),
     ]))

@@ -8,8 +8,8 @@ import pytest
 from sklearn.base import clone
 from sklearn.exceptions import NotFittedError
 
+from analysis.camera.predict.persist import load_model, save_model
 from analysis.errors import ParameterError
-from analysis.predict.persist import load_model, save_model
 from analysis.surrogate import FieldSurrogate
 
 NODES = np.linspace(0.0, 1.0, 60)

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from analysis import data
+from analysis.camera.predict.persist import load_model
 from analysis.errors import MissingVariableError, TooFewExperimentsError
-from analysis.predict.persist import load_model
 from analysis.studies import surrogate
 from analysis.studies.combined import TOTALS, varying_parameters
 from tests.synthetic import make_combined_store

@@ -157,7 +157,7 @@ def test_measure_then_predict_recovers_the_forces_within_the_intervals(stores, m
 
 def test_predict_registers_a_moved_camera_by_icp(stores, model, tmp_path):
     """The same clouds seen from a camera moved by 2° and 3 mm: --align undoes it."""
-    from analysis.predict.clouds import read_cloud, write_cloud
+    from analysis.camera.predict.clouds import read_cloud, write_cloud
 
     path, _ = model
     clouds = tmp_path / "clouds"
@@ -299,8 +299,8 @@ def test_a_model_file_of_trusted_types_but_the_wrong_structure_is_one_line(
     import numpy as np
     from sklearn.linear_model import LinearRegression
 
-    from analysis.predict.intervals import ConformalIntervals
-    from analysis.predict.persist import load_model, save_model
+    from analysis.camera.predict.intervals import ConformalIntervals
+    from analysis.camera.predict.persist import load_model, save_model
 
     fitted, manifest = load_model(model[0])
     good = {"learner": fitted["learner"], "intervals": fitted["intervals"],
@@ -362,12 +362,35 @@ def test_fit_replaces_an_earlier_model_in_its_folder(model, stores, tmp_path):
                                                                   "model.skops"]
 
 
+def test_a_force_model_saved_before_the_camera_moved_predicts_the_same(model, measured,
+                                                                      tmp_path):
+    """Issue 49 moved the learners and the intervals into analysis/camera/: a model file
+    saved before names them by their old modules (analysis.learners, analysis.predict),
+    and farm predict reads it, to the same numbers."""
+    import shutil
+
+    from tests.analysis.camera.predict.legacy_files import saved_before_the_move
+
+    path, _ = model
+    old = saved_before_the_move(shutil.copytree(path, tmp_path / "old"))
+    assert b"analysis.learners" in (old / "model.skops").read_bytes()
+    _, _, folder, names = measured
+    files = [folder / "reference.csv", *[folder / f"{n}.csv" for n in names]]
+    outs = []
+    for m in (path, old):
+        code, out, err = _cli(["predict", m, *files, "--json"])
+        assert code in (0, None), err
+        outs.append(json.loads(out))
+    assert outs[1]["predictions"] == outs[0]["predictions"]
+    assert outs[1]["alpha"] == outs[0]["alpha"]
+
+
 # --- clouds that are not this tyre (issue 47) ---------------------------------------------
 
 @pytest.fixture(scope="module")
 def measured(stores, tmp_path_factory):
     """Four genuine clouds of group a, their reference, and the paths."""
-    from analysis.predict.clouds import read_cloud
+    from analysis.camera.predict.clouds import read_cloud
 
     folder = tmp_path_factory.mktemp("measured")
     code, _, err = _cli(["measure", stores / "a.zarr", "--out", folder, "--sensor", SENSOR,
@@ -379,7 +402,7 @@ def measured(stores, tmp_path_factory):
 
 
 def _write(tmp_path, ref, clouds):
-    from analysis.predict.clouds import write_cloud
+    from analysis.camera.predict.clouds import write_cloud
 
     write_cloud(tmp_path / "ref.csv", ref)
     paths = []

@@ -1,0 +1,72 @@
+"""Model mismatch, the farm's proxy for "will it work on the real tyre?" (issue 27).
+
+A force model trained on one tyre model (store, group: mesh, materials, preset) is
+applied to point clouds that a virtual T2Cam measured on *another* one. The clouds go
+through the very path ``farm predict`` takes for measured files: each cloud and its
+reference cloud (both noisy, on the other model's sensor points) are resampled onto the
+trained model's sensor points over the trained model's reference surface
+(:func:`analysis.camera.sensor.resample.to_layout`), then featurised and predicted. The error
+on the other model's experiments, beside the trained model's own held-out error, is the
+growth a mismatch of model and reality would cause (as far as the other model differs
+the way reality does).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import xarray as xr
+
+from analysis.camera.features import displacements, targets
+from analysis.camera.predictor import ForceModel
+from analysis.camera.sensor import InnerSurface, VirtualSensor
+
+
+def mismatch(model: ForceModel, ds: xr.Dataset, *, draws: int = 1,
+             seed: int = 0) -> tuple[pd.DataFrame, np.ndarray, np.ndarray]:
+    """Predict every experiment of ``ds`` from ``draws`` clouds each; errors per target.
+
+    Returns
+    -------
+    table : pandas.DataFrame
+        Per target: RMSE and % of the training group's range (``model.info["range"]``),
+        mean error (bias), interval coverage, and the trained model's own held-out %
+        (``model.info["check"]`` when saved with it) and the ratio of the two; ``outside``
+        the share of the clouds the model's feature domain flags (NaN for a model saved
+        before issue 47), whatever the target.
+    truth, predicted : ndarray of shape (K x draws, 4)
+    """
+    other = VirtualSensor(model.sensor, InnerSurface.from_dataset(ds))
+    clean = other.clean(displacements(ds))
+    Y = targets(ds)
+    rng = np.random.default_rng(seed)
+    noisy = model.sensor.noisy
+    rows, truth = [], []
+    for _ in range(draws if noisy else 1):
+        refs, clouds = other.measure(clean, rng if noisy else None)
+        for k in range(clean.shape[0]):
+            rows.append(model.features(refs[k].reshape(-1, 3), clouds[k].reshape(-1, 3)))
+            truth.append(Y[k])
+    X = np.concatenate(rows)
+    P = model.predict_features(X)
+    T = np.asarray(truth)
+    # the share of these clouds the model's domain (issue 47) would flag in farm predict
+    flagged = (float(np.mean([bool(w) for w in model.domain.outside(X)]))
+               if model.domain is not None else float("nan"))
+    # % of the *training* group's range, so the growth compares like with like (a
+    # small other group has a range of its own); its own range where the model has none
+    span = np.asarray(model.info.get("range", np.ptp(Y, axis=0)), dtype=float)
+    own = {r["target"]: r["rmse_pct_range"] for r in model.info.get("check", [])}
+    out = []
+    for j, name in enumerate(model.targets):
+        err = P[name].to_numpy() - T[:, j]
+        rmse = float(np.sqrt(np.mean(err**2)))
+        pct = 100.0 * rmse / span[j] if span[j] > 0 else float("nan")
+        inside = (P[f"{name}_lower"] <= T[:, j]) & (T[:, j] <= P[f"{name}_upper"])
+        mine = own.get(name, float("nan"))
+        out.append({"target": name, "rmse": rmse, "rmse_pct_range": pct,
+                    "bias": float(err.mean()), "coverage": float(np.mean(inside)),
+                    "trained_heldout_pct_range": mine,
+                    "growth": pct / mine if mine and np.isfinite(mine) else float("nan"),
+                    "outside": flagged})
+    return pd.DataFrame(out), T, P[list(model.targets)].to_numpy()

@@ -1,0 +1,227 @@
+"""A force model for measured point clouds: train on a store, predict with intervals (issue 27).
+
+:func:`fit` trains one learner of :mod:`analysis.camera.learners` on a group of a store, as a
+virtual T2Cam (:mod:`analysis.camera.sensor`) measures it: the training experiments'
+features from ``draws`` noisy measurements each (a model applied to measurements must
+be trained on measurements). Its prediction intervals are split-conformal
+(:class:`analysis.camera.predict.intervals.ConformalIntervals`) on out-of-fold residuals of
+the training experiments (grouped k-fold: the draws of one experiment are never on both
+sides), and are then *checked* on held-out experiments the model and the intervals never
+saw: the fraction of held-out totals inside their nominal interval is reported beside
+the nominal level.
+
+:class:`ForceModel` is what ``farm fit`` saves and ``farm predict`` loads: the learner,
+the intervals, the sensor and the reference inner surface it was trained on (to put a
+measured cloud on the sensor's points).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+import xarray as xr
+from sklearn.base import clone
+from sklearn.model_selection import GroupKFold
+
+import analysis.camera.learners as learners
+from analysis.camera.features import TARGETS, UNITS, displacements, measured_features, targets
+from analysis.camera.predict.domain import FeatureDomain, reference_checks
+from analysis.camera.predict.intervals import ConformalIntervals
+from analysis.camera.sensor import InnerSurface, SensorSpec, VirtualSensor
+from analysis.camera.sensor.resample import to_layout
+from analysis.errors import ModelFileError, ParameterError, TooFewExperimentsError
+from analysis.splits import path_groups, split
+
+INPUTS = ("displacement", "surface_strain")
+
+
+@dataclass
+class ForceModel:
+    """A trained learner with its sensor, reference surface and intervals."""
+
+    sensor: SensorSpec
+    surface: InnerSurface
+    learner: object
+    intervals: ConformalIntervals
+    inputs: tuple[str, ...] = INPUTS
+    targets: tuple[str, ...] = TARGETS
+    info: dict = field(default_factory=dict)
+    # the training clouds' domain (issue 47); None for a model saved before it
+    domain: FeatureDomain | None = None
+
+    def __post_init__(self) -> None:
+        # built once: its layout's interpolation matrix (and a correlated-noise factor)
+        # would otherwise be rebuilt for every cloud predicted
+        self.virtual = VirtualSensor(self.sensor, self.surface)
+
+    def features(self, ref_points: np.ndarray, points: np.ndarray) -> np.ndarray:
+        """Features (1, F) of one measured cloud against its reference cloud, both (M, 3)
+        in the model's frame (registered), resampled on the sensor's points."""
+        virtual = self.virtual
+        seen = np.isfinite(ref_points).all(axis=1) & np.isfinite(points).all(axis=1)
+        ref, cloud = to_layout(self.surface, virtual.layout, ref_points[seen], points[seen])
+        X, _ = virtual.features(ref[None], cloud[None], self.inputs)
+        return X
+
+    def predict_clouds(self, ref_points: np.ndarray, clouds: list[np.ndarray]) -> pd.DataFrame:
+        """One row per cloud: each target, with the lower and upper interval bounds, and
+        ``domain``: ``inside``, ``outside: <the measure over its limit>`` (its intervals
+        are then unbounded: the model does not know), or ``not checked`` (a model saved
+        before issue 47).
+
+        Raises :class:`~analysis.errors.CloudError` when the reference cloud is not this
+        tyre in the model's frame (:func:`analysis.camera.predict.domain.reference_checks`).
+        """
+        seen = np.isfinite(ref_points).all(axis=1)
+        reference_checks(self.surface, self.virtual.layout, ref_points[seen])
+        X = np.concatenate([self.features(ref_points, c) for c in clouds])
+        with np.errstate(over="ignore", invalid="ignore"):
+            table = self.predict_features(X)
+        if self.domain is None:
+            return table.assign(domain="not checked")
+        why = self.domain.outside(X)
+        out = np.array([bool(w) for w in why])
+        for name in self.targets:
+            table.loc[out, f"{name}_lower"], table.loc[out, f"{name}_upper"] = -np.inf, np.inf
+        return table.assign(domain=["outside: " + w if w else "inside" for w in why])
+
+    def predict_features(self, X: np.ndarray) -> pd.DataFrame:
+        P = np.asarray(self.learner.predict(X)).reshape(X.shape[0], -1)  # type: ignore[attr-defined]
+        lower, upper = self.intervals.interval(P)
+        frame = {}
+        for j, name in enumerate(self.targets):
+            frame[name] = P[:, j]
+            frame[f"{name}_lower"] = lower[:, j]
+            frame[f"{name}_upper"] = upper[:, j]
+        return pd.DataFrame(frame)
+
+
+def fit(ds: xr.Dataset, sensor: SensorSpec, *, learner: str = "plsr", draws: int = 3,
+        alpha: float = 0.1, test_fraction: float = 0.25, folds: int = 5,
+        max_components: int = 10, seed: int = 0,
+        inputs=INPUTS) -> tuple[ForceModel, pd.DataFrame]:
+    """Train on the training part of ``ds``, calibrate intervals, check them held out.
+
+    Returns
+    -------
+    model : ForceModel
+    check : pandas.DataFrame
+        Per target: held-out RMSE (and % of range), the interval half-width, nominal and
+        held-out coverage.
+    """
+    if not 0.0 < alpha < 1.0:
+        raise ParameterError(f"alpha must be in (0, 1), got {alpha}")
+    Y = targets(ds)
+    K = Y.shape[0]
+    if 2 * folds > K:
+        raise TooFewExperimentsError(f"fitting a force model needs at least {2 * folds} "
+                                     f"done experiments ({folds} CV folds), the selection "
+                                     f"has {K}")
+    if round(K * test_fraction) < 1:
+        raise ParameterError(f"test fraction {test_fraction:g} holds out none of the {K} "
+                             f"experiments, and the model's check needs one: give at "
+                             f"least {1 / K:.3g}")
+    surface = InnerSurface.from_dataset(ds)
+    virtual = VirtualSensor(sensor, surface)
+    train, test = split(ds, test_fraction, seed)  # whole rolls (issue 45)
+    U = displacements(ds)
+    rng = np.random.default_rng(seed)
+    Xf, blocks = measured_features(virtual, virtual.clean(U[train]), draws, rng, inputs)
+    reps = Xf.shape[0] // train.size
+    # a fold keeps an experiment's noisy draws, and a roll's states, together
+    Yf, groups = np.tile(Y[train], (reps, 1)), np.tile(path_groups(ds)[train], reps)
+    estimator = learners.learner(learner, max_components=max_components, folds=folds,
+                                 x_blocks=blocks, y_blocks=[1] * len(TARGETS), seed=seed)
+    residuals = _out_of_fold(estimator, Xf, Yf, groups, folds)
+    intervals = ConformalIntervals(alpha=alpha).fit(residuals)
+    estimator.fit(Xf, Yf, groups)
+    Xt, _ = measured_features(virtual, virtual.clean(U[test]), draws, rng, inputs)
+    Yt = np.tile(Y[test], (Xt.shape[0] // test.size, 1))
+    model = ForceModel(sensor, surface, estimator, intervals, tuple(inputs),
+                       info={"train": train.tolist(), "test": test.tolist(),
+                             "learner": learner, "draws": draws, "seed": seed,
+                             "range": np.ptp(Y, axis=0).tolist()},
+                       domain=FeatureDomain().fit(Xf, Xt))
+    return model, _check(model, Xt, Yt, np.ptp(Y, axis=0), alpha)
+
+
+def _out_of_fold(estimator, X, Y, groups, folds: int) -> np.ndarray:
+    """Residuals (truth - prediction) of every row, each predicted by a model that never
+    saw its experiment."""
+    res = np.empty_like(Y)
+    for train, test in GroupKFold(folds).split(X, groups=groups):
+        model = clone(estimator).fit(X[train], Y[train], groups[train])
+        res[test] = Y[test] - model.predict(X[test])
+    return res
+
+
+def _check(model: ForceModel, Xt, Yt, span, alpha: float) -> pd.DataFrame:
+    P = model.predict_features(Xt)
+    rows = []
+    for j, name in enumerate(model.targets):
+        pred = P[name].to_numpy()
+        inside = (P[f"{name}_lower"] <= Yt[:, j]) & (Yt[:, j] <= P[f"{name}_upper"])
+        rmse = float(np.sqrt(np.mean((pred - Yt[:, j]) ** 2)))
+        rows.append({"target": name, "unit": UNITS[name], "rmse": rmse,
+                     "rmse_pct_range": 100.0 * rmse / span[j] if span[j] > 0 else np.nan,
+                     "half_width": float(model.intervals.quantile_[j]),
+                     "nominal_coverage": 1.0 - alpha,
+                     "heldout_coverage": float(np.mean(inside)), "heldout_rows": len(pred)})
+    return pd.DataFrame(rows)
+
+
+def save(model: ForceModel, path, *, store: str, group: str, ids: list[str],
+         check: pd.DataFrame) -> object:
+    """Write ``model`` with its manifest (:func:`analysis.camera.predict.persist.save_model`).
+
+    The learner, the intervals and the reference surface's arrays go into the skops file
+    (plain arrays and the farm's own estimators: nothing a safe loader must trust
+    blindly); the sensor, inputs, targets, training ids and the held-out check into the
+    manifest.
+    """
+    from analysis.camera.predict.persist import save_model
+
+    s = model.surface
+    payload = {"learner": model.learner, "intervals": model.intervals,
+               "surface": {"xyz": s.xyz, "theta": s.theta, "s": s.s,
+                           "node_index": s.node_index, "periodic": bool(s.periodic)}}
+    if model.domain is not None:
+        payload["domain"] = model.domain.to_dict()
+    manifest = {"store": store, "group": group, "experiment_ids": list(ids),
+                "sensor": model.sensor.to_dict(), "inputs": list(model.inputs),
+                "targets": list(model.targets),
+                "extra": {"info": model.info, "check": check.to_dict("records")}}
+    return save_model(path, payload, manifest)
+
+
+def load(path) -> tuple[ForceModel, dict]:
+    """Read a model written by :func:`save`: checksum and types verified on the way, then
+    the manifest and the payload checked as a whole (:mod:`analysis.camera.predict.validate`)
+    before any part is used; a refusal is one :class:`ModelFileError` line."""
+    from analysis.camera.predict import validate as v
+    from analysis.camera.predict.persist import load_model
+
+    payload, manifest = load_model(path)
+    where = f"model {path}"
+    targets_ = v.names(manifest, "targets", TARGETS, where)
+    inputs = v.names(manifest, "inputs", INPUTS, where)
+    sensor = v.built(SensorSpec.from_dict, v.sensor_dict(manifest, where), "sensor", where)
+    learner, intervals, s = v.payload_parts(payload, len(targets_), where)
+    surface = v.built(lambda s: InnerSurface(
+        xyz=np.asarray(s["xyz"], dtype=float), theta=np.asarray(s["theta"], dtype=float),
+        s=np.asarray(s["s"], dtype=float), periodic=bool(s["periodic"]),
+        node_index=np.asarray(s["node_index"])), s, "reference surface", where)
+    extra = manifest.get("extra") or {}
+    info = {**(extra.get("info") or {}), "check": extra.get("check") or []}
+    domain = payload.get("domain")
+    if domain is not None:
+        domain = v.built(FeatureDomain.from_dict, domain, "feature domain", where)
+    model = ForceModel(sensor, surface, learner, intervals, inputs, targets_, info, domain)
+    features = 3 * model.virtual.layout.n_points * len(inputs)
+    if domain is not None and domain.mean_.size != features:
+        raise ModelFileError(f"{where}: its feature domain has {domain.mean_.size} features, "
+                             f"its sensor and inputs give {features}; save the model again "
+                             "with farm fit")
+    return model, manifest

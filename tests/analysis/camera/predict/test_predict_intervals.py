@@ -1,0 +1,90 @@
+"""analysis.camera.predict.intervals: split-conformal intervals, the finite-sample rule,
+coverage."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from sklearn.base import clone
+from sklearn.exceptions import NotFittedError
+
+from analysis.camera.predict.intervals import ConformalIntervals, conformal_rank
+from analysis.errors import NonFiniteError, ParameterError
+
+
+def test_the_quantile_is_the_k_th_smallest_absolute_residual():
+    # |residuals| 1..200 in shuffled order, signs mixed: k = ceil(201 * 0.9) = 181
+    rng = np.random.default_rng(0)
+    r = rng.permutation(np.arange(1.0, 201.0)) * rng.choice([-1.0, 1.0], 200)
+    ci = ConformalIntervals(alpha=0.1).fit(np.c_[r, 2 * r])
+    assert conformal_rank(200, 0.1) == 181
+    np.testing.assert_array_equal(ci.quantile_, [181.0, 362.0])
+    assert ci.n_calibration_ == 200 and ci.n_targets_ == 2
+
+
+@pytest.mark.parametrize("n,alpha,k", [(9, 0.1, 9), (19, 0.05, 19), (99, 0.1, 90),
+                                       (10, 0.5, 6), (4, 0.2, 4)])
+def test_conformal_rank_is_exact_at_integer_products(n, alpha, k):
+    assert conformal_rank(n, alpha) == k
+
+
+def test_too_few_residuals_give_infinite_intervals():
+    r = np.arange(1.0, 9.0)  # n = 8 < (1 - 0.1) / 0.1 = 9
+    ci = ConformalIntervals(alpha=0.1).fit(r)
+    assert np.isinf(ci.quantile_).all()
+    lower, upper = ci.interval(np.zeros(3))
+    assert np.all(lower == -np.inf) and np.all(upper == np.inf)
+    # one more residual makes it finite: the largest one
+    assert ConformalIntervals(alpha=0.1).fit(np.arange(1.0, 10.0)).quantile_[0] == 9.0
+
+
+def test_coverage_on_fresh_data_is_near_the_nominal_level():
+    rng = np.random.default_rng(42)
+    sigma = np.array([1.0, 5.0, 0.01])  # units of Fx, Fz, Mz differ: per-target widths
+    covered = []
+    for _ in range(100):
+        ci = ConformalIntervals(alpha=0.1).fit(rng.normal(size=(200, 3)) * sigma)
+        truth = rng.normal(size=(500, 3)) * sigma
+        covered.append(ci.coverage(truth, np.zeros_like(truth)))
+    mean = np.mean(covered, axis=0)
+    assert mean.shape == (3,)
+    assert np.all((mean > 0.85) & (mean < 0.95))
+    # the expected coverage is k / (n + 1) = 181 / 201 = 0.9005
+    np.testing.assert_allclose(mean, 181 / 201, atol=0.01)
+
+
+def test_interval_and_coverage_shapes():
+    ci = ConformalIntervals(alpha=0.2).fit(np.ones((20, 2)))
+    pred = np.array([[0.0, 10.0], [1.0, 11.0], [2.0, 12.0]])
+    lower, upper = ci.interval(pred)
+    np.testing.assert_array_equal(lower, pred - 1.0)
+    np.testing.assert_array_equal(upper, pred + 1.0)
+    truth = pred + np.array([[0.5, 0.0], [2.0, -1.0], [-1.0, 3.0]])
+    np.testing.assert_array_equal(ci.coverage(truth, pred), [2 / 3, 2 / 3])
+
+
+def test_sklearn_conventions():
+    ci = ConformalIntervals(alpha=0.05)
+    assert ci.get_params() == {"alpha": 0.05}
+    assert clone(ci).alpha == 0.05
+    with pytest.raises(NotFittedError):
+        ci.interval(np.zeros((2, 1)))
+    assert ci.fit(np.ones((30, 1))) is ci
+
+
+@pytest.mark.parametrize("alpha", [0.0, 1.0, -0.1, 2, "0.1", None])
+def test_alpha_out_of_range(alpha):
+    with pytest.raises(ParameterError, match="alpha"):
+        ConformalIntervals(alpha=alpha).fit(np.ones((30, 1)))
+
+
+def test_bad_residuals_and_predictions():
+    with pytest.raises(NonFiniteError):
+        ConformalIntervals().fit([[1.0], [np.nan]])
+    with pytest.raises(ParameterError, match="n_cal"):
+        ConformalIntervals().fit(np.zeros((0, 2)))
+    ci = ConformalIntervals().fit(np.ones((30, 2)))
+    with pytest.raises(ParameterError, match=r"\(K, 2\)"):
+        ci.interval(np.zeros((4, 3)))
+    with pytest.raises(ParameterError, match="same shape"):
+        ci.coverage(np.zeros((4, 2)), np.zeros((5, 2)))
