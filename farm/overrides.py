@@ -4,7 +4,8 @@ The one merge behind a study's ``[model]`` table (:mod:`jobs.validate.spec_table
 ``farm run --set`` (:mod:`tyre_farm_cli.params`) and the rows of a model-space design
 (:mod:`jobs.design`): the overrides go onto the preset's
 :meth:`~farm.specs.ModelSpec.editable_dict` key by key, nested tables merged, and
-:meth:`~farm.specs.ModelSpec.from_dict` checks the result. The keys and kinds a
+:meth:`~farm.specs.ModelSpec.from_dict` checks the result (and
+:meth:`~farm.specs.ModelSpec.check_mesh_nodes` its size). The keys and kinds a
 ``[model]`` table takes are read off :class:`~farm.specs.ModelSpec` and
 :data:`~farm.specs.ModelKind`, so a field is accepted the day it is added. Errors are one
 :class:`SpecError` line naming the key path::
@@ -77,12 +78,16 @@ def model(data: Any, where: str = "model") -> ModelSpec:
 def override_model(base: ModelSpec, overrides: dict[str, Any], where: str = "model"
                    ) -> ModelSpec:
     """``base`` with ``overrides``: nested tables merged key by key, unknown keys named;
-    an optional part ``base`` lacks (:data:`OPTIONAL_PARTS`) merged onto its defaults."""
+    an optional part ``base`` lacks (:data:`OPTIONAL_PARTS`) merged onto its defaults.
+    The result is a mesh of at most :data:`farm.specs.model.MESH_NODES` nodes
+    (:meth:`~farm.specs.ModelSpec.check_mesh_nodes`)."""
     editable = base.editable_dict()
     for name, part in OPTIONAL_PARTS.items():
         if isinstance(overrides, dict) and name in overrides and editable.get(name) is None:
             editable[name] = dataclasses.asdict(part())
-    return ModelSpec.from_dict(merge(editable, overrides, where))
+    spec = ModelSpec.from_dict(merge(editable, overrides, where))
+    spec.check_mesh_nodes(where)
+    return spec
 
 
 def merge(base: dict, override: dict, where: str) -> dict:

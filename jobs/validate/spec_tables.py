@@ -1,9 +1,9 @@
 """The study tables that become farm specs: ``[model]`` and ``[solver]``.
 
-A ``[model]`` table is a preset with overrides, merged by :mod:`farm.overrides` (the
-rule ``farm run --set`` follows too); here its errors become the study's
-:class:`~jobs.errors.StudyError` and its mesh is held to the practical limit
-:data:`~jobs.validate.limits.MESH_NODES`. A ``[solver]`` table is ccx's
+A ``[model]`` table is a preset with overrides, merged and checked by
+:mod:`farm.overrides` (the rule ``farm run --set`` follows too), its mesh held to
+:data:`farm.specs.model.MESH_NODES` there; here its errors become the study's
+:class:`~jobs.errors.StudyError`. A ``[solver]`` table is ccx's
 :class:`~farm.specs.SolverSettings` plus how a sweep splits and retries load paths.
 """
 
@@ -16,7 +16,6 @@ from farm import overrides
 from farm.errors import SpecError
 from farm.specs import TIMEOUT_S, ModelSpec, SolverSettings
 from jobs.errors import StudyError
-from jobs.validate.limits import MESH_NODES
 from jobs.validate.scalars import boolean, integer, number, table
 
 SOLVER_KEYS = {"timeout_s", "threads", "initial_increment", "min_increment", "max_increment",
@@ -26,32 +25,21 @@ SOLVER_KEYS = {"timeout_s", "threads", "initial_increment", "min_increment", "ma
 
 def model(data: Any, where: str = "model") -> ModelSpec:
     """A ``[model]`` table -> :class:`ModelSpec` (:func:`farm.overrides.model`), a mesh of
-    at most :data:`MESH_NODES` nodes."""
+    at most :data:`farm.specs.model.MESH_NODES` nodes."""
     try:
-        spec = overrides.model(data, where)
+        return overrides.model(data, where)
     except SpecError as e:  # its messages name the key (model.mesh.tread ...)
         raise StudyError(str(e)) from e
-    return _within_limit(spec, where)
 
 
 def override_model(base: ModelSpec, changes: dict[str, Any], where: str = "model"
                    ) -> ModelSpec:
     """``base`` with ``changes`` (:func:`farm.overrides.override_model`), a mesh of at most
-    :data:`MESH_NODES` nodes."""
+    :data:`farm.specs.model.MESH_NODES` nodes."""
     try:
-        spec = overrides.override_model(base, changes, where)
+        return overrides.override_model(base, changes, where)
     except SpecError as e:
         raise StudyError(str(e)) from e
-    return _within_limit(spec, where)
-
-
-def _within_limit(spec: ModelSpec, where: str) -> ModelSpec:
-    m = spec.mesh
-    MESH_NODES.check(spec.node_estimate, f"{where}.mesh",
-                     f"{m.meridional} x {m.circumferential} elements (tread={m.tread}, "
-                     f"sidewall={m.sidewall}, bead={m.bead}, circumferential="
-                     f"{m.circumferential})")
-    return spec
 
 
 @dataclass(frozen=True)

@@ -31,3 +31,20 @@ def test_overrides_of_a_design_row_merge_into_nested_tables():
     assert spec.reinforcement.carcass == base.reinforcement.carcass
     with pytest.raises(SpecError, match=r"^models\.reinforcement\.belt\.ply: unknown key"):
         overrides.override_model(base, {"reinforcement": {"belt": {"ply": 3}}}, "models")
+
+
+def test_a_merged_model_is_held_to_the_mesh_node_limit_in_farm(monkeypatch):
+    """Issue 49: the model's limit is checked below jobs, where the table becomes a model;
+    a model built directly (a store's, a convergence level) is not held to it."""
+    base = default_model("reduced")
+    huge = {"mesh": {"circumferential": 1_000_000}}
+    with pytest.raises(SpecError, match=r"^models\.mesh: .* mesh nodes, above the limit of "
+                                        r"200000 \(set FARM_MAX_MESH_NODES"):
+        overrides.override_model(base, huge, "models")
+    assert dataclasses.replace(base, mesh=dataclasses.replace(
+        base.mesh, circumferential=1_000_000)).node_estimate > 200_000
+    monkeypatch.setenv("FARM_MAX_MESH_NODES", "nine")
+    with pytest.raises(SpecError, match=r"^FARM_MAX_MESH_NODES must be a whole number"):
+        overrides.override_model(base, {}, "models")
+    monkeypatch.setenv("FARM_MAX_MESH_NODES", str(10 ** 8))
+    assert overrides.override_model(base, huge).mesh.circumferential == 1_000_000

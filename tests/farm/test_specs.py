@@ -121,3 +121,18 @@ def test_a_contact_laws_own_stick_slope_is_in_its_id_only_when_set():
     assert ModelSpec.from_dict(plain.to_dict()) == plain
     assert stick_slope(own.contact) == 1.0
     assert stick_slope(plain.contact) == pytest.approx(4.605, abs=1e-3)  # ln(100) p0 / c0
+
+
+def test_every_family_name_is_imported_from_farm_specs():
+    """Issue 49: farm/specs/ is one module per family; ``from farm.specs import X`` keeps
+    working for every public class and bound a family module defines."""
+    import farm.specs
+    from farm.specs import bounds, loads, model, serial, solver
+
+    for module in (bounds, loads, model, serial, solver):
+        own = {n for n, v in vars(module).items() if not n.startswith("_")
+               and ((n.isupper() and n != "TYPE_CHECKING")
+                    or getattr(v, "__module__", None) == module.__name__)}
+        own -= {"Limit", "spec_from_dict", "within"}  # the families' helpers
+        assert own <= set(farm.specs.__all__), (module.__name__, own - set(farm.specs.__all__))
+    assert all(hasattr(farm.specs, n) for n in farm.specs.__all__)
