@@ -7,6 +7,7 @@ deflection.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import time
 from collections.abc import Callable
@@ -23,8 +24,15 @@ from farm.measure.patch import PatchMetrics, inflation_growth, patch_metrics, tr
 from farm.mesh import TyreMesh, mesh_for
 from farm.solve.contact import solve_contact_path
 from farm.solve.iterative import solve_iterative_path
+from farm.solve.rolling import (
+    RadiusTry,
+    RolledState,
+    free_rolling_radius,
+    inflated_radius,
+    solve_roll,
+)
 from farm.solve.states import PathSolution, SolvedState
-from farm.specs import LoadPath, ModelSpec, SolverSettings
+from farm.specs import LoadPath, ModelSpec, Roll, SolverSettings
 
 
 @dataclass(frozen=True, eq=False)
@@ -134,3 +142,35 @@ def run_load_path(model: ModelSpec, path: LoadPath, settings: SolverSettings | N
         ccx_runs=solution.ccx_runs, increments=solution.increments,
         solver=f"CalculiX {ccx_version()}",
     )
+
+
+@dataclass(frozen=True)
+class RollOnce:
+    """One roll of ``farm roll``: its motion (at the radius found, when searched), the
+    states along it, the inflated radius, and the free-rolling search's rolls (empty
+    when the radius was given)."""
+
+    motion: Roll
+    states: tuple[RolledState, ...]
+    inflated_radius: float
+    tried: tuple[RadiusTry, ...] = ()
+
+
+def roll_once(model: ModelSpec, deflection: float, pressure: float, motion: Roll,
+              settings: SolverSettings, samples: int, *, find_radius: bool = False,
+              say: Callable[[str], None] = lambda text: None) -> RollOnce:
+    """Mesh ``model`` (cached) and roll it once (:func:`farm.solve.rolling.solve_roll`),
+    writing ``samples`` states evenly along the roll; with ``find_radius`` the
+    free-rolling radius is searched first (rolls at kappa = 0) and replaces
+    ``motion.rolling_radius``. ``pressure`` in MPa; ``say`` hears each stage."""
+    mesh = mesh_for(model)
+    tried: tuple[RadiusTry, ...] = ()
+    if find_radius:
+        say("finding the free-rolling radius (rolls at kappa = 0)")
+        radius, found = free_rolling_radius(model, mesh, deflection, pressure, motion, settings)
+        motion, tried = dataclasses.replace(motion, rolling_radius=radius), tuple(found)
+    say(f"rolling {motion.distance:g} mm at r_e {motion.rolling_radius:.2f} mm")
+    fractions = tuple(float(f) for f in np.round(np.linspace(0, 1, samples + 1), 9))
+    states = solve_roll(model, mesh, deflection, pressure, motion, settings, fractions)
+    return RollOnce(motion, tuple(states), inflated_radius(model, mesh, pressure, settings),
+                    tried)

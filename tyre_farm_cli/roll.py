@@ -11,18 +11,17 @@ from __future__ import annotations
 import dataclasses
 import math
 
-import numpy as np
 import typer
 from rich.console import Console
 from rich.table import Table
 
-from farm.ccx.progress import SolverProgress, reporting
+from farm.ccx.progress import reporting
 from farm.ccx.runner import find_ccx
 from farm.errors import SpecError
+from farm.experiment import RollOnce, roll_once
 from farm.measure.axes import in_road_axes
-from farm.mesh import mesh_for
 from farm.presets import describe_model, mesh_name
-from farm.solve.rolling import RolledState, free_rolling_radius, inflated_radius, solve_roll
+from farm.solve.rolling import RolledState
 from farm.specs import MAX_PRESSURE_MPA, THREADS, TIMEOUT_S, LoadPath, Roll, SolverSettings
 from jobs.errors import StudyError
 from jobs.validate import scalars
@@ -76,42 +75,23 @@ def roll(
                       tilt=tilt, distance=distance, rolling_radius=fixed or 400.0)
     find_ccx()
     lines = LogLines(every=10.0)
-    stage = ["meshing"]
-
-    def report(progress: SolverProgress) -> None:  # ccx's own progress (issue 48)
-        lines.progress(f"roll: {stage[0]}, {progress.describe()}")
     lines.log(f"roll: {describe_model(spec)}")
     if hint := kpa_hint(pressure):
         lines.log(f"roll: {hint}")
     lines.log(f"roll: meshing the full model ({mesh_name(spec) or 'a mesh of its own'})")
-    m = mesh_for(spec)
-    mpa = pressure / 1000.0
-    found = None
-    if fixed is None:
-        lines.log("roll: finding the free-rolling radius (rolls at kappa = 0)")
-        stage[0] = "finding the free-rolling radius"
-        with reporting(report):
-            motion, found = _free_radius(spec, m, deflection, mpa, motion, settings)
-    lines.log(f"roll: rolling {distance:g} mm at r_e {motion.rolling_radius:.2f} mm")
-    fractions = tuple(float(f) for f in np.round(np.linspace(0, 1, samples + 1), 9))
-    stage[0] = f"rolling {distance:g} mm"
-    with reporting(report):
-        states = solve_roll(spec, m, deflection, mpa, motion, settings, fractions)
-        radius0 = inflated_radius(spec, m, mpa, settings)
+    stage = ["meshing"]
+
+    def say(text: str) -> None:
+        stage[0] = text
+        lines.log(f"roll: {text}")
+    with reporting(lambda p: lines.progress(f"roll: {stage[0]}, {p.describe()}")):
+        done = roll_once(spec, deflection, pressure / 1000.0, motion, settings, samples,
+                         find_radius=fixed is None, say=say)
     lines.flush()
     if as_json:
-        dump(_document(spec, pressure, deflection, motion, states, radius0, found))
+        dump(_document(spec, pressure, deflection, done))
     else:
-        _print(motion, pressure, deflection, states, radius0, found)
-
-
-def _free_radius(spec, m, deflection: float, mpa: float, motion, settings):
-    """The motion at the free-rolling radius, and what the search tried (Fx and Fz of
-    each roll: means over its last element pitch, or its end state when shorter)."""
-    radius, tried = free_rolling_radius(spec, m, deflection, mpa, motion, settings)
-    found = {"radius_mm": radius,
-             "tried": [{"radius_mm": t.radius, "fx_n": t.fx, "fz_n": t.fz} for t in tried]}
-    return dataclasses.replace(motion, rolling_radius=radius), found
+        _print(pressure, deflection, done)
 
 
 def _checked(spec, kpa: float, deflection: float, samples: int, threads: int,
@@ -147,13 +127,24 @@ def _row(s: RolledState, tilt: float = 0.0) -> dict:
             "slip_nodes": int((s.contact_status == 2).sum())}
 
 
-def _document(spec, kpa, deflection, motion: Roll, states, radius0, found) -> dict:
+def _found(done: RollOnce) -> dict | None:
+    """The free-rolling search (None: the radius was given): Fx and Fz of each roll are
+    means over its last element pitch, or its end state when shorter."""
+    if not done.tried:
+        return None
+    return {"radius_mm": done.motion.rolling_radius,
+            "tried": [{"radius_mm": t.radius, "fx_n": t.fx, "fz_n": t.fz} for t in done.tried]}
+
+
+def _document(spec, kpa, deflection, done: RollOnce) -> dict:
     return {"model": spec.to_dict(), "pressure_kpa": kpa, "deflection_mm": deflection,
-            "roll": dataclasses.asdict(motion), "inflated_radius_mm": radius0,
-            "free_rolling": found, "states": [_row(s, motion.tilt) for s in states]}
+            "roll": dataclasses.asdict(done.motion), "inflated_radius_mm": done.inflated_radius,
+            "free_rolling": _found(done),
+            "states": [_row(s, done.motion.tilt) for s in done.states]}
 
 
-def _print(motion: Roll, kpa, deflection, states, radius0, found) -> None:
+def _print(kpa, deflection, done: RollOnce) -> None:
+    motion, radius0 = done.motion, done.inflated_radius
     title = (f"roll of {motion.distance:g} mm at {kpa:g} kPa, {deflection:g} mm: mu "
              f"{motion.friction:g}, kappa {motion.slip_ratio:g}, slip angle "
              f"{motion.slip_angle:g} deg, tilt {motion.tilt:g} deg")
@@ -167,13 +158,13 @@ def _print(motion: Roll, kpa, deflection, states, radius0, found) -> None:
              *((f"{r['force_road_axes_n'][1]:.1f}", f"{r['force_road_axes_n'][2]:.1f}",
                 f"{r['moment_road_axes_nm'][2]:.2f}") if road else ()),
              str(r["stick_nodes"]), str(r["slip_nodes"]))
-            for r in (_row(s, motion.tilt) for s in states)]
+            for r in (_row(s, motion.tilt) for s in done.states)]
     for i, col in enumerate(cols):
         table.add_column(col, justify="right", min_width=max(len(r[i]) for r in rows))
     for row in rows:
         table.add_row(*row)
     table.caption = (f"r_e {motion.rolling_radius:.2f} mm"
-                     + (f" (free rolling, {len(found['tried'])} rolls)" if found else "")
+                     + (f" (free rolling, {len(done.tried)} rolls)" if done.tried else "")
                      + f"; inflated radius {radius0:.2f} mm, loaded {radius0 - deflection:.2f}"
                      " mm; forces of the road on the tyre, moments about the contact centre"
                      + ("; wheel axes, and the road's (x, y in its plane, z its normal)"

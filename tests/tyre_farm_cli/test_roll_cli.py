@@ -39,3 +39,24 @@ def test_roll_prints_forces_along_the_roll_as_json(capsys):
     assert abs(fy) < 1e-3 * fz
     assert fx < 0 and abs(fx) == pytest.approx(0.6 * fz, rel=0.01)  # a locked wheel slides
     assert doc["inflated_radius_mm"] - 15.0 < doc["roll"]["rolling_radius"]
+
+
+@pytest.mark.ccx
+def test_a_searched_radius_is_the_one_rolled_and_reported(capsys, monkeypatch):
+    """``--rolling-radius free``: the roll runs at the radius the search returns, and the
+    document lists the search's rolls (the search itself: tests/farm/test_rolling.py)."""
+    import farm.experiment
+    from farm.solve.rolling import RadiusTry
+
+    tried = [RadiusTry(401.0, 12.0, 3000.0, 9.0, 20), RadiusTry(402.5, 0.5, 3001.0, 9.0, 20)]
+    monkeypatch.setattr(farm.experiment, "free_rolling_radius",
+                        lambda *a, **k: (402.5, tried))
+    code, out, _ = run_cli(["roll", *COARSE, "--distance", "10", "--samples", "1", "--json"],
+                           capsys)
+    assert code == 0
+    doc = json.loads(out)
+    assert doc["roll"]["rolling_radius"] == 402.5
+    assert doc["free_rolling"] == {"radius_mm": 402.5, "tried": [
+        {"radius_mm": 401.0, "fx_n": 12.0, "fz_n": 3000.0},
+        {"radius_mm": 402.5, "fx_n": 0.5, "fz_n": 3001.0}]}
+    assert [s["travel_mm"] for s in doc["states"]] == [0.0, 10.0]
