@@ -251,6 +251,13 @@ def _write(report, points, out: Path) -> dict:
             stderr_console().print(f"warning: the {label} model did not converge along the "
                                    f"{kpa:g} kPa curve (see {out / 'curves.csv'})",
                                    style="yellow", markup=False)
+    (out / "fitted.json").write_text(json.dumps(_fitted(result), indent=2))
+    return frames
+
+
+def _fitted(result) -> dict:
+    """fitted.json: the fitted model's materials, wall thicknesses and cord moduli (what a
+    preset needs), the residuals in % and the fit's status."""
     spec = result.spec()
     preset = {region: {"youngs_modulus": m.youngs_modulus, "poisson_ratio": m.poisson_ratio}
               for region, m in spec.materials.by_region().items()}
@@ -258,9 +265,6 @@ def _write(report, points, out: Path) -> dict:
                 ("tread_thickness", "sidewall_thickness", "bead_thickness")}
     cords = (None if spec.reinforcement is None else
              {layer: getattr(spec.reinforcement, layer).modulus for layer in ("carcass", "belt")})
-    (out / "fitted.json").write_text(json.dumps(
-        {"model": spec.kind, "materials": preset, "geometry": geometry,
-         "cord_modulus_gpa": cords,
-         "residuals_pct": list(100 * result.residuals), "status": result.status},
-        indent=2))
-    return frames
+    return {"model": spec.kind, "materials": preset, "geometry": geometry,
+            "cord_modulus_gpa": cords,
+            "residuals_pct": list(100 * result.residuals), "status": result.status}

@@ -148,21 +148,9 @@ def invert(study_file: Path = STUDY, scheduler: str = SCHEDULER, workers: int = 
     force errors (Figs. 4.2/4.3), and stores every solve's history in the study's group.
     Running it again replays every evaluation from the cache (no ccx): resuming.
     """
-    from farm.ccx.runner import find_ccx
     from jobs.inverse.run import run_inverse
-    from jobs.inverse.study import load_inverse_study, with_repeats
-    from jobs.validate import limits, scalars
-    from tyre_farm_cli.checks import output_folder
 
-    study = load_inverse_study(study_file)  # everything is validated before anything runs
-    with usage():
-        if repeats is not None:
-            scalars.integer(repeats, "--repeats", low=1, high=limits.MAX_REPEATS)
-            study = with_repeats(study, repeats)
-        if out is not None:
-            output_folder(out, "--out")
-    if cluster.embedded:
-        find_ccx()
+    study = _study(study_file, repeats, out, cluster)
     report = run_inverse(study, cluster=cluster, progress=loop_progress(),
                          surrogate=_surrogate(study))
     folder = (out or _default_out(study)).expanduser()
@@ -180,6 +168,26 @@ def invert(study_file: Path = STUDY, scheduler: str = SCHEDULER, workers: int = 
                   f"{plural(len(figures), 'histogram')} in {folder}" if report.results else
                   "no solve finished: nothing stored, no tables")
     raise typer.Exit(0 if report.ok else 1)
+
+
+def _study(study_file: Path, repeats: int | None, out: Path | None, cluster):
+    """The inverse study file read, ``--repeats`` and ``--out`` checked (and ccx found
+    for an embedded cluster): everything is validated before anything runs."""
+    from farm.ccx.runner import find_ccx
+    from jobs.inverse.study import load_inverse_study, with_repeats
+    from jobs.validate import limits, scalars
+    from tyre_farm_cli.checks import output_folder
+
+    study = load_inverse_study(study_file)
+    with usage():
+        if repeats is not None:
+            scalars.integer(repeats, "--repeats", low=1, high=limits.MAX_REPEATS)
+            study = with_repeats(study, repeats)
+        if out is not None:
+            output_folder(out, "--out")
+    if cluster.embedded:
+        find_ccx()
+    return study
 
 
 def _document(study, report, frames: dict, figures: list[Path], folder: Path) -> dict:

@@ -39,25 +39,9 @@ def reproduce(
 ) -> None:
     """Run the thesis study (chapters 3-5) on the farm and write OUT/report.md."""
     from analysis.report import reproduction
-    from farm.ccx.runner import ccx_version, find_ccx
-    from jobs.cluster import DaskCluster, resolve_scheduler
-    from jobs.reproduce import Options
-    from jobs.validate import locations
-    from tyre_farm_cli.checks import output_folder
+    from farm.ccx.runner import ccx_version
 
-    with usage():
-        check_materials(materials)
-        output_folder(out, "--out")
-        if store is not None:
-            store = locations.store_location(store, "--store")
-    find_ccx()
-    out = out.resolve()
-    opts = Options(out=out, store=store or str(out / "thesis.zarr"), quick=quick,
-                   coarse=coarse, materials=materials,
-                   # the provenance names the scheduler the environment gave, if any
-                   scheduler=(resolve_scheduler(scheduler)
-                              if isinstance(cluster, DaskCluster) else "slurm"),
-                   workers=workers, cluster=cluster)
+    opts = _options(quick, out, store, scheduler, workers, coarse, materials, cluster)
     done = []
     for name, stage in (("chapter 3: validation", _validation),
                         ("chapter 5: dataset analyses", _dataset),
@@ -70,6 +54,30 @@ def reproduce(
         workers=opts.workers)
     path = reproduction.write(opts.out, done, provenance, opts.quick)
     Console().print(f"report: {path}")  # the result, on stdout
+
+
+def _options(quick: bool, out: Path, store: str | None, scheduler: str, workers: int,
+             coarse: bool, materials: str, cluster):
+    """The study's options, every argument checked (and ccx found) before anything runs."""
+    from farm.ccx.runner import find_ccx
+    from jobs.cluster import DaskCluster, resolve_scheduler
+    from jobs.reproduce import Options
+    from jobs.validate import locations
+    from tyre_farm_cli.checks import output_folder
+
+    with usage():
+        check_materials(materials)
+        output_folder(out, "--out")
+        if store is not None:
+            store = locations.store_location(store, "--store")
+    find_ccx()
+    out = out.resolve()
+    return Options(out=out, store=store or str(out / "thesis.zarr"), quick=quick,
+                   coarse=coarse, materials=materials,
+                   # the provenance names the scheduler the environment gave, if any
+                   scheduler=(resolve_scheduler(scheduler)
+                              if isinstance(cluster, DaskCluster) else "slurm"),
+                   workers=workers, cluster=cluster)
 
 
 def _stage_log(text: str, rule: bool = False) -> None:

@@ -256,43 +256,56 @@ def _patches(result: PathResult) -> tuple[list, float | None]:
 
 def _print_table(result: PathResult, kpa: float,
                  patches: tuple[list, float | None] | None = None) -> None:
-    spec = result.model
-    moduli = "/".join(f"{m.youngs_modulus:g}" for m in spec.materials.by_region().values())
-    title = f"{spec.kind} model, {kpa:g} kPa, {spec.road} road, E = {moduli} MPa"
-    motion = result.path.motion
-    if motion is not None:
-        title += (f"; mu {motion.friction:g}, tilt {motion.tilt:g} deg, shift "
-                  f"({motion.shift_x:g}, {motion.shift_y:g}) mm after the last deflection")
-    table = Table(title=title, caption=PEAK_NOTE if patches else None)
-    combined = motion is not None
+    combined = result.path.motion is not None
     cols = ("deflection mm", *(("shift x mm", "shift y mm", "Fx N", "Fy N") if combined
                                else ()),
             "Fz N", "Mx N m", "My N m", "contact nodes",
             *(("area cm²", "peak kPa*") if patches else ()), "solve s")
-    rows = []
-    for k, m in enumerate(result.measurements):
-        patch = ((f"{patches[0][k].area / 100:.1f}", f"{patches[0][k].peak_pressure * 1e3:.0f}")
-                 if patches else ())
-        extra = ((f"{m.motion.shift_x:g}", f"{m.motion.shift_y:g}", f"{m.total_force[0]:.1f}",
-                  f"{m.total_force[1]:.1f}") if combined and m.motion is not None
-                 else ("0", "0", f"{m.total_force[0]:.1f}", f"{m.total_force[1]:.1f}")
-                 if combined else ())
-        rows.append((f"{m.deflection:g}", *extra, f"{m.total_force[2]:.1f}",
-                     f"{m.moment[0] / 1e3:.3f}", f"{m.moment[1] / 1e3:.3f}",
-                     str(m.contact_nodes), *patch, f"{m.solve_seconds:.1f}"))
+    rows = [_table_row(m, combined, patches[0][k] if patches else None)
+            for k, m in enumerate(result.measurements)]
+    table = Table(title=_title(result, kpa), caption=_caption(result, patches))
     # on a narrow console (80 columns off a terminal) rich shrinks columns and cuts the
     # numbers ("3511…"); headers may wrap, values never
     for i, col in enumerate(cols):
         table.add_column(col, justify="right", min_width=max(len(r[i]) for r in rows))
     for row in rows:
         table.add_row(*row)
-    timing = ("solve s: cumulative along the one-run path" if spec.road == "contact"
-              else "solve s: each deflection's iterations")
-    table.caption = (f"{plural(result.ccx_runs, 'ccx run')}, "
-                     f"{plural(result.increments, 'increment')}, "
-                     f"{result.solve_seconds:.1f} s solver, {result.wall_seconds:.1f} s wall, "
-                     f"{result.solver}; {timing}")
-    if patches and patches[1] is not None:
-        table.caption += (f"; inflation growth {patches[1]:.2f} mm (crown, radial; thesis "
-                          "§3.3.2: the real tyre at most 4 mm at 200 kPa)")
     Console().print(table, crop=False)
+
+
+def _title(result: PathResult, kpa: float) -> str:
+    spec, motion = result.model, result.path.motion
+    moduli = "/".join(f"{m.youngs_modulus:g}" for m in spec.materials.by_region().values())
+    title = f"{spec.kind} model, {kpa:g} kPa, {spec.road} road, E = {moduli} MPa"
+    if motion is not None:
+        title += (f"; mu {motion.friction:g}, tilt {motion.tilt:g} deg, shift "
+                  f"({motion.shift_x:g}, {motion.shift_y:g}) mm after the last deflection")
+    return title
+
+
+def _table_row(m, combined: bool, patch) -> tuple[str, ...]:
+    """One deflection's row; a combined path adds the shift and Fx, Fy (0 before it)."""
+    areas = ((f"{patch.area / 100:.1f}", f"{patch.peak_pressure * 1e3:.0f}")
+             if patch is not None else ())
+    extra = ((f"{m.motion.shift_x:g}", f"{m.motion.shift_y:g}", f"{m.total_force[0]:.1f}",
+              f"{m.total_force[1]:.1f}") if combined and m.motion is not None
+             else ("0", "0", f"{m.total_force[0]:.1f}", f"{m.total_force[1]:.1f}")
+             if combined else ())
+    return (f"{m.deflection:g}", *extra, f"{m.total_force[2]:.1f}",
+            f"{m.moment[0] / 1e3:.3f}", f"{m.moment[1] / 1e3:.3f}",
+            str(m.contact_nodes), *areas, f"{m.solve_seconds:.1f}")
+
+
+def _caption(result: PathResult, patches: tuple[list, float | None] | None) -> str:
+    """Cost and solver; the inflation growth; and, with patches, what the starred peak
+    pressure is (it was set and then overwritten before: the note never printed)."""
+    timing = ("solve s: cumulative along the one-run path" if result.model.road == "contact"
+              else "solve s: each deflection's iterations")
+    caption = (f"{plural(result.ccx_runs, 'ccx run')}, "
+               f"{plural(result.increments, 'increment')}, "
+               f"{result.solve_seconds:.1f} s solver, {result.wall_seconds:.1f} s wall, "
+               f"{result.solver}; {timing}")
+    if patches and patches[1] is not None:
+        caption += (f"; inflation growth {patches[1]:.2f} mm (crown, radial; thesis "
+                    "§3.3.2: the real tyre at most 4 mm at 200 kPa)")
+    return caption + (f"\n{PEAK_NOTE}" if patches else "")

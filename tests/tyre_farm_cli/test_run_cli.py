@@ -144,3 +144,26 @@ def test_the_combined_table_never_cuts_a_number_on_a_narrow_console(capsys):
     for value in ("3511.9", "3513.3", "221.6", "36.812", "-0.012", "28.6", "42.2"):
         assert value in out, out
     assert "…" not in out.split("┡")[1], out  # the values: nothing cut
+
+
+def test_the_peak_pressure_is_printed_with_its_warning(capsys):
+    """Issue 45: the peak contact pressure moves 51 % from `patch` to the next level while
+    the totals move 0.5 %; where it is reported it says it is not converged (the note
+    was set and then overwritten by the cost caption, so it never printed)."""
+    from types import SimpleNamespace
+
+    from farm.presets import default_model
+    from tyre_farm_cli.run import PEAK_NOTE, _print_table
+
+    state = SimpleNamespace(deflection=20.0, motion=None, total_force=np.array([0, 0, 3511.9]),
+                            moment=np.zeros(3), contact_nodes=9, solve_seconds=28.6)
+    result = SimpleNamespace(model=default_model("full"), path=SimpleNamespace(motion=None),
+                             measurements=[state], ccx_runs=1, increments=29,
+                             solve_seconds=28.6, wall_seconds=30.0, solver="CalculiX 2.20")
+    patch = SimpleNamespace(area=12345.0, peak_pressure=0.4567)
+    _print_table(result, 200.0, ([patch], 11.8))
+    out = " ".join(capsys.readouterr().out.split())
+    assert "kPa*" in out and "457" in out and "123.5" in out  # headers may wrap
+    assert " ".join(PEAK_NOTE.split()) in out and "inflation growth 11.80 mm" in out
+    _print_table(result, 200.0)
+    assert "peak" not in capsys.readouterr().out
