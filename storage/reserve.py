@@ -114,14 +114,9 @@ def read_ids(g: zarr.Group) -> list[str]:
 
 
 @names_the_store
-def reserve(
-    store: StoreLike,
-    group: str,
-    experiment_ids: Sequence[str],
-    params: Mapping[str, Any],
-    *,
-    units: Mapping[str, str] | None = None,
-) -> dict[str, int]:
+def reserve(store: StoreLike, group: str, experiment_ids: Sequence[str],
+            params: Mapping[str, Any], *, units: Mapping[str, str] | None = None,
+            ) -> dict[str, int]:
     """Give each experiment id its slot (index along ``experiment``), forever.
 
     New ids are appended: every experiment-dim array grows, the new slots read as
@@ -137,9 +132,8 @@ def reserve(
     params : mapping of str to (K,) array-like or scalar
         Load-case parameters, at least ``deflection`` (mm) and ``pressure`` (MPa); any
         other name becomes a new float64 parameter variable (NaN for earlier slots).
-        Any of the combined-load parameters (friction, shift_x mm, shift_y mm, tilt deg)
-        makes the group a combined-load one: its worker variables ``contact_status``,
-        ``tread_slip``, ``road_reaction`` and ``road_moment`` are created.
+        A combined-load parameter (friction, shift_x, shift_y, tilt) creates the worker
+        variables of a combined-load group (``contact_status``, ``tread_slip``, ...).
     units : mapping of str to str, optional
         Units of new parameters that the schema does not know.
 
@@ -156,9 +150,7 @@ def reserve(
         Another client reserved in the group at the same moment without the lock
         (object stores without conditional writes); run again when it is done.
     """
-    zs = open_store(store)
-    ids = _check_ids(experiment_ids)
-    units = dict(units or {})
+    zs, ids, units = open_store(store), _check_ids(experiment_ids), dict(units or {})
     with client_lock(zs):
         g = open_group(zs, group)  # fresh metadata, read under the lock
         values = _check_params(g, params, len(ids), units)
@@ -166,19 +158,28 @@ def reserve(
         stored = read_ids(g)
         index = {e: i for i, e in enumerate(stored)}
         _check_known(g, group, ids, values, index)
-        rows = np.array([j for j, e in enumerate(ids) if e not in index], dtype=np.int64)
-        new = [ids[j] for j in rows]
-        k_old, k_new = len(stored), len(stored) + len(new)
-        _grow(g, values, units, k_new)
-        if new:
-            for name, a in values.items():
-                array(g, name)[k_old:k_new] = a[rows]
-            array(g, "experiment")[k_old:k_new] = np.array(new, dtype=object)  # ids last: slot used
-            index.update({e: k_old + j for j, e in enumerate(new)})
-            _check_written(zs, group, slice(k_old, k_new), new,
-                           {name: a[rows] for name, a in values.items()})
+        index.update(_append(zs, g, group, ids, values, units, index, len(stored)))
         _publish(zs)
     return {e: index[e] for e in ids}
+
+
+def _append(zs, g, group: str, ids: list[str], values: dict[str, np.ndarray],
+            units: dict[str, str], index: Mapping[str, int], k_old: int) -> dict[str, int]:
+    """Grow the group (``k_old`` slots reserved) by the ids ``index`` lacks, write their
+    parameters and then their ids (an id marks its slot used, so it goes last), check
+    what was written, and return their new slots. Under the client lock."""
+    rows = np.array([j for j, e in enumerate(ids) if e not in index], dtype=np.int64)
+    new = [ids[j] for j in rows]
+    k_new = k_old + len(new)
+    _grow(g, values, units, k_new)
+    if not new:
+        return {}
+    for name, a in values.items():
+        array(g, name)[k_old:k_new] = a[rows]
+    array(g, "experiment")[k_old:k_new] = np.array(new, dtype=object)
+    _check_written(zs, group, slice(k_old, k_new), new,
+                   {name: a[rows] for name, a in values.items()})
+    return {e: k_old + j for j, e in enumerate(new)}
 
 
 def _restore_ids(g: zarr.Group, ids: list[str], values: dict[str, np.ndarray]) -> None:

@@ -338,17 +338,7 @@ def run_ccx(
     log = workdir / f"{jobname}.log"
     start = time.perf_counter()
     progress = _Progress(workdir / f"{jobname}.sta", start, deck)
-    with open(log, "wb") as out:
-        proc = subprocess.Popen(
-            command, cwd=workdir, stdout=out, stderr=subprocess.STDOUT,
-            stdin=subprocess.DEVNULL, env=_solver_env(threads),
-            start_new_session=True, preexec_fn=_die_with_parent,
-        )
-        try:
-            killed = _wait(proc, timeout, should_stop, progress)
-        except BaseException:  # KeyboardInterrupt, a cancelled task, anything
-            _kill_group(proc)
-            raise
+    proc, killed = _run(command, workdir, log, threads, timeout, should_stop, progress)
     seconds = time.perf_counter() - start
     tail = _tail(log)
     returncode = None if killed else proc.returncode
@@ -359,6 +349,25 @@ def run_ccx(
     if check and outcome is not Outcome.CONVERGED:
         raise failure(run)
     return run
+
+
+def _run(command: tuple[str, ...], workdir: Path, log: Path, threads: int, timeout: float,
+         should_stop: Callable[[], bool] | None, progress: _Progress,
+         ) -> tuple[subprocess.Popen, Outcome | None]:
+    """Start ccx in a session of its own (its output into ``log``) and wait for it: the
+    process and the outcome that killed it (None: it ended by itself). The whole group
+    is killed on any exception (a KeyboardInterrupt, a cancelled task)."""
+    with open(log, "wb") as out:
+        proc = subprocess.Popen(
+            command, cwd=workdir, stdout=out, stderr=subprocess.STDOUT,
+            stdin=subprocess.DEVNULL, env=_solver_env(threads),
+            start_new_session=True, preexec_fn=_die_with_parent,
+        )
+        try:
+            return proc, _wait(proc, timeout, should_stop, progress)
+        except BaseException:
+            _kill_group(proc)
+            raise
 
 
 def failure(run: CcxRun) -> SolverError:
