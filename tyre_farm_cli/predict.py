@@ -2,7 +2,7 @@
 (issue 27).
 
 - ``fit`` trains a force model on a store as a virtual T2Cam measures it and saves it with
-  its manifest (:mod:`analysis.predictor`, :mod:`analysis.predict.persist`);
+  its manifest (:mod:`analysis.camera.predictor`, :mod:`analysis.camera.predict.persist`);
 - ``measure`` writes what the virtual camera sees of stored experiments as point-cloud
   files (a reference cloud, one cloud per experiment, and the true forces): example
   input for ``predict``, and the other side of ``mismatch``;
@@ -63,18 +63,8 @@ def fit(
 ) -> None:
     """Train a force model on a store as a virtual T2Cam sees it; save it with a manifest."""
     from analysis.camera import predictor
-    from analysis.camera.learners import learner as check_learner
-    from analysis.camera.sensor import sensor_spec
 
-    with usage():
-        spec = sensor_spec(sensor)
-        check_learner(learner)
-        model_folder(out, "--out")
-        integer(draws, "--draws", low=1, high=MAX_DRAWS)
-        integer(folds, "--folds", low=2)  # grouped CV needs a train and a test fold
-        for value, name in ((alpha, "--alpha"), (test_fraction, "--test-fraction")):
-            if not 0.0 < value < 1.0:
-                raise fail(name, f"must be in (0, 1), got {value:g}")
+    spec = _fit_checks(sensor, learner, out, draws, folds, alpha, test_fraction)
     ds = load_selection(store, storage_option, group, pressure, None)
     model, check = predictor.fit(ds, spec, learner=learner, draws=draws, alpha=alpha,
                                  test_fraction=test_fraction, folds=folds, seed=seed)
@@ -88,6 +78,24 @@ def fit(
     typer.echo(f"model: {path} ({learner}, sensor {spec.name}, {len(ids)} training "
                f"experiments x {draws} noisy measurements)")
     typer.echo(check.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+
+
+def _fit_checks(sensor: str, learner: str, out: Path, draws: int, folds: int, alpha: float,
+                test_fraction: float):
+    """``farm fit``'s arguments checked before the store is read: the sensor's spec."""
+    from analysis.camera.learners import learner as check_learner
+    from analysis.camera.sensor import sensor_spec
+
+    with usage():
+        spec = sensor_spec(sensor)
+        check_learner(learner)
+        model_folder(out, "--out")
+        integer(draws, "--draws", low=1, high=MAX_DRAWS)
+        integer(folds, "--folds", low=2)  # grouped CV needs a train and a test fold
+        for value, name in ((alpha, "--alpha"), (test_fraction, "--test-fraction")):
+            if not 0.0 < value < 1.0:
+                raise fail(name, f"must be in (0, 1), got {value:g}")
+    return spec
 
 
 def measure(
@@ -163,22 +171,28 @@ def predict(
     if out is not None:
         table.to_csv(out, index=False)
     outside = int(table["domain"].str.startswith("outside").sum())
-    if as_json:
-        typer.echo(json.dumps({"model": str(model), "alpha": fitted.intervals.alpha,
-                               "registration_rms_mm": rms, "outside": outside,
-                               "predictions": _finite(table).to_dict("records")},
-                              indent=1))
-    else:
-        level = 100 * (1 - fitted.intervals.alpha)
-        typer.echo(f"model {model} (sensor {manifest['sensor'].get('name')}); intervals: "
-                   f"{level:g} % conformal" + ("" if rms is None else
-                                               f"; ICP residual {rms:.3g} mm"))
-        typer.echo(table.to_string(index=False, float_format=lambda v: f"{v:.5g}"))
+    _print_predictions(model, fitted, manifest, table, rms, outside, as_json)
     if outside:
         typer.echo(f"{outside} of {len(table)} clouds are unlike every cloud the model was "
                    "trained and checked on (column domain): their forces are not predictions "
                    "and their intervals are unbounded", err=True)
         raise typer.Exit(OUTSIDE_EXIT)
+
+
+def _print_predictions(model: Path, fitted, manifest: dict, table, rms: float | None,
+                       outside: int, as_json: bool) -> None:
+    """The predictions on stdout: one JSON document, or a header and the table."""
+    if as_json:
+        typer.echo(json.dumps({"model": str(model), "alpha": fitted.intervals.alpha,
+                               "registration_rms_mm": rms, "outside": outside,
+                               "predictions": _finite(table).to_dict("records")},
+                              indent=1))
+        return
+    level = 100 * (1 - fitted.intervals.alpha)
+    typer.echo(f"model {model} (sensor {manifest['sensor'].get('name')}); intervals: "
+               f"{level:g} % conformal" + ("" if rms is None else
+                                           f"; ICP residual {rms:.3g} mm"))
+    typer.echo(table.to_string(index=False, float_format=lambda v: f"{v:.5g}"))
 
 
 def _registered(fitted, reference: Path, ref: np.ndarray, paths: list[Path],
