@@ -1,7 +1,7 @@
 """Increment controls on frictional paths, side by side in one run (issue 45: increments
 that grow).
 
-    .venv/bin/python benchmarks/bench_increment_controls.py [--vary grow|roll-unit]
+    .venv/bin/python benchmarks/bench_increment_controls.py [--vary grow|roll-unit|stick]
         [--values 4,8,12] [--mesh PRESET] [--materials NAME] [--cases roll,roll-mu1,slide]
         [--repeat R]
 
@@ -11,13 +11,22 @@ cutback its increments stay small. The values are IG (``farm.specs.SolverSetting
 grow_after``). ``--vary roll-unit``: the road travel (mm) that lasts one unit of step
 time in a roll (``farm.solve.rolling.ROLL_UNIT_MM``): a roll's increments are capped at
 5 mm of travel, a cap in step time that also holds for the inflation and the rise before
-it, so the shorter the unit the fewer increments those take (rolls only). Each case is
-solved with every value, the values alternating, the inflation cached before timing:
+it, so the shorter the unit the fewer increments those take (rolls only). ``--vary
+stick``: the stick slope lambda of ``*FRICTION`` in N/mm^3 (``RoadMotion.stick_slope``;
+the default is 4.605, :func:`farm.ccx.deck.stick_slope`), a physics setting, not a
+control: whether a softer one saves the rolls that stop, and what it costs in answers.
+Each case is solved with every value, the values alternating, the inflation cached
+before timing:
 
 - ``roll``: 160 mm at 2 degrees of slip angle, mu 0.6, 200 kPa, 15 mm, 8 states;
 - ``roll-mu1``: 160 mm at kappa 0.02 and 3 degrees, mu 1.0 (the corner where rolls
   failed), 8 states;
-- ``slide``: a lateral slide of 4 mm at mu 0.9, 80 kPa, 20 mm, five fractions of it.
+- ``slide``: a lateral slide of 4 mm at mu 0.9, 80 kPa, 20 mm, five fractions of it;
+- ``lost-start``, ``lost-end``: two rolls of ``examples/rolling_coarse.toml``'s kind
+  (100 mm at r_e 402.9 mm, 200 kPa, 15 mm, the end state) that stop "increment below
+  minimum" on the coarse model, at the roll's start (mu 0.6824, kappa 0.0171, -2.0312
+  degrees: a case of that example's design) and in its last 0.2 mm (mu 0.5, kappa
+  0.01, 2 degrees); ``kept``: one that rolls through (mu 0.4, kappa 0.01, 1 degree).
 
 Printed per case and value: ccx seconds and increments, and against the first value at
 every stored state the largest force difference (% of |F|) and the camera's (or the
@@ -52,12 +61,17 @@ CASES = {
                          EIGHTHS),
     "slide": LoadPath((20.0,), 0.08, RoadMotion(friction=0.9, shift_y=4.0),
                       (0.2, 0.4, 0.6, 0.8, 1.0)),
+    **{name: LoadPath((15.0,), 0.2, RoadMotion(friction=mu, roll=100.0, slip_ratio=kappa,
+                                               slip_angle=alpha, rolling_radius=402.9))
+       for name, (mu, kappa, alpha) in (("lost-start", (0.6824, 0.0171, -2.0312)),
+                                        ("lost-end", (0.5, 0.01, 2.0)),
+                                        ("kept", (0.4, 0.01, 1.0)))},
 }
 
 
 def _args() -> argparse.Namespace:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--vary", choices=("grow", "roll-unit"), default="grow")
+    p.add_argument("--vary", choices=("grow", "roll-unit", "stick"), default="grow")
     p.add_argument("--values", default="4,8,12", help="the values, the first the reference")
     p.add_argument("--mesh", default="", help="a mesh preset (default: the coarse model)")
     p.add_argument("--materials", default="table-3.1")
@@ -81,6 +95,20 @@ def _compare(ref: PathResult, other: PathResult) -> tuple[float, float]:
     return force, field
 
 
+def _varied(vary: str, value: float, path: LoadPath) -> tuple[LoadPath, SolverSettings]:
+    """The case and settings with ``value`` of what ``vary`` names."""
+    settings = SolverSettings()
+    if vary == "grow":
+        settings = dataclasses.replace(settings, grow_after=int(value))
+    elif vary == "stick":
+        assert path.motion is not None
+        path = dataclasses.replace(path, motion=dataclasses.replace(path.motion,
+                                                                    stick_slope=value))
+    else:
+        rolling.ROLL_UNIT_MM = value
+    return path, settings
+
+
 def main() -> None:
     a = _args()
     spec = default_model("full", mesh=a.mesh or COARSE, materials=a.materials)
@@ -88,17 +116,12 @@ def main() -> None:
     print(f"{spec.mesh}, {a.materials}; {a.vary} values {grows} (the first the reference), "
           f"{a.repeat} run(s) each")
     for name in a.cases.split(","):
-        path = CASES[name]
-        touch_height(spec, mesh_for(spec), path.pressure, SolverSettings())  # cached
+        touch_height(spec, mesh_for(spec), CASES[name].pressure, SolverSettings())  # cached
         results: dict[float, PathResult | None] = {}
         times: dict[float, list[float]] = {g: [] for g in grows}
         for _ in range(a.repeat):
             for g in grows:
-                settings = SolverSettings()
-                if a.vary == "grow":
-                    settings = dataclasses.replace(settings, grow_after=int(g))
-                else:
-                    rolling.ROLL_UNIT_MM = g
+                path, settings = _varied(a.vary, g, CASES[name])
                 start = time.perf_counter()
                 try:
                     results[g] = run_load_path(spec, path, settings)

@@ -24,6 +24,7 @@ from farm.measure.patch import PatchMetrics, inflation_growth, patch_metrics, tr
 from farm.mesh import TyreMesh, mesh_for
 from farm.solve.contact import solve_contact_path
 from farm.solve.iterative import solve_iterative_path
+from farm.solve.paths import PathSolver
 from farm.solve.rolling import (
     RadiusTry,
     RolledState,
@@ -109,10 +110,15 @@ def solve_path(model: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: Solve
                should_stop: Callable[[], bool] | None = None) -> PathSolution:
     """Dispatch on the road boundary condition of ``model`` (and on a rolling motion:
     :func:`farm.measure.camera.rolling_solution`: the roll's end as the camera sees it)."""
+    return path_solver(model, path)(model, mesh, path, settings, should_stop)
+
+
+def path_solver(model: ModelSpec, path: LoadPath) -> PathSolver:
+    """The solver of ``path`` on ``model`` (:mod:`farm.solve.paths`): a roll's, the
+    contact road's, or the thesis' iterative road's."""
     if path.motion is not None and path.motion.rolls:
-        return rolling_solution(model, mesh, path, settings, should_stop)
-    solver = solve_contact_path if model.road == "contact" else solve_iterative_path
-    return solver(model, mesh, path, settings, should_stop)
+        return rolling_solution
+    return solve_contact_path if model.road == "contact" else solve_iterative_path
 
 
 def run_load_path(model: ModelSpec, path: LoadPath, settings: SolverSettings | None = None,
