@@ -28,7 +28,7 @@ from farm.errors import SolverError
 from farm.measure.camera import camera_state
 from farm.measure.measurement import measure
 from farm.mesh import TyreMesh, mesh_for
-from farm.solve.rolling import RolledState, cached_free_radius, search_roll
+from farm.solve.rolling import RolledState, cached_free_radius, search_roll, with_stick_slope
 from farm.solve.rolling_tree import RollingTrunk, solve_rolling_branch, solve_rolling_trunk
 from farm.solve.states import PathSolution
 from farm.specs import ModelSpec, Roll, SolverSettings
@@ -79,8 +79,8 @@ def run_rolling_tree(task: RollTreeTask) -> PathOutcome:
 def _solve(task: RollTreeTask, trunk_todo: list[Experiment], branches: list[RollBranchPlan],
            done: set[str], should_stop: Callable[[], bool] | None) -> list[PathOutcome]:
     """The trunk, then each branch; what each wrote."""
-    tree, spec = task.tree, task.model
-    mesh = mesh_for(spec)
+    tree, mesh = task.tree, mesh_for(task.model)
+    spec = with_stick_slope(task.model, tree.motion)  # the motion's own, where it sets one
     radius, seconds, runs = _radius(task, mesh, should_stop)
     if isinstance(radius, Failed):
         todo = tuple(e for e in tree.experiments if e.id not in done)
@@ -134,10 +134,11 @@ def _radius(task: RollTreeTask, mesh: TyreMesh, should_stop: Callable[[], bool] 
     motion = task.tree.motion
     if motion.rolling_radius is not None:
         return motion.rolling_radius, 0.0, 0
+    model = with_stick_slope(task.model, motion)
 
     def search(settings: SolverSettings) -> float:
-        radius, tried = cached_free_radius(task.model, mesh, task.tree.deflection,
-                                           task.tree.pressure, search_roll(task.model, motion),
+        radius, tried = cached_free_radius(model, mesh, task.tree.deflection,
+                                           task.tree.pressure, search_roll(model, motion),
                                            settings, should_stop)
         found.extend(tried)
         return radius

@@ -390,6 +390,18 @@ def _reached(states: Callable[[Sequence[tuple[float, float]]], list[RolledState]
         return []
 
 
+def with_stick_slope(spec: ModelSpec, motion: RoadMotion) -> ModelSpec:
+    """``spec`` with ``motion.stick_slope`` (where set) as its contact law's.
+
+    Why: a roll's deck takes the stick slope from the model's contact law (a :class:`Roll`
+    carries none), while a study's motion may set its own and its experiment id says so;
+    until 2026-11-29 a roll ran with the law's value whatever the motion said."""
+    if motion.stick_slope is None:
+        return spec
+    return dataclasses.replace(spec, contact=dataclasses.replace(
+        spec.contact, stick_slope=motion.stick_slope))
+
+
 def roll_path(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: SolverSettings,
                 should_stop: Callable[[], bool] | None = None,
                 ) -> tuple[list[RolledState], float, int, int]:
@@ -412,6 +424,7 @@ def roll_path(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: SolverS
     if len(path.deflections) != 1:
         raise SpecError(f"a rolling path has one deflection, got {list(path.deflections)}")
     [deflection] = path.deflections
+    spec = with_stick_slope(spec, motion)
     spent, runs, increments = 0.0, 0, 0
     radius = motion.rolling_radius
     if radius is None:

@@ -586,3 +586,30 @@ def test_fy_saturates_at_mu_fz_once_the_whole_patch_slides():
         assert -fy == pytest.approx(0.3 * fz, rel=0.01)
         assert np.hypot(state.force[0], fy) <= 0.3 * fz * 1.001  # Coulomb bounds the shear
     assert abs(pitch_mean(states, mesh).pressure_trail) < 1.0  # mm: no stick zone left
+
+
+@pytest.mark.ccx
+@pytest.mark.parametrize("stick", [None, 0.9])
+def test_a_roll_uses_the_stick_slope_its_motion_sets(coarse, monkeypatch, stick):
+    """A study's ``stick_slope`` is in a roll's id; the roll's deck must use it (rolls
+    read it from the contact law and ran with the law's default whatever the motion
+    said). The deck is caught before ccx rolls it."""
+    spec, _ = coarse
+    decks: list[str] = []
+
+    class Caught(Exception):
+        pass
+
+    def caught(deck, *args, **kwargs):
+        decks.append(deck)
+        raise Caught
+
+    monkeypatch.setattr(rolling, "run_deck_keeping", caught)
+    path = LoadPath((DEFLECTION,), PRESSURE, RoadMotion(friction=MU, roll=20.0,
+                                                        rolling_radius=R_E, stick_slope=stick))
+    with pytest.raises(Caught):
+        run_load_path(spec, path)
+    [deck] = decks
+    want = stick if stick is not None else rolling.D.stick_slope(spec.contact)
+    friction = deck.split("*FRICTION\n")[1].split("\n")[0]
+    assert float(friction.split(",")[1]) == pytest.approx(want, rel=1e-9)
