@@ -13,10 +13,11 @@ from typing import Any
 import typer
 
 from farm.errors import SpecError
+from farm.overrides import override_model
 from farm.presets import default_model
 from farm.specs import ModelSpec
 from jobs.errors import StudyError
-from jobs.validate import lists, spec_tables
+from jobs.validate import lists
 from jobs.validate.messages import shown
 
 RANGE_HINT = "give start:stop:step (e.g. 10:40:5) or a list (10,20,30)"
@@ -111,7 +112,5 @@ def build_model(kind: str, materials: str, road: str | None, overrides: list[str
         if not sep:
             raise SpecError(f"--set expects key=value (e.g. mesh.circumferential=80), got {item!r}")
         _set_dotted(table, key.strip(), _literal(value.strip()), item)
-    try:
-        return spec_tables.override_model(base, table)
-    except StudyError as e:
-        raise SpecError(str(e)) from e
+    # farm.overrides raises SpecError itself: the walk stays in farm (issue 49)
+    return override_model(base, table)
