@@ -26,7 +26,9 @@ before timing:
   (100 mm at r_e 402.9 mm, 200 kPa, 15 mm, the end state) that stop "increment below
   minimum" on the coarse model, at the roll's start (mu 0.6824, kappa 0.0171, -2.0312
   degrees: a case of that example's design) and in its last 0.2 mm (mu 0.5, kappa
-  0.01, 2 degrees); ``kept``: one that rolls through (mu 0.4, kappa 0.01, 1 degree).
+  0.01, 2 degrees); ``kept``: one that rolls through (mu 0.4, kappa 0.01, 1 degree);
+  ``lost-1`` ... ``lost-7``: the seven cases of that example's design that stopped on
+  the coarse model (2026-11-29, commit 8c3947a), to roll on another mesh.
 
 Printed per case and value: ccx seconds and increments, and against the first value at
 every stored state the largest force difference (% of |F|) and the camera's (or the
@@ -53,6 +55,11 @@ from farm.specs import LoadPath, MeshDensity, RoadMotion, SolverSettings
 
 COARSE = MeshDensity(tread=4, sidewall=2, bead=1, circumferential=16)
 EIGHTHS = tuple(k / 8 for k in range(1, 9))
+#: (mu, kappa, slip angle) of the rolls of examples/rolling_coarse.toml that stopped on the
+#: coarse model: three at the roll's start (mu 0.68-0.70), four at mu 0.91-0.98
+LOST = ((0.6824, 0.0171, -2.0312), (0.6866, 0.0068, 2.6065), (0.7003, 0.0003, 1.7024),
+        (0.9136, 0.0195, 1.9606), (0.9311, 0.0037, -2.4587), (0.9558, -0.0065, -2.8137),
+        (0.9814, 0.0141, -2.2588))
 CASES = {
     "roll": LoadPath((15.0,), 0.2, RoadMotion(friction=0.6, roll=160.0, slip_angle=2.0,
                                               rolling_radius=403.8), EIGHTHS),
@@ -65,7 +72,9 @@ CASES = {
                                                slip_angle=alpha, rolling_radius=402.9))
        for name, (mu, kappa, alpha) in (("lost-start", (0.6824, 0.0171, -2.0312)),
                                         ("lost-end", (0.5, 0.01, 2.0)),
-                                        ("kept", (0.4, 0.01, 1.0)))},
+                                        ("kept", (0.4, 0.01, 1.0)),
+                                        *((f"lost-{k + 1}", case) for k, case in
+                                          enumerate(LOST)))},
 }
 
 
