@@ -47,9 +47,6 @@ def _optional_parts() -> dict[str, type]:
 #: it: ``[model.reinforcement]`` alone gives the default cords.
 OPTIONAL_PARTS = _optional_parts()
 
-# The same cut as jobs.validate.messages.shown: a model table's error reads like the rest
-# of the study file's (farm cannot import jobs).
-
 
 def model(data: Any, where: str = "model") -> ModelSpec:
     """A ``[model]`` table -> :class:`ModelSpec`: ``kind``, a ``materials`` preset name (or
