@@ -144,8 +144,9 @@ Windows = Annotated[
 Noises = Annotated[str, typer.Option(help="Position noise levels σ (mm) to try, comma list.")]
 Spacings = Annotated[str, typer.Option(help="Point spacings (mm) to try, comma list.")]
 Learners = Annotated[
-    str, typer.Option(help="Learners side by side: plsr (CV-chosen count) and gp (Gaussian "
-                      "process on the PLS scores).")
+    str, typer.Option(help="Learners side by side: plsr (CV-chosen count), gp (Gaussian "
+                      "process on the PLS scores), krr (kernel ridge on the scores), auto "
+                      "(the one of those with the least grouped-CV error).")
 ]
 SensorFolds = Annotated[int, typer.Option("--folds",
                                           help="Folds of the grouped CV on the training part.")]

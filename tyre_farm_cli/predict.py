@@ -50,8 +50,10 @@ def fit(
     group: Group = None,
     pressure: Pressure = None,
     sensor: Sensor = "t2cam-2017",
-    learner: Annotated[str, typer.Option(help="plsr or gp (Gaussian process on the PLS "
-                                         "scores).")] = "plsr",
+    learner: Annotated[str, typer.Option(help="plsr, gp (Gaussian process on the PLS "
+                                         "scores), krr (kernel ridge on the scores) or "
+                                         "auto (the one with the least grouped-CV "
+                                         "error).")] = "plsr",
     draws: Annotated[int, typer.Option(help="Noisy measurements per experiment.")] = 3,
     alpha: Annotated[float, typer.Option(help="1 - nominal coverage of the intervals.")] = 0.1,
     test_fraction: Annotated[float, typer.Option(help="Share held out to check the model "

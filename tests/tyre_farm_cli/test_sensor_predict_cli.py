@@ -234,6 +234,37 @@ def test_a_gp_model_saves_loads_and_predicts(stores, tmp_path):
     assert len(json.loads(stdout)["predictions"]) == 2
 
 
+@pytest.mark.parametrize("learner", ["krr", "auto"])
+def test_fit_with_kernel_ridge_or_auto_saves_loads_and_predicts(stores, tmp_path, learner):
+    """Issue 46: the kernel ridge on the scores, and the learner chosen by grouped CV."""
+    out = tmp_path / learner
+    code, stdout, err = _cli(["fit", stores / "a.zarr", "--out", out, "--sensor", SENSOR,
+                              "--learner", learner, "--folds", 4, "--draws", 2, "--json"])
+    assert code in (0, None), err
+    check = pd.DataFrame(json.loads(stdout)["check"])
+    assert list(check["target"]) == ["Fx", "Fy", "Fz", "Mz"]
+    assert (check["rmse_pct_range"] >= 0).all()
+    assert json.loads((out / "manifest.json").read_text())["extra"]["info"]["learner"] == learner
+    clouds = tmp_path / "clouds"
+    _cli(["measure", stores / "a.zarr", "--out", clouds, "--sensor", SENSOR, "--limit", 2])
+    truth = pd.read_csv(clouds / "truth.csv")
+    code, stdout, err = _cli(["predict", out, clouds / "reference.csv",
+                              *[clouds / f"{e}.csv" for e in truth["experiment"]], "--json"])
+    assert code in (0, None), err
+    assert len(json.loads(stdout)["predictions"]) == 2
+
+
+def test_sensor_study_takes_the_new_learners(stores, tmp_path):
+    code, _out, err = _cli(["analyse", "sensor", stores / "a.zarr", "--out", tmp_path,
+                           "--sensor", SENSOR, "--windows", "20", "--noises", "0.2",
+                           "--spacings", "20", "--learners", "auto", "--folds", 4,
+                           "--draws", 2])
+    assert code in (0, None), err
+    errors = pd.read_csv(tmp_path / "errors.csv")
+    assert set(errors["learner"]) == {"auto"}
+    assert (errors["rmse_pct_range"] >= 0).all()
+
+
 def _edited_model(model, tmp_path, edit):
     """A copy of the fitted model whose manifest ``edit`` changed (the model file and
     its checksum untouched)."""

@@ -63,8 +63,15 @@ MAX_MODEL_BYTES = 4 * 2**30
 #: the GP kernels). Each is a plain estimator whose state is arrays and numbers. Adding a
 #: class here is a security decision: it must rebuild from its attributes without running
 #: anything else (no custom __setstate__ that evaluates, imports or opens files).
+#: KRROnScores and AutoLearner (issue 46) hold arrays, numbers, strings and the estimators
+#: above (PLSCV, BlockRegression, KernelRidge); no __setstate__. skops' refusal of
+#: ``sklearn.tree._tree.Tree`` stands: scikit-learn indexes a tree's node arrays without
+#: bounds checks, so a crafted file could read memory out of bounds on predict - no
+#: learner of the farm holds trees.
 TRUSTED_TYPES: tuple[str, ...] = (
+    "analysis.camera.learners.AutoLearner",
     "analysis.camera.learners.GPOnScores",
+    "analysis.camera.learners.KRROnScores",
     "analysis.camera.learners.PLSCV",
     "analysis.camera.predict.intervals.ConformalIntervals",
     "analysis.combined.BlockRegression",
