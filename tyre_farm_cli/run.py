@@ -298,7 +298,7 @@ def _table_row(m, combined: bool, patch) -> tuple[str, ...]:
 
 def _caption(result: PathResult, patches: tuple[list, float | None] | None) -> str:
     """Cost and solver; the inflation growth; and, with patches, what the starred peak
-    pressure is (it was set and then overwritten before: the note never printed)."""
+    pressure is (one caption: a table keeps only the last one set)."""
     timing = ("solve s: cumulative along the one-run path" if result.model.road == "contact"
               else "solve s: each deflection's iterations")
     caption = (f"{plural(result.ccx_runs, 'ccx run')}, "
