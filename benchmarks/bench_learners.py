@@ -19,9 +19,10 @@ RMSE per target in % of the target's range, and the fit's seconds.
 ``plsr``, ``gp``, ``krr``, ``auto`` are the farm's (:mod:`analysis.camera.learners`);
 ``trees`` (extra trees), ``forest``, ``hgb`` (gradient boosting) and ``mlp`` are scikit-learn
 regressors fitted here the way ``krr`` is - on the PLSR's residuals, over the PLSR's
-scores or all the folds allow, a small grid chosen by the same grouped CV - to show why
-they were not adopted. Nothing is asserted; one split per problem (a comparison of
-learners, not of errors to quote).
+scores or all the folds allow, a small grid chosen by the same grouped CV, but without
+``krr``'s one-standard-error fallback to the PLSR - to show why they were not adopted.
+Nothing is asserted; one split per problem (a comparison of learners, not of errors to
+quote).
 """
 
 from __future__ import annotations
@@ -47,7 +48,14 @@ sys.path.insert(0, str(ROOT))
 
 from analysis import data  # noqa: E402
 from analysis.camera.features import displacements, measured_features, targets  # noqa: E402
-from analysis.camera.learners import PLSCV, AutoLearner, GPOnScores, KRROnScores  # noqa: E402
+from analysis.camera.learners import (  # noqa: E402
+    PLSCV,
+    AutoLearner,
+    GPOnScores,
+    KRROnScores,
+    scores_residuals,
+    unit_scale,
+)
 from analysis.camera.sensor import InnerSurface, VirtualSensor, sensor_spec  # noqa: E402
 from analysis.combined import BlockRegression  # noqa: E402
 from analysis.splits import path_groups, split  # noqa: E402
@@ -67,16 +75,6 @@ GRIDS = {
             for a in (1e-3, 1e-1, 1.0)],
 }
 FARM = {"plsr": PLSCV, "gp": GPOnScores, "krr": KRROnScores, "auto": AutoLearner}
-
-
-def _linear(fit: BlockRegression, X: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
-    """The PLS scores of X and the (block-scaled) prediction of the first n components."""
-    pls = fit.model_
-    T = pls.transform(fit.x_scaler_.transform(X))
-    pred = np.broadcast_to(pls.y_mean_, (X.shape[0], pls.y_loadings_.shape[0])).copy()
-    for a in range(min(n, fit.n_components_)):
-        pred += np.outer(T[:, a], pls.y_loadings_[:, a])
-    return T, pred
 
 
 class OnScores(MultiOutputMixin, RegressorMixin, BaseEstimator):
@@ -103,11 +101,9 @@ class OnScores(MultiOutputMixin, RegressorMixin, BaseEstimator):
         splits = self.pls_._splits(X.shape[0], groups)
         for tr, te in splits:
             fit = BlockRegression("plsr", top, self.x_blocks, self.y_blocks).fit(X[tr], Y[tr])
-            (Ttr, Ltr), (Tte, Lte) = _linear(fit, X[tr], n), _linear(fit, X[te], n)
-            s = Ttr.std(axis=0)
-            s[s == 0] = 1
-            Rtr = fit.y_scaler_.transform(Y[tr]) - Ltr
-            Rte = fit.y_scaler_.transform(Y[te]) - Lte
+            (Ttr, Rtr), (Tte, Rte) = (scores_residuals(fit, X[tr], Y[tr], n),
+                                      scores_residuals(fit, X[te], Y[te], n))
+            s = unit_scale(Ttr)
             mse[0] += np.mean(Rte ** 2) / len(splits)
             for i, (k, est) in enumerate(((k, e) for k in counts for e in grid), start=1):
                 m = clone(est).fit(Ttr[:, :k] / s[:k], _target(Rtr))
@@ -120,8 +116,7 @@ class OnScores(MultiOutputMixin, RegressorMixin, BaseEstimator):
         if self.choice_ is not None:
             self.scores_ = BlockRegression("plsr", top, self.x_blocks, self.y_blocks).fit(X, Y)
             T = self.scores_.model_.transform(self.scores_.x_scaler_.transform(X))
-            s = T.std(axis=0)
-            self.scale_ = np.where(s > 0, s, 1.0)
+            self.scale_ = unit_scale(T)
             k, g = self.choice_
             ys = self.pls_.model_.y_scaler_
             R = ys.transform(Y) - ys.transform(self.pls_.predict(X))

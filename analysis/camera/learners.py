@@ -171,8 +171,7 @@ class GPOnScores(MultiOutputMixin, RegressorMixin, BaseEstimator):
         self.pls_ = PLSCV(self.max_components, self.folds, self.x_blocks, self.y_blocks,
                           self.seed).fit(X, Y, groups)
         T = self.pls_.transform(X)
-        scale = T.std(axis=0)
-        self.score_scale_ = np.where(scale > 0, scale, 1.0)
+        self.score_scale_ = unit_scale(T)
         T = T / self.score_scale_
         R = self._scaled(Y) - self._scaled(self.pls_.predict(X))
         splits = self.pls_._splits(X.shape[0], groups)
@@ -235,20 +234,14 @@ class KRROnScores(MultiOutputMixin, RegressorMixin, BaseEstimator):
     fraction of a percent), the model is the PLSR alone (``krr_`` is None) and predicts
     exactly as :class:`PLSCV`.
 
-    Why kernel ridge (measured for issue 46; docs/sensor.md has the table): residual
-    learners on the scores, each with a small grid chosen by this grouped CV, were
-    compared on held-out experiments (% of range) on five small problems - a latent
-    rank-3 one with ``x0**2`` and ``tanh`` targets (45 and 150 training experiments x 3
-    noisy draws) and the test suite's synthetic combined store through a virtual T2Cam
-    (40 or 80 experiments, bilinear coupling 0.1 or 0.5, 0.2 or 2 mm noise). Kernel ridge
-    was the best or within 0.2 points of the best on 16 of the 18 targets, and at most
-    1.7 points worse than the PLSR (Mz of the 40-experiment store: 14.93 % against
-    13.25 %). Extra trees lost on the smooth targets (latent, 45 experiments: 5.96 / 6.30
-    % against 4.69 / 2.86 %), gradient boosting was worse still (7.39 / 6.93 %) and 12
-    times slower (34.5 s against 2.8 s), an MLP was erratic (Fz 0.54 -> 2.55 % on one
-    store). Trees have a second cost: skops does not trust ``sklearn.tree._tree.Tree``
-    (scikit-learn indexes its node arrays without bounds checks, so a crafted model file
-    could read memory out of bounds on predict), and trusting it would break what
+    Why kernel ridge: residual learners on the scores (extra trees, gradient boosting, an
+    MLP), each with a small grid chosen by this grouped CV, were compared with it on
+    held-out experiments of five small synthetic problems (docs/sensor.md, "The
+    learners", and ``benchmarks/bench_learners.py``, where the figures are); kernel
+    ridge was the best or close to it on most targets and the fastest. Trees have a
+    second cost: skops does not trust ``sklearn.tree._tree.Tree`` (scikit-learn indexes
+    its node arrays without bounds checks, so a crafted model file could read memory out
+    of bounds on predict), and trusting it would break what
     :mod:`analysis.camera.predict.persist` promises; KernelRidge is one of skops' trusted
     estimators. Kernel ridge with an RBF kernel is the GP's posterior mean; what it adds
     over :class:`GPOnScores` is the choice of scores.
@@ -307,9 +300,9 @@ class KRROnScores(MultiOutputMixin, RegressorMixin, BaseEstimator):
         for f, (train, test) in enumerate(splits):
             fold = BlockRegression("plsr", top, self.x_blocks, self.y_blocks).fit(X[train],
                                                                                  Y[train])
-            Tf, Rf = _scores_residuals(fold, X[train], Y[train], n)
-            Tt, Rt = _scores_residuals(fold, X[test], Y[test], n)
-            scale = _unit(Tf)
+            Tf, Rf = scores_residuals(fold, X[train], Y[train], n)
+            Tt, Rt = scores_residuals(fold, X[test], Y[test], n)
+            scale = unit_scale(Tf)
             err[f, 0] = np.mean(Rt ** 2)
             col = 1
             for k in counts:
@@ -329,7 +322,7 @@ class KRROnScores(MultiOutputMixin, RegressorMixin, BaseEstimator):
         self.scores_ = BlockRegression("plsr", top, self.x_blocks, self.y_blocks).fit(X, Y)
         T = self._all_scores(X)
         self.n_scores_ = min(counts[(best - 1) // len(KRR_GRID)], T.shape[1])
-        self.score_scale_ = _unit(T[:, :self.n_scores_])
+        self.score_scale_ = unit_scale(T[:, :self.n_scores_])
         R = self._scaled(Y) - self._scaled(self.pls_.predict(X))
         self.krr_ = _krr(self.params_).fit(T[:, :self.n_scores_] / self.score_scale_, R)
         return self
@@ -363,13 +356,13 @@ def _krr(params: tuple[float, float]) -> KernelRidge:
     return KernelRidge(alpha=alpha, kernel="rbf", gamma=0.5 / length ** 2)
 
 
-def _unit(T: np.ndarray) -> np.ndarray:
+def unit_scale(T: np.ndarray) -> np.ndarray:
     """Standard deviation of each column of T, 1 for a constant one."""
     scale = T.std(axis=0)
     return np.where(scale > 0, scale, 1.0)
 
 
-def _scores_residuals(fit: BlockRegression, X, Y, n: int) -> tuple[np.ndarray, np.ndarray]:
+def scores_residuals(fit: BlockRegression, X, Y, n: int) -> tuple[np.ndarray, np.ndarray]:
     """Scores (K, fit.n_components_) of X, and the block-scaled residuals (K, n_targets)
     of Y from the fit's first ``n`` components (SIMPLS builds them one after the other,
     so they are the ``n``-component PLSR)."""
