@@ -81,7 +81,7 @@ def _solve(task: RollTreeTask, trunk_todo: list[Experiment], branches: list[Roll
     """The trunk, then each branch; what each wrote."""
     tree, mesh = task.tree, mesh_for(task.model)
     spec = with_stick_slope(task.model, tree.motion)  # the motion's own, where it sets one
-    radius, seconds, runs = _radius(task, mesh, should_stop)
+    radius, seconds, runs = _radius(task, spec, mesh, should_stop)
     if isinstance(radius, Failed):
         todo = tuple(e for e in tree.experiments if e.id not in done)
         return [write_outcome(task.path_task(tree.key, todo), list(todo), radius)]
@@ -127,18 +127,18 @@ def _solve(task: RollTreeTask, trunk_todo: list[Experiment], branches: list[Roll
     return parts
 
 
-def _radius(task: RollTreeTask, mesh: TyreMesh, should_stop: Callable[[], bool] | None
+def _radius(task: RollTreeTask, spec: ModelSpec, mesh: TyreMesh,
+            should_stop: Callable[[], bool] | None
             ) -> tuple[float | Failed, float, int]:
     """The trunk's rolling radius (the study's, or found by a search: cached per model,
     pressure, deflection and roll as for plain rolls), with the search's seconds and runs."""
     motion = task.tree.motion
     if motion.rolling_radius is not None:
         return motion.rolling_radius, 0.0, 0
-    model = with_stick_slope(task.model, motion)
 
     def search(settings: SolverSettings) -> float:
-        radius, tried = cached_free_radius(model, mesh, task.tree.deflection,
-                                           task.tree.pressure, search_roll(model, motion),
+        radius, tried = cached_free_radius(spec, mesh, task.tree.deflection,
+                                           task.tree.pressure, search_roll(spec, motion),
                                            settings, should_stop)
         found.extend(tried)
         return radius

@@ -394,8 +394,9 @@ def with_stick_slope(spec: ModelSpec, motion: RoadMotion) -> ModelSpec:
     """``spec`` with ``motion.stick_slope`` (where set) as its contact law's.
 
     Why: a roll's deck takes the stick slope from the model's contact law (a :class:`Roll`
-    carries none), while a study's motion may set its own and its experiment id says so;
-    until 2026-11-29 a roll ran with the law's value whatever the motion said."""
+    carries none), while a motion given through the API may set its own, and its
+    experiment id says so; until 2026-11-29 a roll ran with the law's value whatever the
+    motion said."""
     if motion.stick_slope is None:
         return spec
     return dataclasses.replace(spec, contact=dataclasses.replace(

@@ -591,7 +591,7 @@ def test_fy_saturates_at_mu_fz_once_the_whole_patch_slides():
 @pytest.mark.ccx
 @pytest.mark.parametrize("stick", [None, 0.9])
 def test_a_roll_uses_the_stick_slope_its_motion_sets(coarse, monkeypatch, stick):
-    """A study's ``stick_slope`` is in a roll's id; the roll's deck must use it (rolls
+    """A motion's ``stick_slope`` is in a roll's id; the roll's deck must use it (rolls
     read it from the contact law and ran with the law's default whatever the motion
     said). The deck is caught before ccx rolls it."""
     spec, _ = coarse

@@ -190,3 +190,33 @@ def test_quick_rolling_tree_study_end_to_end_and_grown(tmp_path, counting_ccx, c
     runs = ccx_runs(counting_ccx)
     main(["sweep", "resume", str(path), "--workers", "1"])
     assert ccx_runs(counting_ccx) == runs  # all done: nothing solved
+
+
+def test_a_tree_s_trunk_rolls_with_its_motion_s_stick_slope(tmp_path, monkeypatch):
+    """A motion's ``stick_slope`` (set through the API: study files have no such key) is
+    in a tree's key; its trunk (and so its branches, which continue the trunk's solver
+    state) must roll with it, not with the contact law's."""
+    import dataclasses
+
+    from farm.specs import SolverSettings
+    from jobs import rolling_trees
+
+    class Caught(Exception):
+        pass
+
+    seen = []
+
+    def caught(spec, *args, **kwargs):
+        seen.append(spec.contact.stick_slope)
+        raise Caught
+
+    monkeypatch.setattr(rolling_trees, "solve_rolling_trunk", caught)
+    roll = "distance_mm = 60\nrolling_radius_mm = 403.8\nbranch_from_mm = 30\n"
+    study = parse_study(_study(tmp_path, "friction = [0.6]\nslip_angle_deg = [0, 2]\n", roll))
+    [tree] = plan(study, SOLVER)
+    tree = dataclasses.replace(tree, motion=dataclasses.replace(tree.motion, stick_slope=0.9))
+    task = rolling_trees.RollTreeTask(tree, study.model, SolverSettings(), study.store,
+                                      "g")
+    with pytest.raises(Caught):
+        rolling_trees._solve(task, list(tree.trunk), list(tree.branches), set(), None)
+    assert seen == [0.9]
