@@ -71,7 +71,12 @@ from jobs.validate import limits, lists, scalars, spec_tables
 from jobs.validate.messages import fail, shown
 
 METHODS = ("grid", "lhs", "sobol", "morris")
-MODELS_KEYS = {"method", "n", "seed", "num_levels", "parameters"}
+MODELS_KEYS = {"method", "n", "seed", "num_levels", "parameters", "loads"}
+#: How a design's models meet the study's load cases: "shared" (every model runs the same
+#: cases: what a sensitivity analysis compares) or "own" (each model draws its own cases
+#: from the same sampled design, re-seeded by its row: a population of tyres in which no
+#: two share a load case, issue 47, docs/population.md)
+LOADS = ("shared", "own")
 FIXED_FIELDS = ("kind",)  # one study, one model kind (its inflation and load checks)
 MAX_ROWS = 100_000  # rows a design may have before its models are made (memory bound)
 #: A sobol design is refused when a level parameter's A -> AB_j swap changes it in a number
@@ -138,6 +143,7 @@ class ModelsSpec:
     seed: int
     parameters: tuple[Parameter, ...]
     num_levels: int = 4  # morris only
+    loads: str = "shared"  # LOADS
 
     @property
     def rows(self) -> int:
@@ -314,6 +320,11 @@ def parse_models(data: Any, base: ModelSpec, where: str = "models") -> ModelsSpe
         raise fail(f"{where}.num_levels", f"must be even (SALib: an odd grid biases the "
                    f"sample), got {num_levels}")
     seed = scalars.integer(t.get("seed", 0), f"{where}.seed", low=0, high=limits.MAX_SEED)
+    loads = scalars.choice(t.get("loads", "shared"), f"{where}.loads", LOADS)
+    if loads == "own" and method in ("sobol", "morris"):
+        raise fail(f"{where}.loads", f"'own' gives each model other load cases, and a "
+                   f"{method} design's indices compare models under the same ones: use "
+                   "method = 'lhs' (a population) or loads = 'shared'")
     params = scalars.table(t["parameters"], f"{where}.parameters", set(t["parameters"])
                            if isinstance(t["parameters"], dict) else set())
     if not params:
@@ -321,7 +332,7 @@ def parse_models(data: Any, base: ModelSpec, where: str = "models") -> ModelsSpe
                    '"materials.tread.youngs_modulus" = [2.0, 12.0]')
     spec = ModelsSpec(method, n, seed,
                       tuple(_parameter(p, x, method, base) for p, x in params.items()),
-                      num_levels)
+                      num_levels, loads)
     if spec.rows > MAX_ROWS:
         raise fail(where, f"a design of {spec.rows} models is too many (at most {MAX_ROWS})")
     return spec

@@ -105,7 +105,7 @@ from farm.specs import (
 from jobs.design import ModelsSpec, design, parse_models
 from jobs.errors import StudyError
 from jobs.identity import model_hash
-from jobs.nested import METHODS, TreeDesign, parse_tree
+from jobs.nested import METHODS, TreeDesign, parse_tree, sub_seed
 from jobs.validate import limits, lists, locations, reading, scalars, spec_tables
 from jobs.validate.adaptive import AdaptiveSpec, check_loads, parse_adaptive
 from jobs.validate.messages import fail, located, shown
@@ -471,6 +471,10 @@ def parse_study(text: str, source: str = "<study>") -> Study:
                 raise fail("study.group", "a study with [models] writes one group per model "
                            "(<kind>-<model hash>): drop study.group")
             models = parse_models(data["models"], model)
+            if models.loads == "own" and tree is None and sampling is None:
+                raise fail("models.loads", "'own' re-seeds each model's sampled load design, "
+                           "and these loads are listed: give [loads.sample] or [loads.tree], "
+                           "or drop models.loads")
             if tree is not None:
                 limits.EXPERIMENTS.check(models.rows * tree.count, "models",
                                          f"{models.rows} models x {tree.count} tree "
@@ -550,6 +554,25 @@ def _check_models(study: Study) -> None:
                                                                     strict=True))
             raise StudyError(f"models: row {k} of the {d.method} design ({row}) cannot "
                              f"take the loads: {e}") from e
+
+
+def with_own_loads(study: Study, row: int) -> Study:
+    """``study`` with its sampled load design re-seeded for the ``row``-th model of a
+    ``loads = "own"`` design (issue 47): each tyre of a population draws its own cases
+    from the same ranges (a tree's trunks, a sample's points, a rolling tree's slips).
+    Deterministic, so a resumed sweep plans the same experiments."""
+
+    def seed(old: int) -> int:
+        return sub_seed(old, 47, row)
+
+    tree = replace(study.tree, seed=seed(study.tree.seed)) if study.tree else None
+    sampling = (replace(study.sampling, seed=seed(study.sampling.seed))
+                if study.sampling else None)
+    rolling = study.rolling
+    if rolling is not None and rolling.branches is not None:
+        rolling = replace(rolling, branches=replace(rolling.branches,
+                                                    seed=seed(rolling.branches.seed)))
+    return replace(study, tree=tree, sampling=sampling, rolling=rolling)
 
 
 def load_study(path: str | Path) -> Study:

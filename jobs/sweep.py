@@ -42,7 +42,7 @@ from jobs.expand import (
 from jobs.progress import Progress, RunReport, Session
 from jobs.rolling_trees import RollTreeTask, run_rolling_tree
 from jobs.storeio import ensure_group
-from jobs.study import Study
+from jobs.study import Study, with_own_loads
 from jobs.tasks import PathOutcome, PathTask, run_path
 from jobs.trees import TreeTask, run_branch, run_trunk, trunk_outcome
 from jobs.wording import plural
@@ -131,12 +131,15 @@ def _todo(paths: list, status: dict[str, int], retry_failed: bool) -> list:
 
 def parts(study: Study) -> list[Study]:
     """The one-group studies a sweep runs: the study itself, or one per distinct model
-    of its ``[models]`` design, named by its group (as :attr:`Study.group_name`)."""
+    of its ``[models]`` design, named by its group (as :attr:`Study.group_name`); under
+    ``loads = "own"`` each with its own load cases (:func:`jobs.study.with_own_loads`)."""
     design = model_design(study)
     if design is None:
         return [study]
-    return [replace(study, model=model, group=group, models=None)
-            for group, model in design.distinct().items()]
+    own = study.models is not None and study.models.loads == "own"
+    return [replace(with_own_loads(study, k) if own else study, model=model, group=group,
+                    models=None)
+            for k, (group, model) in enumerate(design.distinct().items())]
 
 
 def _held(study: Study) -> frozenset[str]:

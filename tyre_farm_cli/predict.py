@@ -22,6 +22,7 @@ from typing import Annotated
 import numpy as np
 import typer
 
+from analysis.errors import ParameterError
 from jobs.validate.messages import fail
 from jobs.validate.scalars import integer
 from tyre_farm_cli.analyse import (
@@ -35,6 +36,7 @@ from tyre_farm_cli.analyse import (
 )
 from tyre_farm_cli.checks import model_folder, output_folder
 from tyre_farm_cli.errors import usage
+from tyre_farm_cli.options import open_target
 
 OUTSIDE_EXIT = 3
 """``farm predict``'s exit status when a cloud lies outside the model's domain (issue 47):
@@ -44,10 +46,16 @@ MAX_DRAWS = 1000  # noisy measurements per experiment: each one is a feature row
 ModelDir = Annotated[Path, typer.Argument(help="Model folder written by `farm fit`.")]
 
 
+Groups = Annotated[str | None, typer.Option(
+    "--group", "-g", help="Group, or several separated by commas, or 'all': a population "
+    "of tyres (issue 47), each tyre held out whole, the first the reference surface "
+    "[default: the store's only group].")]
+
+
 def fit(
     store: Store,
     out: Annotated[Path, typer.Option("--out", help="Model folder to write.")],
-    group: Group = None,
+    group: Groups = None,
     pressure: Pressure = None,
     sensor: Sensor = "t2cam-2017",
     learner: Annotated[str, typer.Option(help="plsr, gp (Gaussian process on the PLS "
@@ -65,21 +73,42 @@ def fit(
 ) -> None:
     """Train a force model on a store as a virtual T2Cam sees it; save it with a manifest."""
     from analysis.camera import predictor
+    from analysis.camera.population import Tyres
 
     spec = _fit_checks(sensor, learner, out, draws, folds, alpha, test_fraction)
-    ds = load_selection(store, storage_option, group, pressure, None)
-    model, check = predictor.fit(ds, spec, learner=learner, draws=draws, alpha=alpha,
-                                 test_fraction=test_fraction, folds=folds, seed=seed)
-    ids = [str(i) for i in np.asarray(ds["experiment"].values)[model.info["train"]]]
-    path = predictor.save(model, out, store=str(store), group=ds.attrs.get("group", "?"),
+    tyres = Tyres.of([load_selection(store, storage_option, g, pressure, None)
+                      for g in _groups(store, storage_option, group)])
+    model, check = predictor.fit(tyres.datasets, spec, learner=learner, draws=draws,
+                                 alpha=alpha, test_fraction=test_fraction, folds=folds,
+                                 seed=seed)
+    ids = [str(i) for i in tyres.ids()[model.info["train"]]]
+    path = predictor.save(model, out, store=str(store), group=",".join(tyres.names()),
                           ids=ids, check=check)
     if as_json:
         typer.echo(json.dumps({"model": str(path), "check": check.to_dict("records")},
                               indent=1))
         return
+    tyres_text = (f", {len(tyres.datasets)} tyres, {len(model.info['heldout_tyres'])} held "
+                  "out" if tyres.population else "")
     typer.echo(f"model: {path} ({learner}, sensor {spec.name}, {len(ids)} training "
-               f"experiments x {draws} noisy measurements)")
+               f"experiments x {draws} noisy measurements{tyres_text})")
     typer.echo(check.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+
+
+def _groups(store: str, options: list[str] | None, group: str | None) -> list[str | None]:
+    """``--group`` as a list: None (the store's only group), the names given, or every
+    group of the store for ``all``."""
+    if group is None:
+        return [None]
+    if group.strip() == "all":
+        from analysis.data import list_groups
+
+        return list(list_groups(open_target(store, options)))
+    names = [g.strip() for g in group.split(",")]
+    if not all(names) or len(set(names)) != len(names):
+        raise ParameterError(f"--group must be group names separated by commas, each once, "
+                             f"or 'all'; got {group!r}")
+    return list(names)
 
 
 def _fit_checks(sensor: str, learner: str, out: Path, draws: int, folds: int, alpha: float,

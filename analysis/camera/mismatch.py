@@ -17,9 +17,9 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from analysis.camera.features import displacements, targets
+from analysis.camera.features import targets
+from analysis.camera.population import tyre_features
 from analysis.camera.predictor import ForceModel
-from analysis.camera.sensor import InnerSurface, VirtualSensor
 
 
 def mismatch(model: ForceModel, ds: xr.Dataset, *, draws: int = 1,
@@ -36,20 +36,11 @@ def mismatch(model: ForceModel, ds: xr.Dataset, *, draws: int = 1,
         before issue 47), whatever the target.
     truth, predicted : ndarray of shape (K x draws, 4)
     """
-    other = VirtualSensor(model.sensor, InnerSurface.from_dataset(ds))
-    clean = other.clean(displacements(ds))
     Y = targets(ds)
-    rng = np.random.default_rng(seed)
-    noisy = model.sensor.noisy
-    rows, truth = [], []
-    for _ in range(draws if noisy else 1):
-        refs, clouds = other.measure(clean, rng if noisy else None)
-        for k in range(clean.shape[0]):
-            rows.append(model.features(refs[k].reshape(-1, 3), clouds[k].reshape(-1, 3)))
-            truth.append(Y[k])
-    X = np.concatenate(rows)
+    parts = tyre_features(model.virtual, ds, draws, np.random.default_rng(seed), model.inputs)
+    X = np.concatenate(parts)
     P = model.predict_features(X)
-    T = np.asarray(truth)
+    T = np.tile(Y, (len(parts), 1))
     # the share of these clouds the model's domain (issue 47) would flag in farm predict
     flagged = (float(np.mean([bool(w) for w in model.domain.outside(X)]))
                if model.domain is not None else float("nan"))

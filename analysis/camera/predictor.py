@@ -17,6 +17,7 @@ measured cloud on the sensor's points).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -26,13 +27,13 @@ from sklearn.base import clone
 from sklearn.model_selection import GroupKFold
 
 import analysis.camera.learners as learners
-from analysis.camera.features import TARGETS, UNITS, displacements, measured_features, targets
+from analysis.camera.features import TARGETS, UNITS
+from analysis.camera.population import Tyres, resampled_features
 from analysis.camera.predict.domain import FeatureDomain, reference_checks
 from analysis.camera.predict.intervals import ConformalIntervals
 from analysis.camera.sensor import InnerSurface, SensorSpec, VirtualSensor
-from analysis.camera.sensor.resample import to_layout
 from analysis.errors import ModelFileError, ParameterError, TooFewExperimentsError
-from analysis.splits import path_groups, split
+from analysis.splits import grouped_split
 
 INPUTS = ("displacement", "surface_strain")
 
@@ -59,11 +60,7 @@ class ForceModel:
     def features(self, ref_points: np.ndarray, points: np.ndarray) -> np.ndarray:
         """Features (1, F) of one measured cloud against its reference cloud, both (M, 3)
         in the model's frame (registered), resampled on the sensor's points."""
-        virtual = self.virtual
-        seen = np.isfinite(ref_points).all(axis=1) & np.isfinite(points).all(axis=1)
-        ref, cloud = to_layout(self.surface, virtual.layout, ref_points[seen], points[seen])
-        X, _ = virtual.features(ref[None], cloud[None], self.inputs)
-        return X
+        return resampled_features(self.virtual, ref_points, points, self.inputs)
 
     def predict_clouds(self, ref_points: np.ndarray, clouds: list[np.ndarray]) -> pd.DataFrame:
         """One row per cloud: each target, with the lower and upper interval bounds, and
@@ -98,11 +95,15 @@ class ForceModel:
         return pd.DataFrame(frame)
 
 
-def fit(ds: xr.Dataset, sensor: SensorSpec, *, learner: str = "plsr", draws: int = 3,
-        alpha: float = 0.1, test_fraction: float = 0.25, folds: int = 5,
+def fit(ds: xr.Dataset | Sequence[xr.Dataset], sensor: SensorSpec, *, learner: str = "plsr",
+        draws: int = 3, alpha: float = 0.1, test_fraction: float = 0.25, folds: int = 5,
         max_components: int = 10, seed: int = 0,
         inputs=INPUTS) -> tuple[ForceModel, pd.DataFrame]:
     """Train on the training part of ``ds``, calibrate intervals, check them held out.
+
+    ``ds`` is one store group, or several: a population of tyres
+    (:class:`analysis.camera.population.Tyres`, issue 47), whose splits and folds hold out
+    whole tyres and whose first group is the reference surface.
 
     Returns
     -------
@@ -113,7 +114,8 @@ def fit(ds: xr.Dataset, sensor: SensorSpec, *, learner: str = "plsr", draws: int
     """
     if not 0.0 < alpha < 1.0:
         raise ParameterError(f"alpha must be in (0, 1), got {alpha}")
-    Y = targets(ds)
+    tyres = Tyres.of(ds)
+    Y = tyres.targets()
     K = Y.shape[0]
     if 2 * folds > K:
         raise TooFewExperimentsError(f"fitting a force model needs at least {2 * folds} "
@@ -123,36 +125,57 @@ def fit(ds: xr.Dataset, sensor: SensorSpec, *, learner: str = "plsr", draws: int
         raise ParameterError(f"test fraction {test_fraction:g} holds out none of the {K} "
                              f"experiments, and the model's check needs one: give at "
                              f"least {1 / K:.3g}")
-    surface = InnerSurface.from_dataset(ds)
+    _check_tyres(tyres, test_fraction, folds)
+    surface = tyres.surface()
     virtual = VirtualSensor(sensor, surface)
-    train, test = split(ds, test_fraction, seed)  # whole rolls (issue 45)
-    U = displacements(ds)
+    labels = tyres.groups()  # whole rolls (issue 45), whole tyres (issue 47)
+    train, test = grouped_split(labels, test_fraction, seed)
     rng = np.random.default_rng(seed)
-    Xf, blocks = measured_features(virtual, virtual.clean(U[train]), draws, rng, inputs)
+    Xf = tyres.features(virtual, train, draws, rng, inputs)
+    blocks = [Xf.shape[1] // len(inputs)] * len(inputs)  # 3 P columns per input
     reps = Xf.shape[0] // train.size
-    # a fold keeps an experiment's noisy draws, and a roll's states, together
-    Yf, groups = np.tile(Y[train], (reps, 1)), np.tile(path_groups(ds)[train], reps)
+    # a fold keeps an experiment's noisy draws, a roll's states and a tyre together; a
+    # learner's own CV keeps paths together (the same labels for one tyre)
+    Yf, groups = np.tile(Y[train], (reps, 1)), np.tile(labels[train], reps)
+    paths = np.tile(tyres.paths()[train], reps)
     estimator = learners.learner(learner, max_components=max_components, folds=folds,
                                  x_blocks=blocks, y_blocks=[1] * len(TARGETS), seed=seed)
-    residuals = _out_of_fold(estimator, Xf, Yf, groups, folds)
+    residuals = _out_of_fold(estimator, Xf, Yf, groups, folds, paths)
     intervals = ConformalIntervals(alpha=alpha).fit(residuals)
-    estimator.fit(Xf, Yf, groups)
-    Xt, _ = measured_features(virtual, virtual.clean(U[test]), draws, rng, inputs)
+    estimator.fit(Xf, Yf, paths)
+    Xt = tyres.features(virtual, test, draws, rng, inputs)
     Yt = np.tile(Y[test], (Xt.shape[0] // test.size, 1))
-    model = ForceModel(sensor, surface, estimator, intervals, tuple(inputs),
-                       info={"train": train.tolist(), "test": test.tolist(),
-                             "learner": learner, "draws": draws, "seed": seed,
-                             "range": np.ptp(Y, axis=0).tolist()},
+    info = {"train": train.tolist(), "test": test.tolist(), "learner": learner,
+            "draws": draws, "seed": seed, "range": np.ptp(Y, axis=0).tolist()}
+    if tyres.population:
+        names = tyres.names()
+        info["tyres"] = names
+        info["heldout_tyres"] = [names[t] for t in np.unique(tyres.tyre[test])]
+    model = ForceModel(sensor, surface, estimator, intervals, tuple(inputs), info=info,
                        domain=FeatureDomain().fit(Xf, Xt))
     return model, _check(model, Xt, Yt, np.ptp(Y, axis=0), alpha)
 
 
-def _out_of_fold(estimator, X, Y, groups, folds: int) -> np.ndarray:
+def _check_tyres(tyres: Tyres, test_fraction: float, folds: int) -> None:
+    """A population holds out whole tyres: enough of them for the split and the folds."""
+    if not tyres.population:
+        return
+    n = len(tyres.datasets)
+    held = min(max(1, round(n * test_fraction)), n - 1)
+    if n - held < max(folds, 2):
+        raise TooFewExperimentsError(
+            f"a population's splits and CV folds hold out whole tyres: {n} tyres, "
+            f"{held} held out, leave {n - held} to train on, and {folds} folds need "
+            f"{folds}; lower --folds (at least 2) or add tyres")
+
+
+def _out_of_fold(estimator, X, Y, groups, folds: int, paths) -> np.ndarray:
     """Residuals (truth - prediction) of every row, each predicted by a model that never
-    saw its experiment."""
+    saw its group (its experiment's path, or its tyre); ``paths`` are what each fold's
+    learner keeps whole in its own CV."""
     res = np.empty_like(Y)
     for train, test in GroupKFold(folds).split(X, groups=groups):
-        model = clone(estimator).fit(X[train], Y[train], groups[train])
+        model = clone(estimator).fit(X[train], Y[train], paths[train])
         res[test] = Y[test] - model.predict(X[test])
     return res
 

@@ -390,3 +390,89 @@ def test_a_morris_trajectory_that_keeps_a_level_is_refused():
     check_swaps(spec, moving + moving)
     with pytest.raises(StudyError, match=r'"mesh.circumferential".*1 of 2 trajectories'):
         check_swaps(spec, moving + kept)
+
+
+# --- a population: each model with load cases of its own (issue 47) -----------------------
+
+POPULATION = """
+[models]
+method = "lhs"
+n = 4
+seed = 5
+loads = "own"
+[models.parameters]
+"materials.tread.youngs_modulus" = [8.0, 12.0]
+"""
+
+SAMPLED = HEAD.replace("""[loads]
+deflection_mm = [10, 20]
+""", """[loads]
+[loads.sample]
+method = "lhs"
+n = 3
+seed = 1
+deflection_mm = [5, 20]
+""")
+
+
+def test_own_loads_give_each_model_cases_of_its_own_and_shared_ones_do_not():
+    from jobs.expand import load_cases
+    from jobs.sweep import parts
+
+    own = parts(study(POPULATION, SAMPLED))
+    shared = parts(study(POPULATION.replace('loads = "own"', ""), SAMPLED))
+    assert [p.group_name for p in own] == [p.group_name for p in shared]
+    own_cases = [tuple(load_cases(p)) for p in own]
+    assert len(set(own_cases)) == 4  # no two tyres share their draws
+    assert len({tuple(load_cases(p)) for p in shared}) == 1
+    # the same ranges: every own draw lies in the sampled box, and the plan is repeatable
+    assert all(5 <= d <= 20 for cases in own_cases for d, _ in cases)
+    again = [tuple(load_cases(p)) for p in parts(study(POPULATION, SAMPLED))]
+    assert again == own_cases
+
+
+def test_own_loads_reseed_a_trees_trunks():
+    from jobs.nested import trunk_points
+    from jobs.sweep import parts
+
+    tree = HEAD.replace('kind = "reduced"', 'kind = "full"').replace("""[loads]
+deflection_mm = [10, 20]
+""", """[loads.tree]
+trunks = 2
+levels = 2
+slides = 1
+pressure_kpa = [100, 200]
+friction = [0.3, 0.9]
+deflection_mm = [5, 20]
+shift_x_mm = [-4, 4]
+shift_y_mm = [0, 0]
+""")
+    trunks = [tuple(t.pressure for t in trunk_points(p.tree))
+              for p in parts(study(POPULATION, tree))]
+    assert len(set(trunks)) == 4
+
+
+@pytest.mark.parametrize(("models", "head", "where"), [
+    (POPULATION, HEAD, "models.loads"),  # listed loads: nothing to re-seed
+    (POPULATION.replace('"lhs"', '"sobol"').replace("n = 4", "n = 8"), SAMPLED,
+     "models.loads"),  # indices compare models under the same loads
+    (POPULATION.replace('"own"', '"mine"'), SAMPLED, "models.loads"),
+])
+def test_own_loads_are_refused_where_they_cannot_mean_anything(models, head, where):
+    with pytest.raises(StudyError, match=where.replace(".", r"\.")):
+        study(models, head)
+
+
+@pytest.mark.parametrize(("name", "tyres", "experiments"), [
+    ("nominal", 1, 45), ("train", 6, 180), ("stiffer", 1, 30), ("softer", 1, 30),
+    ("worn", 1, 30)])
+def test_the_population_examples_plan_what_their_headers_say(name, tyres, experiments):
+    from jobs.expand import experiments as listed
+    from jobs.expand import tree_plan
+    from jobs.study import load_study
+    from jobs.sweep import parts
+
+    root = Path(__file__).resolve().parents[2] / "examples" / "population"
+    groups = parts(load_study(root / f"{name}.toml"))
+    assert len(groups) == tyres
+    assert sum(len(listed(tree_plan(p, "ccx"))) for p in groups) == experiments

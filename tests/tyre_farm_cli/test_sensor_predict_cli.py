@@ -382,6 +382,49 @@ def test_fit_arguments_are_refused_in_one_line_and_nothing_is_written(stores, tm
     assert (tmp_path / "other" / "notes.txt").read_text() == "mine"
 
 
+# --- a population of tyres (issue 47) ------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def population(tmp_path_factory):
+    """One store, five groups: five tyres (the synthetic store's seeds stand in for them)."""
+    store = tmp_path_factory.mktemp("population") / "pop.zarr"
+    for k in range(5):
+        make_combined_store(store, n_experiments=16, seed=20 + k, group=f"tyre{k}", **SMALL)
+    return store
+
+
+def test_fit_on_every_group_of_a_store_holds_out_whole_tyres(population, tmp_path):
+    code, out, err = _cli(["fit", population, "--group", "all", "--out", tmp_path / "m",
+                           "--sensor", SENSOR, "--folds", 3, "--draws", 2])
+    assert code in (0, None), err
+    assert "5 tyres, 1 held out" in out
+    manifest = json.loads((tmp_path / "m" / "manifest.json").read_text())
+    assert manifest["group"] == "tyre0,tyre1,tyre2,tyre3,tyre4"
+    assert len(manifest["experiment_ids"]) == 4 * 16
+    # the model is a model like any other: another store's clouds go through it
+    code, out, err = _cli(["mismatch", tmp_path / "m", population, "--group", "tyre2",
+                           "--json"])
+    assert code in (0, None), err
+    assert len(json.loads(out)["errors"]) == 4
+
+
+@pytest.mark.parametrize(("group", "folds", "needle"), [
+    ("tyre0,tyre0", 2, "each once"),
+    ("tyre0,,tyre1", 2, "--group"),
+    ("all", 5, "lower --folds"),  # 5 tyres, 1 held out: 4 to train on
+    ("tyre0,nosuch", 2, "nosuch"),
+])
+def test_fit_refuses_groups_it_cannot_use_in_one_line(population, tmp_path, group, folds,
+                                                      needle):
+    code, out, err = _cli(["fit", population, "--group", group, "--out", tmp_path / "m",
+                           "--sensor", SENSOR, "--folds", folds, "--draws", 2])
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert code not in (0, None) and out == ""
+    assert len(lines) == 1 and needle in lines[0], err
+    assert not (tmp_path / "m").exists()
+
+
 def test_fit_replaces_an_earlier_model_in_its_folder(model, stores, tmp_path):
     import shutil
 
