@@ -84,7 +84,8 @@ def cases(study: Study) -> list[tuple[float, float, RoadMotion | None]]:
         names = [name for name, _, _ in s.ranges]
         engine = (qmc.LatinHypercube(d=len(names), seed=s.seed) if s.method == "lhs"
                   else qmc.Sobol(d=len(names), scramble=True, seed=s.seed))
-        unit = engine.random(s.n)
+        # a population's tyre takes its slice of one design over all tyres (loads = "own")
+        unit = engine.random(s.n * s.parts)[s.part * s.n:(s.part + 1) * s.n]
         points = qmc.scale(unit, [low for _, low, _ in s.ranges],
                            [high for _, _, high in s.ranges])
         # then the points an adaptive study's rounds added (jobs.adaptive), in order

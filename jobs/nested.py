@@ -69,6 +69,10 @@ class TreeDesign:
     ranges: tuple[tuple[str, float, float], ...]  # (name, low, high), TRUNK/BRANCH names
     solve: str = "tree"  # or "rest" (SOLVE)
     rise: str = "vertical"  # how tilted roads rise (farm.specs.RoadMotion.rise)
+    #: slice ``part`` of ``parts`` of a design of trunks x parts trunks: a population's
+    #: tyre (``[models] loads = "own"``, :func:`jobs.study.with_own_loads`)
+    part: int = 0
+    parts: int = 1
 
     def range(self, name: str) -> tuple[float, float]:
         """(low, high) of ``name``; (0, 0) for an optional trunk key not given."""
@@ -170,12 +174,13 @@ def trunk_points(design: TreeDesign) -> list[TrunkPoint]:
     """The trunks of the design, each with its levels and slides (deterministic)."""
     names = ("pressure", "friction", "tilt")
     box = [design.range(n) for n in names]
-    trunks = sample(design.method, design.trunks, [b[0] for b in box], [b[1] for b in box],
-                     design.seed)
+    first = design.part * design.trunks  # a population's tyre: its slice of the trunks
+    trunks = sample(design.method, design.trunks * design.parts, [b[0] for b in box],
+                    [b[1] for b in box], design.seed)[first:first + design.trunks]
     d_low, d_high = design.range("deflection")
     (x_low, x_high), (y_low, y_high) = design.range("shift_x"), design.range("shift_y")
     out = []
-    for k, (p, mu, tilt) in enumerate(trunks):
+    for k, (p, mu, tilt) in enumerate(trunks, start=first):
         # a trunk's levels: a 1-D design of its own, seeded by the study seed and the trunk
         levels = sample(design.method, design.levels, [d_low], [d_high],
                         sub_seed(design.seed, k))[:, 0]

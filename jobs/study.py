@@ -196,6 +196,10 @@ class Sampling:
     #: design points added to the sampled ones, in ``ranges`` order and internal units:
     #: the points an adaptive study's rounds chose (jobs.adaptive), none in a study file
     points: tuple[tuple[float, ...], ...] = ()
+    #: slice ``part`` of ``parts`` of a design of n x parts points: a population's tyre
+    #: (``[models] loads = "own"``, :func:`with_own_loads`); 0 of 1: the whole design
+    part: int = 0
+    parts: int = 1
 
 
 @dataclass(frozen=True)
@@ -556,22 +560,18 @@ def _check_models(study: Study) -> None:
                              f"take the loads: {e}") from e
 
 
-def with_own_loads(study: Study, row: int) -> Study:
-    """``study`` with its sampled load design re-seeded for the ``row``-th model of a
-    ``loads = "own"`` design (issue 47): each tyre of a population draws its own cases
-    from the same ranges (a tree's trunks, a sample's points, a rolling tree's slips).
-    Deterministic, so a resumed sweep plans the same experiments."""
-
-    def seed(old: int) -> int:
-        return sub_seed(old, 47, row)
-
-    tree = replace(study.tree, seed=seed(study.tree.seed)) if study.tree else None
-    sampling = (replace(study.sampling, seed=seed(study.sampling.seed))
-                if study.sampling else None)
+def with_own_loads(study: Study, row: int, rows: int) -> Study:
+    """``study`` for the ``row``-th of ``rows`` models of a ``loads = "own"`` design
+    (issue 47): its slice of one sampled design of ``rows`` times the points (a tree's
+    trunks, a sample's points), so that the population's tyres share no load case and
+    together cover the ranges as one design does; a rolling tree's slips re-seeded by
+    the row. Deterministic, so a resumed sweep plans the same experiments."""
+    tree = replace(study.tree, part=row, parts=rows) if study.tree else None
+    sampling = replace(study.sampling, part=row, parts=rows) if study.sampling else None
     rolling = study.rolling
     if rolling is not None and rolling.branches is not None:
-        rolling = replace(rolling, branches=replace(rolling.branches,
-                                                    seed=seed(rolling.branches.seed)))
+        rolling = replace(rolling, branches=replace(
+            rolling.branches, seed=sub_seed(rolling.branches.seed, 47, row)))
     return replace(study, tree=tree, sampling=sampling, rolling=rolling)
 
 

@@ -137,9 +137,10 @@ def parts(study: Study) -> list[Study]:
     if design is None:
         return [study]
     own = study.models is not None and study.models.loads == "own"
-    return [replace(with_own_loads(study, k) if own else study, model=model, group=group,
-                    models=None)
-            for k, (group, model) in enumerate(design.distinct().items())]
+    models = design.distinct()
+    return [replace(with_own_loads(study, k, len(models)) if own else study, model=model,
+                    group=group, models=None)
+            for k, (group, model) in enumerate(models.items())]
 
 
 def _held(study: Study) -> frozenset[str]:

@@ -450,6 +450,10 @@ shift_y_mm = [0, 0]
     trunks = [tuple(t.pressure for t in trunk_points(p.tree))
               for p in parts(study(POPULATION, tree))]
     assert len(set(trunks)) == 4
+    # the tyres' slices are one design: a Latin hypercube of 4 x 2 trunks has one
+    # pressure in each eighth of [100, 200] kPa
+    strata = sorted(int((p * 1000 - 100) // 12.5) for ts in trunks for p in ts)
+    assert strata == list(range(8))
 
 
 @pytest.mark.parametrize(("models", "head", "where"), [
@@ -464,8 +468,8 @@ def test_own_loads_are_refused_where_they_cannot_mean_anything(models, head, whe
 
 
 @pytest.mark.parametrize(("name", "tyres", "experiments"), [
-    ("nominal", 1, 45), ("train", 6, 180), ("stiffer", 1, 30), ("softer", 1, 30),
-    ("worn", 1, 30)])
+    ("nominal", 1, 45), ("train", 8, 120), ("stiffer", 1, 15), ("softer", 1, 15),
+    ("worn", 1, 15)])
 def test_the_population_examples_plan_what_their_headers_say(name, tyres, experiments):
     from jobs.expand import experiments as listed
     from jobs.expand import tree_plan
