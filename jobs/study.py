@@ -475,10 +475,6 @@ def parse_study(text: str, source: str = "<study>") -> Study:
                 raise fail("study.group", "a study with [models] writes one group per model "
                            "(<kind>-<model hash>): drop study.group")
             models = parse_models(data["models"], model)
-            if models.loads == "own" and tree is None and sampling is None:
-                raise fail("models.loads", "'own' re-seeds each model's sampled load design, "
-                           "and these loads are listed: give [loads.sample] or [loads.tree], "
-                           "or drop models.loads")
             if tree is not None:
                 limits.EXPERIMENTS.check(models.rows * tree.count, "models",
                                          f"{models.rows} models x {tree.count} tree "
@@ -546,6 +542,11 @@ def _check_loads(study: Study) -> None:
 def _check_models(study: Study) -> None:
     """Make every model of the design (each checked by ``override_model``) and check the
     loads against each: a thinner tread or a lower section takes less deflection."""
+    own = study.models is not None and study.models.loads == "own"
+    if own and study.tree is None and study.sampling is None:
+        raise fail("models.loads", "'own' gives each model its slice of a sampled load "
+                   "design, and these loads are listed: give [loads.sample] or "
+                   "[loads.tree], or drop models.loads")
     d = design(study.model, study.models)
     first: dict[ModelSpec, int] = {}  # each distinct model and its first row
     for k, model in enumerate(d.models):

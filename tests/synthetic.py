@@ -400,3 +400,18 @@ def make_combined_store(
     enc = {v: {"chunks": (1, *ds[v].shape[1:])} for v in ds.data_vars if "experiment" in ds[v].dims}
     ds.to_zarr(path, group=group, mode="w", encoding=enc, consolidated=False)
     return group
+
+
+def stiffer_tyre(path, stiffness: float, *, seed: int, n_experiments: int = 30, **geometry):
+    """A synthetic combined group (:func:`make_combined_store`, group named by the file)
+    loaded into memory, its forces and moments times ``stiffness``: a tyre that needs that
+    much more force for the same deformation (issue 47). Its stiffness leaves no trace in
+    its fields, so no camera model can tell it from the nominal one."""
+    from analysis import data
+
+    make_combined_store(path, n_experiments=n_experiments, seed=seed, group=path.stem,
+                        **geometry)
+    ds = data.load(str(path)).load()
+    for var in ("total_force", "moment"):
+        ds[var] = ds[var] * stiffness
+    return ds

@@ -33,12 +33,14 @@ from tyre_farm_cli.analyse_options import (
     Deflection,
     Deflections,
     Edges,
+    FitLearner,
     Force,
     Group,
     Inputs,
     Json,
     Learners,
     Method,
+    MismatchedStore,
     ModelStudy,
     Nipals,
     NoiseComponents,
@@ -47,12 +49,16 @@ from tyre_farm_cli.analyse_options import (
     NoiseLevels,
     Noises,
     NoiseSeed,
+    NominalGroup,
+    NominalStore,
     NumResamples,
     Out,
     PcaModes,
     PcrModes,
     PlsComponents,
     PlsCv,
+    PopulationFolds,
+    PopulationStore,
     Pressure,
     PressuresKpa,
     Reference,
@@ -378,6 +384,42 @@ def _repeats_and_edges(repeats: int, edges: float) -> None:
         raise ParameterError(f"--repeats must be in [1, 100], got {repeats}")
     if not 0.0 <= edges < 0.5:  # NaN fails too
         raise ParameterError(f"--edges must be in [0, 0.5), got {edges}")
+
+
+# ----------------------------------------------------------------- population (issue 47)
+
+@app.command("population")
+def population(nominal: NominalStore, tyres: PopulationStore, mismatched: MismatchedStore,
+               group: NominalGroup = None, out: Out = None, sensor_: Sensor = "t2cam-2017",
+               learner: FitLearner = "plsr", repeats: Repeats = 5, draws: SensorDraws = 3,
+               folds: PopulationFolds = 4, test_fraction: TestFraction = 0.25,
+               seed: SplitSeed = 0, storage_option: StorageOption = None,
+               as_json: Json = False) -> None:
+    """Nominal-only against population force models over repeated splits: error, its
+    growth and interval coverage on nominal and mismatched tyres, and the part of each
+    error no camera model can remove (issue 47)."""
+    from analysis.camera.learners import learner as check_learner
+    from analysis.camera.sensor import sensor_spec
+    from analysis.data import list_groups
+
+    with usage():
+        spec = sensor_spec(sensor_)
+        check_learner(learner)
+        _split(test_fraction, folds)
+        _draws_at_least_one(draws)
+        if not 2 <= repeats <= 100:
+            raise ParameterError(f"--repeats must be in [2, 100] (a spread needs two "
+                                 f"splits), got {repeats}")
+    folder = _out(out, "population")
+    base = load_selection(nominal, storage_option, group, None, None)
+    pop = [load_selection(tyres, storage_option, g, None, None)
+           for g in list_groups(open_target(tyres, storage_option))]
+    study = _study("population")
+    others = {study.tyre_label(ds, base): ds for ds in (
+        load_selection(mismatched, storage_option, g, None, None)
+        for g in list_groups(open_target(mismatched, storage_option)))}
+    _done(study.run(base, pop, others, spec, folder, learner=learner, repeats=repeats,
+                    draws=draws, folds=folds, test_fraction=test_fraction, seed=seed), as_json)
 
 
 # ------------------------------------------------------------------ surrogate (issue 28)

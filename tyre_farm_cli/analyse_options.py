@@ -205,3 +205,18 @@ NumResamples = Annotated[int, typer.Option(help="Bootstrap resamples of the conf
                                            "intervals.")]
 ConfLevel = Annotated[float, typer.Option(help="Confidence level of the intervals.")]
 BootstrapSeed = Annotated[int, typer.Option("--seed", help="Seed of the bootstrap.")]
+
+
+# --- farm analyse population (issue 47) --------------------------------------------------
+NominalStore = Annotated[str, typer.Argument(
+    help="Store of the nominal tyre (its only group, or --group).")]
+PopulationStore = Annotated[str, typer.Argument(
+    help="Store of the population: every group a tyre (a [models] study, loads = 'own').")]
+MismatchedStore = Annotated[str, typer.Argument(
+    help="Store of tyres outside the population: every group one, compared one by one.")]
+NominalGroup = Annotated[str | None, typer.Option(
+    "--group", "-g", help="The nominal store's group [default: its only one].")]
+FitLearner = Annotated[str, typer.Option(
+    "--learner", help="plsr, gp, krr or auto (as farm fit takes them).")]
+PopulationFolds = Annotated[int, typer.Option(
+    "--folds", help="Folds of the grouped CV (the population's hold out whole tyres).")]

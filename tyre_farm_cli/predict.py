@@ -88,11 +88,16 @@ def fit(
         typer.echo(json.dumps({"model": str(path), "check": check.to_dict("records")},
                               indent=1))
         return
-    tyres_text = (f", {len(tyres.datasets)} tyres, {len(model.info['heldout_tyres'])} held "
-                  "out" if tyres.population else "")
     typer.echo(f"model: {path} ({learner}, sensor {spec.name}, {len(ids)} training "
-               f"experiments x {draws} noisy measurements{tyres_text})")
+               f"experiments x {draws} noisy measurements{_tyres_text(model.info)})")
     typer.echo(check.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+
+
+def _tyres_text(info: dict) -> str:
+    """", 8 tyres, 2 held out" for a population's model; "" for one tyre's."""
+    if "tyres" not in info:
+        return ""
+    return f", {len(info['tyres'])} tyres, {len(info['heldout_tyres'])} held out"
 
 
 def _groups(store: str, options: list[str] | None, group: str | None) -> list[str | None]:

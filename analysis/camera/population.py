@@ -144,6 +144,14 @@ class Tyres:
         """The groups' names (their ``group`` attribute)."""
         return [str(d.attrs.get("group", f"tyre {t}")) for t, d in enumerate(self.datasets)]
 
+    def held_out(self, test: np.ndarray) -> dict[str, list[str]]:
+        """A population's ``tyres`` and ``heldout_tyres`` (the tyres of the positions
+        ``test``), by name, for a model's info; nothing for one tyre."""
+        if not self.population:
+            return {}
+        names = self.names()
+        return {"tyres": names, "heldout_tyres": [names[t] for t in np.unique(self.tyre[test])]}
+
     def surface(self) -> InnerSurface:
         """The reference tyre's inner surface: what the model's sensor points lie on."""
         return InnerSurface.from_dataset(self.datasets[0])

@@ -112,11 +112,49 @@ def fit(ds: xr.Dataset | Sequence[xr.Dataset], sensor: SensorSpec, *, learner: s
         Per target: held-out RMSE (and % of range), the interval half-width, nominal and
         held-out coverage.
     """
-    if not 0.0 < alpha < 1.0:
-        raise ParameterError(f"alpha must be in (0, 1), got {alpha}")
     tyres = Tyres.of(ds)
     Y = tyres.targets()
-    K = Y.shape[0]
+    _check_sizes(tyres, alpha, test_fraction, folds)
+    surface = tyres.surface()
+    virtual = VirtualSensor(sensor, surface)
+    labels = tyres.groups()  # whole rolls (issue 45), whole tyres (issue 47)
+    train, test = grouped_split(labels, test_fraction, seed)
+    rng = np.random.default_rng(seed)
+    Xf = tyres.features(virtual, train, draws, rng, inputs)
+    reps = Xf.shape[0] // train.size
+    # a fold keeps an experiment's noisy draws, a roll's states and a tyre together; a
+    # learner's own CV keeps paths together (the same labels for one tyre)
+    estimator = learners.learner(learner, max_components=max_components, folds=folds,
+                                 x_blocks=[Xf.shape[1] // len(inputs)] * len(inputs),
+                                 y_blocks=[1] * len(TARGETS), seed=seed)
+    intervals = _train(estimator, Xf, np.tile(Y[train], (reps, 1)),
+                       np.tile(labels[train], reps), np.tile(tyres.paths()[train], reps),
+                       folds, alpha)
+    Xt = tyres.features(virtual, test, draws, rng, inputs)
+    Yt = np.tile(Y[test], (Xt.shape[0] // test.size, 1))
+    info = {"train": train.tolist(), "test": test.tolist(), "learner": learner,
+            "draws": draws, "seed": seed, "range": np.ptp(Y, axis=0).tolist(),
+            **tyres.held_out(test)}
+    model = ForceModel(sensor, surface, estimator, intervals, tuple(inputs), info=info,
+                       domain=FeatureDomain().fit(Xf, Xt))
+    return model, _check(model, Xt, Yt, np.ptp(Y, axis=0), alpha)
+
+
+def _train(estimator, X, Y, groups, paths, folds: int, alpha: float) -> ConformalIntervals:
+    """Fit ``estimator`` on all rows (its own CV keeping ``paths`` whole) and return the
+    conformal intervals of its out-of-fold residuals (folds keeping ``groups`` whole)."""
+    intervals = ConformalIntervals(alpha=alpha).fit(
+        _out_of_fold(estimator, X, Y, groups, folds, paths))
+    estimator.fit(X, Y, paths)
+    return intervals
+
+
+def _check_sizes(tyres: Tyres, alpha: float, test_fraction: float, folds: int) -> None:
+    """Enough experiments for the folds and the held-out check; a population holds out
+    whole tyres: enough of them for the split and the folds."""
+    if not 0.0 < alpha < 1.0:
+        raise ParameterError(f"alpha must be in (0, 1), got {alpha}")
+    K = int(tyres.sizes.sum())
     if 2 * folds > K:
         raise TooFewExperimentsError(f"fitting a force model needs at least {2 * folds} "
                                      f"done experiments ({folds} CV folds), the selection "
@@ -125,39 +163,6 @@ def fit(ds: xr.Dataset | Sequence[xr.Dataset], sensor: SensorSpec, *, learner: s
         raise ParameterError(f"test fraction {test_fraction:g} holds out none of the {K} "
                              f"experiments, and the model's check needs one: give at "
                              f"least {1 / K:.3g}")
-    _check_tyres(tyres, test_fraction, folds)
-    surface = tyres.surface()
-    virtual = VirtualSensor(sensor, surface)
-    labels = tyres.groups()  # whole rolls (issue 45), whole tyres (issue 47)
-    train, test = grouped_split(labels, test_fraction, seed)
-    rng = np.random.default_rng(seed)
-    Xf = tyres.features(virtual, train, draws, rng, inputs)
-    blocks = [Xf.shape[1] // len(inputs)] * len(inputs)  # 3 P columns per input
-    reps = Xf.shape[0] // train.size
-    # a fold keeps an experiment's noisy draws, a roll's states and a tyre together; a
-    # learner's own CV keeps paths together (the same labels for one tyre)
-    Yf, groups = np.tile(Y[train], (reps, 1)), np.tile(labels[train], reps)
-    paths = np.tile(tyres.paths()[train], reps)
-    estimator = learners.learner(learner, max_components=max_components, folds=folds,
-                                 x_blocks=blocks, y_blocks=[1] * len(TARGETS), seed=seed)
-    residuals = _out_of_fold(estimator, Xf, Yf, groups, folds, paths)
-    intervals = ConformalIntervals(alpha=alpha).fit(residuals)
-    estimator.fit(Xf, Yf, paths)
-    Xt = tyres.features(virtual, test, draws, rng, inputs)
-    Yt = np.tile(Y[test], (Xt.shape[0] // test.size, 1))
-    info = {"train": train.tolist(), "test": test.tolist(), "learner": learner,
-            "draws": draws, "seed": seed, "range": np.ptp(Y, axis=0).tolist()}
-    if tyres.population:
-        names = tyres.names()
-        info["tyres"] = names
-        info["heldout_tyres"] = [names[t] for t in np.unique(tyres.tyre[test])]
-    model = ForceModel(sensor, surface, estimator, intervals, tuple(inputs), info=info,
-                       domain=FeatureDomain().fit(Xf, Xt))
-    return model, _check(model, Xt, Yt, np.ptp(Y, axis=0), alpha)
-
-
-def _check_tyres(tyres: Tyres, test_fraction: float, folds: int) -> None:
-    """A population holds out whole tyres: enough of them for the split and the folds."""
     if not tyres.population:
         return
     n = len(tyres.datasets)

@@ -425,6 +425,28 @@ def test_fit_refuses_groups_it_cannot_use_in_one_line(population, tmp_path, grou
     assert not (tmp_path / "m").exists()
 
 
+def test_analyse_population_compares_the_two_models_over_repeated_splits(stores, population,
+                                                                       tmp_path):
+    code, out, err = _cli(["analyse", "population", stores / "a.zarr", population,
+                           stores / "b.zarr", "--out", tmp_path / "p", "--sensor", SENSOR,
+                           "--repeats", 2, "--draws", 2, "--folds", 3, "--json"])
+    assert code in (0, None), err
+    tables = json.loads(out)["tables"]
+    summary = pd.DataFrame(tables["summary"])
+    assert set(summary["model"]) == {"nominal-only", "population"}
+    assert {"nominal held-out", "population held-out tyres"} < set(summary["tyres"])
+    assert (summary["splits"] == 2).all()
+    assert "What limits" in (tmp_path / "p" / "summary.md").read_text()
+
+
+def test_analyse_population_needs_two_splits_for_a_spread(stores, population, tmp_path):
+    code, _out, err = _cli(["analyse", "population", stores / "a.zarr", population,
+                           stores / "b.zarr", "--out", tmp_path / "p", "--repeats", 1])
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert code not in (0, None) and len(lines) == 1 and "--repeats" in lines[0], err
+    assert not (tmp_path / "p").exists()
+
+
 def test_fit_replaces_an_earlier_model_in_its_folder(model, stores, tmp_path):
     import shutil
 

@@ -6,13 +6,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from analysis import data
 from analysis.camera import predictor
 from analysis.camera.mismatch import mismatch
 from analysis.camera.population import Tyres, tyre_features
 from analysis.camera.sensor import InnerSurface, VirtualSensor, sensor_spec
 from analysis.errors import TooFewExperimentsError
-from tests.synthetic import make_combined_store
+from tests.synthetic import stiffer_tyre
 
 SMALL = {"rows": 9, "cols": 24, "tread_rows": 4, "tread_cols": 8}
 SENSOR = sensor_spec("t2cam-2017,spacing_mm=20,noise_mm=0.2")
@@ -22,11 +21,7 @@ POPULATION = (0.86, 0.92, 0.97, 1.03, 1.08, 1.14)
 
 
 def tyre(path, stiffness: float, seed: int, n: int = 30):
-    make_combined_store(path, n_experiments=n, seed=seed, group=path.stem, **SMALL)
-    ds = data.load(str(path)).load()
-    for var in ("total_force", "moment"):
-        ds[var] = ds[var] * stiffness
-    return ds
+    return stiffer_tyre(path, stiffness, seed=seed, n_experiments=n, **SMALL)
 
 
 @pytest.fixture(scope="module")
