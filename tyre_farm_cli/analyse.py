@@ -37,6 +37,7 @@ from tyre_farm_cli.analyse_options import (
     Force,
     Group,
     Inputs,
+    IntervalKind,
     Json,
     Learners,
     Method,
@@ -393,8 +394,8 @@ def population(nominal: NominalStore, tyres: PopulationStore, mismatched: Mismat
                group: NominalGroup = None, out: Out = None, sensor_: Sensor = "t2cam-2017",
                learner: FitLearner = "plsr", repeats: Repeats = 5, draws: SensorDraws = 3,
                folds: PopulationFolds = 4, test_fraction: TestFraction = 0.25,
-               seed: SplitSeed = 0, storage_option: StorageOption = None,
-               as_json: Json = False) -> None:
+               seed: SplitSeed = 0, intervals: IntervalKind = "split",
+               storage_option: StorageOption = None, as_json: Json = False) -> None:
     """Nominal-only against population force models over repeated splits: error, its
     growth and interval coverage on nominal and mismatched tyres, and the part of each
     error no camera model can remove (issue 47)."""
@@ -407,6 +408,8 @@ def population(nominal: NominalStore, tyres: PopulationStore, mismatched: Mismat
         check_learner(learner)
         _split(test_fraction, folds)
         _draws_at_least_one(draws)
+        if intervals not in ("split", "adaptive"):
+            raise ParameterError(f"--intervals must be split or adaptive, got {intervals!r}")
         if not 2 <= repeats <= 100:
             raise ParameterError(f"--repeats must be in [2, 100] (a spread needs two "
                                  f"splits), got {repeats}")
@@ -419,7 +422,8 @@ def population(nominal: NominalStore, tyres: PopulationStore, mismatched: Mismat
         load_selection(mismatched, storage_option, g, None, None)
         for g in list_groups(open_target(mismatched, storage_option)))}
     _done(study.run(base, pop, others, spec, folder, learner=learner, repeats=repeats,
-                    draws=draws, folds=folds, test_fraction=test_fraction, seed=seed), as_json)
+                    draws=draws, folds=folds, test_fraction=test_fraction, seed=seed,
+                    intervals=intervals), as_json)
 
 
 # ------------------------------------------------------------------ surrogate (issue 28)

@@ -220,3 +220,6 @@ FitLearner = Annotated[str, typer.Option(
     "--learner", help="plsr, gp, krr or auto (as farm fit takes them).")]
 PopulationFolds = Annotated[int, typer.Option(
     "--folds", help="Folds of the grouped CV (the population's hold out whole tyres).")]
+IntervalKind = Annotated[str, typer.Option(
+    "--intervals", help="split (one half-width per target) or adaptive (wider where a "
+    "cloud is unlike the training clouds).")]

@@ -34,6 +34,7 @@ from tyre_farm_cli.analyse import (
     Store,
     load_selection,
 )
+from tyre_farm_cli.analyse_options import IntervalKind
 from tyre_farm_cli.checks import model_folder, output_folder
 from tyre_farm_cli.errors import usage
 from tyre_farm_cli.options import open_target
@@ -68,6 +69,7 @@ def fit(
                                                  "and its intervals.")] = 0.25,
     folds: Annotated[int, typer.Option(help="Folds of the grouped CV (count, intervals).")] = 5,
     seed: Annotated[int, typer.Option(help="Seed of split, folds and noise.")] = 0,
+    intervals: IntervalKind = "split",
     storage_option: StorageOption = None,
     as_json: Json = False,
 ) -> None:
@@ -75,12 +77,12 @@ def fit(
     from analysis.camera import predictor
     from analysis.camera.population import Tyres
 
-    spec = _fit_checks(sensor, learner, out, draws, folds, alpha, test_fraction)
+    spec = _fit_checks(sensor, learner, out, draws, folds, alpha, test_fraction, intervals)
     tyres = Tyres.of([load_selection(store, storage_option, g, pressure, None)
                       for g in _groups(store, storage_option, group)])
     model, check = predictor.fit(tyres.datasets, spec, learner=learner, draws=draws,
                                  alpha=alpha, test_fraction=test_fraction, folds=folds,
-                                 seed=seed)
+                                 seed=seed, intervals=intervals)
     ids = [str(i) for i in tyres.ids()[model.info["train"]]]
     path = predictor.save(model, out, store=str(store), group=",".join(tyres.names()),
                           ids=ids, check=check)
@@ -117,7 +119,7 @@ def _groups(store: str, options: list[str] | None, group: str | None) -> list[st
 
 
 def _fit_checks(sensor: str, learner: str, out: Path, draws: int, folds: int, alpha: float,
-                test_fraction: float):
+                test_fraction: float, intervals: str = "split"):
     """``farm fit``'s arguments checked before the store is read: the sensor's spec."""
     from analysis.camera.learners import learner as check_learner
     from analysis.camera.sensor import sensor_spec
@@ -128,6 +130,8 @@ def _fit_checks(sensor: str, learner: str, out: Path, draws: int, folds: int, al
         model_folder(out, "--out")
         integer(draws, "--draws", low=1, high=MAX_DRAWS)
         integer(folds, "--folds", low=2)  # grouped CV needs a train and a test fold
+        if intervals not in ("split", "adaptive"):
+            raise fail("--intervals", f"must be split or adaptive, got {intervals!r}")
         for value, name in ((alpha, "--alpha"), (test_fraction, "--test-fraction")):
             if not 0.0 < value < 1.0:
                 raise fail(name, f"must be in (0, 1), got {value:g}")

@@ -36,6 +36,8 @@ from analysis.errors import ModelFileError, ParameterError, TooFewExperimentsErr
 from analysis.splits import grouped_split
 
 INPUTS = ("displacement", "surface_strain")
+#: how a force model's intervals are calibrated (:func:`fit`)
+INTERVALS = ("split", "adaptive")
 
 
 @dataclass
@@ -86,7 +88,10 @@ class ForceModel:
 
     def predict_features(self, X: np.ndarray) -> pd.DataFrame:
         P = np.asarray(self.learner.predict(X)).reshape(X.shape[0], -1)  # type: ignore[attr-defined]
-        lower, upper = self.intervals.interval(P)
+        scale = None
+        if getattr(self.intervals, "scaled_", False) and self.domain is not None:
+            scale = self.domain.difficulty(X)  # wider where a cloud is unlike the training
+        lower, upper = self.intervals.interval(P, scale)
         frame = {}
         for j, name in enumerate(self.targets):
             frame[name] = P[:, j]
@@ -97,13 +102,17 @@ class ForceModel:
 
 def fit(ds: xr.Dataset | Sequence[xr.Dataset], sensor: SensorSpec, *, learner: str = "plsr",
         draws: int = 3, alpha: float = 0.1, test_fraction: float = 0.25, folds: int = 5,
-        max_components: int = 10, seed: int = 0,
-        inputs=INPUTS) -> tuple[ForceModel, pd.DataFrame]:
+        max_components: int = 10, seed: int = 0, inputs=INPUTS,
+        intervals: str = "split") -> tuple[ForceModel, pd.DataFrame]:
     """Train on the training part of ``ds``, calibrate intervals, check them held out.
 
     ``ds`` is one store group, or several: a population of tyres
     (:class:`analysis.camera.population.Tyres`, issue 47), whose splits and folds hold out
-    whole tyres and whose first group is the reference surface.
+    whole tyres and whose first group is the reference surface. ``intervals``: ``split``
+    (one half-width per target) or ``adaptive`` (normalised by each cloud's difficulty,
+    :meth:`FeatureDomain.difficulty <analysis.camera.predict.domain.FeatureDomain.difficulty>`,
+    each out-of-fold row's from a domain of its fold's training rows: wider where a
+    cloud is unlike the training clouds, issue 47).
 
     Returns
     -------
@@ -112,6 +121,9 @@ def fit(ds: xr.Dataset | Sequence[xr.Dataset], sensor: SensorSpec, *, learner: s
         Per target: held-out RMSE (and % of range), the interval half-width, nominal and
         held-out coverage.
     """
+    if intervals not in INTERVALS:
+        raise ParameterError(f"intervals must be one of {', '.join(INTERVALS)}, got "
+                             f"{intervals!r}")
     tyres = Tyres.of(ds)
     Y = tyres.targets()
     _check_sizes(tyres, alpha, test_fraction, folds)
@@ -127,24 +139,27 @@ def fit(ds: xr.Dataset | Sequence[xr.Dataset], sensor: SensorSpec, *, learner: s
     estimator = learners.learner(learner, max_components=max_components, folds=folds,
                                  x_blocks=[Xf.shape[1] // len(inputs)] * len(inputs),
                                  y_blocks=[1] * len(TARGETS), seed=seed)
-    intervals = _train(estimator, Xf, np.tile(Y[train], (reps, 1)),
-                       np.tile(labels[train], reps), np.tile(tyres.paths()[train], reps),
-                       folds, alpha)
+    fitted = _train(estimator, Xf, np.tile(Y[train], (reps, 1)),
+                    np.tile(labels[train], reps), np.tile(tyres.paths()[train], reps),
+                    folds, alpha, intervals == "adaptive")
     Xt = tyres.features(virtual, test, draws, rng, inputs)
     Yt = np.tile(Y[test], (Xt.shape[0] // test.size, 1))
     info = {"train": train.tolist(), "test": test.tolist(), "learner": learner,
             "draws": draws, "seed": seed, "range": np.ptp(Y, axis=0).tolist(),
             **tyres.held_out(test)}
-    model = ForceModel(sensor, surface, estimator, intervals, tuple(inputs), info=info,
+    model = ForceModel(sensor, surface, estimator, fitted, tuple(inputs), info=info,
                        domain=FeatureDomain().fit(Xf, Xt))
     return model, _check(model, Xt, Yt, np.ptp(Y, axis=0), alpha)
 
 
-def _train(estimator, X, Y, groups, paths, folds: int, alpha: float) -> ConformalIntervals:
+def _train(estimator, X, Y, groups, paths, folds: int, alpha: float,
+           adaptive: bool) -> ConformalIntervals:
     """Fit ``estimator`` on all rows (its own CV keeping ``paths`` whole) and return the
-    conformal intervals of its out-of-fold residuals (folds keeping ``groups`` whole)."""
-    intervals = ConformalIntervals(alpha=alpha).fit(
-        _out_of_fold(estimator, X, Y, groups, folds, paths))
+    conformal intervals of its out-of-fold residuals (folds keeping ``groups`` whole),
+    scaled by each row's difficulty when ``adaptive``."""
+    residuals, scale = _out_of_fold(estimator, X, Y, groups, folds, paths)
+    intervals = ConformalIntervals(alpha=alpha).fit(residuals,
+                                                    scale=scale if adaptive else None)
     estimator.fit(X, Y, paths)
     return intervals
 
@@ -174,15 +189,17 @@ def _check_sizes(tyres: Tyres, alpha: float, test_fraction: float, folds: int) -
             f"{folds}; lower --folds (at least 2) or add tyres")
 
 
-def _out_of_fold(estimator, X, Y, groups, folds: int, paths) -> np.ndarray:
+def _out_of_fold(estimator, X, Y, groups, folds: int, paths) -> tuple[np.ndarray, np.ndarray]:
     """Residuals (truth - prediction) of every row, each predicted by a model that never
-    saw its group (its experiment's path, or its tyre); ``paths`` are what each fold's
-    learner keeps whole in its own CV."""
-    res = np.empty_like(Y)
+    saw its group (its experiment's path, or its tyre), and each row's difficulty against
+    its fold's training rows; ``paths`` are what each fold's learner keeps whole in its
+    own CV."""
+    res, scale = np.empty_like(Y), np.empty(Y.shape[0])
     for train, test in GroupKFold(folds).split(X, groups=groups):
         model = clone(estimator).fit(X[train], Y[train], paths[train])
         res[test] = Y[test] - model.predict(X[test])
-    return res
+        scale[test] = FeatureDomain().fit(X[train]).difficulty(X[test])
+    return res, scale
 
 
 def _check(model: ForceModel, Xt, Yt, span, alpha: float) -> pd.DataFrame:
@@ -194,7 +211,9 @@ def _check(model: ForceModel, Xt, Yt, span, alpha: float) -> pd.DataFrame:
         rmse = float(np.sqrt(np.mean((pred - Yt[:, j]) ** 2)))
         rows.append({"target": name, "unit": UNITS[name], "rmse": rmse,
                      "rmse_pct_range": 100.0 * rmse / span[j] if span[j] > 0 else np.nan,
-                     "half_width": float(model.intervals.quantile_[j]),
+                     # the median over the rows: adaptive intervals differ row by row
+                     "half_width": float(np.median(P[f"{name}_upper"] - P[f"{name}_lower"])
+                                         / 2.0),
                      "nominal_coverage": 1.0 - alpha,
                      "heldout_coverage": float(np.mean(inside)), "heldout_rows": len(pred)})
     return pd.DataFrame(rows)

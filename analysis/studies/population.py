@@ -23,9 +23,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Mapping, Sequence
-from dataclasses import replace
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -35,7 +33,6 @@ from analysis.camera import predictor
 from analysis.camera.features import TARGETS, targets
 from analysis.camera.mismatch import mismatch
 from analysis.camera.sensor import SensorSpec
-from analysis.camera.sensor.spec import NOISE_FIELDS
 from analysis.render import markdown
 from analysis.studies.common import Report
 
@@ -71,16 +68,10 @@ def _flat(d: dict, prefix: str = "") -> dict:
     return out
 
 
-def noise_free(sensor: SensorSpec) -> SensorSpec:
-    """``sensor`` without any of its noises (same window, spacing and points)."""
-    changes: dict[str, Any] = dict.fromkeys(NOISE_FIELDS, 0.0)
-    return replace(sensor, **changes)
-
-
 def run(nominal: xr.Dataset, population: Sequence[xr.Dataset],
         mismatched: Mapping[str, xr.Dataset], sensor: SensorSpec, out: Path, *,
         learner: str = "plsr", repeats: int = 5, draws: int = 3, folds: int = 4,
-        test_fraction: float = 0.25, seed: int = 0) -> Report:
+        test_fraction: float = 0.25, seed: int = 0, intervals: str = "split") -> Report:
     """Fit both models ``repeats`` times (seeds ``seed`` ..), with the sensor and
     noise-free; write ``errors.csv`` (every split), ``summary.csv`` and ``summary.md``.
 
@@ -92,11 +83,12 @@ def run(nominal: xr.Dataset, population: Sequence[xr.Dataset],
     """
     span = np.ptp(targets(nominal), axis=0)
     rows = []
-    for noisy, spec in ((True, sensor), (False, noise_free(sensor))):
+    for noisy, spec in ((True, sensor), (False, sensor.noise_free())):
         for r in range(repeats):
             s = seed + r
             fitted = {name: predictor.fit(data, spec, learner=learner, draws=draws,
-                                          folds=folds, test_fraction=test_fraction, seed=s)
+                                          folds=folds, test_fraction=test_fraction, seed=s,
+                                          intervals=intervals)
                       for name, data in (("nominal-only", nominal),
                                          ("population", list(population)))}
             test = fitted["nominal-only"][0].info["test"]
@@ -118,7 +110,7 @@ def run(nominal: xr.Dataset, population: Sequence[xr.Dataset],
     summary = summarise(errors)
     report.csv("summary", summary)
     (out / "summary.md").write_text(_markdown(summary, knowable(errors), repeats, sensor,
-                                              learner))
+                                              f"{learner}, {intervals} intervals"))
     report.files.append(out / "summary.md")
     return report
 

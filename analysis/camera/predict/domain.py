@@ -134,6 +134,8 @@ class FeatureDomain:
         Their training variances.
     t2_limit_, q_limit_ : float
         The limits.
+    t2_fit_limit_, q_fit_limit_ : float
+        The limits of the fitted rows alone (what :meth:`difficulty` divides by).
     """
 
     variance: float = 0.99
@@ -159,11 +161,16 @@ class FeatureDomain:
         k = int(np.searchsorted(share, self.variance - 1e-12) + 1)
         k = max(1, min(k, int(np.sum(var > 1e-12 * var[0]))))
         self.components_, self.variances_ = vt[:k], var[:k]
-        rows = X if X_check is None else np.vstack([X, np.asarray(X_check, dtype=float)])
-        t2, q = self.scores(rows)
-        self.t2_limit_ = float(self.margin * t2.max())
-        self.q_limit_ = float(self.margin * max(q.max(), 1e-12 * len(self.mean_)))
+        self.t2_fit_limit_, self.q_fit_limit_ = self._limits(X)
+        self.t2_limit_, self.q_limit_ = (
+            (self.t2_fit_limit_, self.q_fit_limit_) if X_check is None
+            else self._limits(np.vstack([X, np.asarray(X_check, dtype=float)])))
         return self
+
+    def _limits(self, rows: np.ndarray) -> tuple[float, float]:
+        t2, q = self.scores(rows)
+        return (float(self.margin * t2.max()),
+                float(self.margin * max(q.max(), 1e-12 * len(self.mean_))))
 
     def scores(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """T² and Q, each (n,), of feature rows ``X`` (n, F); ``inf`` where not finite."""
@@ -175,6 +182,17 @@ class FeatureDomain:
         bad = ~(np.isfinite(t2) & np.isfinite(q))
         t2[bad], q[bad] = np.inf, np.inf
         return t2, q
+
+    def difficulty(self, X: np.ndarray) -> np.ndarray:
+        """(n,) ``1 + T2 / L_T2 + Q / L_Q`` of feature rows ``X`` (n, F), the limits those
+        of the fitted rows alone (``fit``'s ``X``, not its check rows): 1 at their
+        centre, ``inf`` where not finite. The scale of normalised conformal intervals
+        (issue 47: wider where a cloud is unlike the training clouds;
+        :class:`~analysis.camera.predict.intervals.ConformalIntervals`). Out-of-fold rows
+        are scaled against their fold's fitted rows, a new cloud against the model's, so
+        that both are rows the domain was not fitted on."""
+        t2, q = self.scores(X)
+        return 1.0 + t2 / self.t2_fit_limit_ + q / self.q_fit_limit_
 
     def outside(self, X: np.ndarray) -> list[str]:
         """Per row: '' inside, else the measures over their limits, e.g.
@@ -193,7 +211,8 @@ class FeatureDomain:
         return {"variance": self.variance, "margin": self.margin, "mean": self.mean_,
                 "scale": self.scale_, "components": self.components_,
                 "variances": self.variances_, "t2_limit": self.t2_limit_,
-                "q_limit": self.q_limit_}
+                "q_limit": self.q_limit_, "t2_fit_limit": self.t2_fit_limit_,
+                "q_fit_limit": self.q_fit_limit_}
 
     @classmethod
     def from_dict(cls, d: dict) -> FeatureDomain:
@@ -205,6 +224,9 @@ class FeatureDomain:
         dom.components_ = np.asarray(d["components"], dtype=float)
         dom.variances_ = np.asarray(d["variances"], dtype=float)
         dom.t2_limit_, dom.q_limit_ = float(d["t2_limit"]), float(d["q_limit"])
+        # a domain saved before adaptive intervals: its limits serve (only for difficulty)
+        dom.t2_fit_limit_ = float(d.get("t2_fit_limit", dom.t2_limit_))
+        dom.q_fit_limit_ = float(d.get("q_fit_limit", dom.q_limit_))
         f = dom.mean_.shape
         if (dom.mean_.ndim != 1 or dom.scale_.shape != f or dom.components_.ndim != 2
                 or dom.components_.shape[1] != f[0]

@@ -52,13 +52,16 @@ class ConformalIntervals(BaseEstimator):
         guarantee and the half-width is ``inf``: every interval is (-inf, inf).
     n_calibration_ : int
         Number of calibration residuals n.
+    scaled_ : bool
+        Whether the scores were residuals over each row's difficulty (``fit``'s
+        ``scale``); then ``interval`` needs the new rows' difficulty too.
     n_targets_ : int
     """
 
     def __init__(self, alpha: float = 0.1):
         self.alpha = alpha
 
-    def fit(self, residuals, y=None):
+    def fit(self, residuals, y=None, scale=None):
         """Learn the half-widths from calibration residuals (truth - prediction).
 
         Parameters
@@ -66,6 +69,11 @@ class ConformalIntervals(BaseEstimator):
         residuals : array_like of shape (n_cal, n_targets) or (n_cal,)
             Residuals of predictions the model made without having seen those rows.
         y : ignored
+        scale : array_like of shape (n_cal,), optional
+            Each row's difficulty (> 0, computed without that row): the scores are then
+            ``|residual| / scale`` and an interval's half-width ``quantile_ * scale`` of
+            its own row (normalised conformal intervals, Papadopoulos et al. 2008; Lei et
+            al. 2018 §5.2): the same marginal guarantee, wider where a row is harder.
 
         Returns
         -------
@@ -84,6 +92,9 @@ class ConformalIntervals(BaseEstimator):
             raise NonFiniteError("the calibration residuals contain NaN or inf; drop those "
                                  "rows before calibrating the intervals")
         n = r.shape[0]
+        self.scaled_ = scale is not None
+        if self.scaled_:
+            r = r / _scale(scale, n)[:, None]
         k = conformal_rank(n, float(alpha))
         # k > n: no finite width has the guarantee (too few residuals for this alpha)
         self.quantile_ = np.full(r.shape[1], np.inf) if k > n else np.sort(np.abs(r), axis=0)[k - 1]
@@ -101,24 +112,33 @@ class ConformalIntervals(BaseEstimator):
                                  f"the intervals were calibrated on), got {a.shape}")
         return a
 
-    def interval(self, prediction) -> tuple[np.ndarray, np.ndarray]:
+    def interval(self, prediction, scale=None) -> tuple[np.ndarray, np.ndarray]:
         """Lower and upper bounds around point predictions.
 
         Parameters
         ----------
         prediction : array_like of shape (K, n_targets)
             (or (K,) for a single target)
+        scale : array_like of shape (K,), optional
+            Each row's difficulty; required when the intervals were fitted with one.
 
         Returns
         -------
         lower, upper : ndarrays of the shape of ``prediction``
-            ``prediction -+ quantile_`` (±inf where ``quantile_`` is inf).
+            ``prediction -+ quantile_`` (times each row's ``scale``; ±inf where
+            ``quantile_`` is inf).
         """
         p = self._check("prediction", prediction)
         q = self.quantile_[0] if p.ndim == 1 else self.quantile_
+        if getattr(self, "scaled_", False):  # intervals saved before scales: unscaled
+            if scale is None:
+                raise ParameterError("these intervals were calibrated on scaled residuals: "
+                                     "give each row's scale")
+            w = _scale(scale, p.shape[0])
+            q = q * (w if p.ndim == 1 else w[:, None])
         return p - q, p + q
 
-    def coverage(self, y_true, prediction) -> np.ndarray:
+    def coverage(self, y_true, prediction, scale=None) -> np.ndarray:
         """Fraction of the rows whose truth lies inside its interval, per target.
 
         Parameters
@@ -134,6 +154,15 @@ class ConformalIntervals(BaseEstimator):
         if y.shape != p.shape:
             raise ParameterError(f"y_true {y.shape} and prediction {p.shape} must have the "
                                  "same shape")
-        lower, upper = self.interval(p)
+        lower, upper = self.interval(p, scale)
         inside = (lower <= y) & (y <= upper)
         return np.atleast_1d(inside.mean(axis=0))
+
+
+def _scale(scale, n: int) -> np.ndarray:
+    """``scale`` as n positive numbers (inf allowed: an unbounded interval)."""
+    w = np.asarray(scale, dtype=np.float64)
+    if w.shape != (n,) or np.isnan(w).any() or not (w > 0).all():
+        raise ParameterError(f"scale must be {n} positive numbers (one per row), got shape "
+                             f"{w.shape}")
+    return w

@@ -10,7 +10,7 @@ from analysis.camera import predictor
 from analysis.camera.mismatch import mismatch
 from analysis.camera.population import Tyres, tyre_features
 from analysis.camera.sensor import InnerSurface, VirtualSensor, sensor_spec
-from analysis.errors import TooFewExperimentsError
+from analysis.errors import ParameterError, TooFewExperimentsError
 from tests.synthetic import stiffer_tyre
 
 SMALL = {"rows": 9, "cols": 24, "tread_rows": 4, "tread_cols": 8}
@@ -93,3 +93,23 @@ def test_another_tyre_s_clouds_resampled_match_the_model_s_own(tyres, monkeypatc
     assert len(own) == len(resampled) == 1  # noise-free: one measurement
     for a, b in zip(own, resampled, strict=True):
         np.testing.assert_allclose(b, a, rtol=1e-9, atol=1e-9 * np.abs(a).max())
+
+
+def test_adaptive_intervals_widen_for_clouds_unlike_the_training_ones_and_persist(
+        tyres, tmp_path):
+    ds = tyres["nominal"]
+    model, check = predictor.fit(ds, SENSOR, draws=2, folds=4, intervals="adaptive")
+    assert model.intervals.scaled_
+    assert check["heldout_coverage"].mean() >= 0.75  # 30 held-out rows per target
+    X = tyre_features(model.virtual, ds.isel(experiment=slice(0, 6)), 1,
+                      np.random.default_rng(1))[0]
+    near, far = model.predict_features(X), model.predict_features(3.0 * X)
+    width = {name: (p["Fz_upper"] - p["Fz_lower"]).to_numpy() for name, p in
+             (("near", near), ("far", far))}
+    assert (width["far"] > 1.5 * width["near"]).all()
+    predictor.save(model, tmp_path / "m", store="s", group="g", ids=["a"], check=check)
+    loaded, _ = predictor.load(tmp_path / "m")
+    again = loaded.predict_features(3.0 * X)
+    np.testing.assert_allclose(again["Fz_upper"], far["Fz_upper"])
+    with pytest.raises(ParameterError, match="intervals"):
+        predictor.fit(ds, SENSOR, intervals="wide")

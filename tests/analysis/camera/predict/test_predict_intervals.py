@@ -88,3 +88,47 @@ def test_bad_residuals_and_predictions():
         ci.interval(np.zeros((4, 3)))
     with pytest.raises(ParameterError, match="same shape"):
         ci.coverage(np.zeros((4, 2)), np.zeros((5, 2)))
+
+
+# --- normalised intervals: wider where a row is harder (issue 47) ---------------------------
+
+
+def test_scaled_intervals_hold_in_every_stratum_where_one_width_does_not():
+    """Residuals whose spread grows with a known difficulty (1 or 4): one width covers
+    the easy rows too much and the hard ones too little; scaled by the difficulty, both
+    strata are covered at the nominal level, and the marginal guarantee holds."""
+    rng = np.random.default_rng(3)
+    covered = {"split": [], "scaled": []}
+    for _ in range(60):
+        scale = rng.choice([1.0, 4.0], 300)
+        res = rng.normal(size=(300, 1)) * scale[:, None]
+        new_scale = rng.choice([1.0, 4.0], 600)
+        truth = rng.normal(size=(600, 1)) * new_scale[:, None]
+        zero = np.zeros_like(truth)
+        for kind, fitted, s in (("split", ConformalIntervals().fit(res), None),
+                                ("scaled", ConformalIntervals().fit(res, scale=scale),
+                                 new_scale)):
+            lower, upper = fitted.interval(zero, s)
+            inside = ((lower <= truth) & (truth <= upper))[:, 0]
+            covered[kind].append([inside[new_scale == 1].mean(), inside[new_scale == 4].mean(),
+                                  inside.mean()])
+    split, scaled = np.mean(covered["split"], axis=0), np.mean(covered["scaled"], axis=0)
+    assert split[0] > 0.97 and split[1] < 0.85  # the easy rows over-, the hard under-covered
+    np.testing.assert_allclose(scaled, 0.9, atol=0.02)
+
+
+def test_scaled_intervals_need_the_rows_scale_and_check_it():
+    ci = ConformalIntervals().fit(np.ones((20, 2)), scale=np.full(20, 2.0))
+    assert ci.scaled_
+    np.testing.assert_allclose(ci.quantile_, 0.5)
+    lower, upper = ci.interval(np.zeros((2, 2)), np.array([1.0, 4.0]))
+    np.testing.assert_allclose(upper, [[0.5, 0.5], [2.0, 2.0]])
+    with pytest.raises(ParameterError, match="scale"):
+        ci.interval(np.zeros((2, 2)))
+    for bad in (np.array([1.0, -1.0]), np.array([1.0, np.nan]), np.ones(3)):
+        with pytest.raises(ParameterError, match="scale"):
+            ci.interval(np.zeros((2, 2)), bad)
+    # an unbounded scale is an unbounded interval (a cloud the domain cannot place)
+    lower, upper = ci.interval(np.zeros((1, 2)), np.array([np.inf]))
+    assert np.isinf(upper).all() and np.isinf(lower).all()
+    assert not ConformalIntervals().fit(np.ones((20, 2))).scaled_
