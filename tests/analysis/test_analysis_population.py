@@ -31,6 +31,11 @@ def test_every_split_model_and_tyre_set_is_a_row_and_summarised(report):
     assert len(errors) == 2 * 2 * 5 * 4
     assert set(summary["splits"]) == {2}
     assert (report.out / "summary.md").read_text().count("±") > 10
+    goal = report.tables["goals"].set_index("target").loc["Fz"]
+    assert goal["nominal-only growth (max)"] > 2 * goal["population growth (max)"]
+    # the synthetic tyres' stiffness is invisible in their fields: on the nominal tyre the
+    # population model pays for the tyres it must average over
+    assert goal["population / nominal-only on the nominal tyre"] > 2
 
 
 def test_growth_is_one_on_the_nominal_tyre_and_large_on_the_stiff_one(report):
