@@ -45,7 +45,7 @@ GOAL_GROWTH, GOAL_NOMINAL_COST, GOAL_COVERAGE = 1.3, 1.2, (0.85, 0.95)
 
 def tyre_label(ds: xr.Dataset, nominal: xr.Dataset) -> str:
     """How ``ds``'s tyre differs from ``nominal``'s, from their groups' ``model_spec``
-    (e.g. ``"tread.youngs_modulus 13.86, sidewall.youngs_modulus 20.06"``); the group's
+    (e.g. ``"tread.E 13.86, sidewall.E 20.06"``, E a Young's modulus); the group's
     name when the specs are missing or equal."""
     name = str(ds.attrs.get("group", "?"))
     try:
@@ -55,7 +55,7 @@ def tyre_label(ds: xr.Dataset, nominal: xr.Dataset) -> str:
     changed = [f"{'.'.join(k.split('.')[-2:])} {v:g}" if isinstance(v, float)
                else f"{'.'.join(k.split('.')[-2:])} {v}"
                for k, v in mine.items() if theirs.get(k) != v]
-    return ", ".join(changed) or name
+    return ", ".join(changed).replace("youngs_modulus", "E") or name
 
 
 def _flat(d: dict, prefix: str = "") -> dict:
