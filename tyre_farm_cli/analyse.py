@@ -37,7 +37,7 @@ from tyre_farm_cli.analyse_options import (
     Force,
     Group,
     Inputs,
-    IntervalKind,
+    IntervalKinds,
     Json,
     Learners,
     Method,
@@ -394,7 +394,7 @@ def population(nominal: NominalStore, tyres: PopulationStore, mismatched: Mismat
                group: NominalGroup = None, out: Out = None, sensor_: Sensor = "t2cam-2017",
                learner: FitLearner = "plsr", repeats: Repeats = 5, draws: SensorDraws = 3,
                folds: PopulationFolds = 4, test_fraction: TestFraction = 0.25,
-               seed: SplitSeed = 0, intervals: IntervalKind = "split",
+               seed: SplitSeed = 0, intervals: IntervalKinds = "both",
                storage_option: StorageOption = None, as_json: Json = False) -> None:
     """Nominal-only against population force models over repeated splits: error, its
     growth and interval coverage on nominal and mismatched tyres, and the part of each
@@ -408,8 +408,9 @@ def population(nominal: NominalStore, tyres: PopulationStore, mismatched: Mismat
         check_learner(learner)
         _split(test_fraction, folds)
         _draws_at_least_one(draws)
-        if intervals not in ("split", "adaptive"):
-            raise ParameterError(f"--intervals must be split or adaptive, got {intervals!r}")
+        if intervals not in ("split", "adaptive", "both"):
+            raise ParameterError(f"--intervals must be split, adaptive or both, got "
+                                 f"{intervals!r}")
         if not 2 <= repeats <= 100:
             raise ParameterError(f"--repeats must be in [2, 100] (a spread needs two "
                                  f"splits), got {repeats}")
@@ -423,7 +424,8 @@ def population(nominal: NominalStore, tyres: PopulationStore, mismatched: Mismat
         for g in list_groups(open_target(mismatched, storage_option)))}
     _done(study.run(base, pop, others, spec, folder, learner=learner, repeats=repeats,
                     draws=draws, folds=folds, test_fraction=test_fraction, seed=seed,
-                    intervals=intervals), as_json)
+                    intervals=("split", "adaptive") if intervals == "both" else (intervals,)),
+          as_json)
 
 
 # ------------------------------------------------------------------ surrogate (issue 28)

@@ -223,3 +223,6 @@ PopulationFolds = Annotated[int, typer.Option(
 IntervalKind = Annotated[str, typer.Option(
     "--intervals", help="split (one half-width per target) or adaptive (wider where a "
     "cloud is unlike the training clouds).")]
+IntervalKinds = Annotated[str, typer.Option(
+    "--intervals", help="split, adaptive or both (calibrated on the same fits, so the two "
+    "differ in nothing else).")]

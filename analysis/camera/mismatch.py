@@ -36,17 +36,31 @@ def mismatch(model: ForceModel, ds: xr.Dataset, *, draws: int = 1,
         before issue 47), whatever the target.
     truth, predicted : ndarray of shape (K x draws, 4)
     """
+    X, T = clouds(model, ds, draws=draws, seed=seed)
+    predicted = model.predict_features(X)[list(model.targets)].to_numpy()
+    return table(model, X, T), T, predicted
+
+
+def clouds(model: ForceModel, ds: xr.Dataset, *, draws: int = 1,
+           seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """The features (K x draws, F) of ``ds``'s experiments as ``model`` sees them (each
+    tyre measured by its own camera, resampled onto the model's points) and their true
+    totals (K x draws, 4)."""
     Y = targets(ds)
     parts = tyre_features(model.virtual, ds, draws, np.random.default_rng(seed), model.inputs)
-    X = np.concatenate(parts)
+    return np.concatenate(parts), np.tile(Y, (len(parts), 1))
+
+
+def table(model: ForceModel, X: np.ndarray, T: np.ndarray) -> pd.DataFrame:
+    """Per target, ``model``'s errors on the features ``X`` (N, F) of clouds whose true
+    totals are ``T`` (N, 4): the table :func:`mismatch` returns."""
     P = model.predict_features(X)
-    T = np.tile(Y, (len(parts), 1))
     # the share of these clouds the model's domain (issue 47) would flag in farm predict
     flagged = (float(np.mean([bool(w) for w in model.domain.outside(X)]))
                if model.domain is not None else float("nan"))
     # % of the *training* group's range, so the growth compares like with like (a
     # small other group has a range of its own); its own range where the model has none
-    span = np.asarray(model.info.get("range", np.ptp(Y, axis=0)), dtype=float)
+    span = np.asarray(model.info.get("range", np.ptp(T, axis=0)), dtype=float)
     own = {r["target"]: r["rmse_pct_range"] for r in model.info.get("check", [])}
     out = []
     for j, name in enumerate(model.targets):
@@ -60,4 +74,4 @@ def mismatch(model: ForceModel, ds: xr.Dataset, *, draws: int = 1,
                     "trained_heldout_pct_range": mine,
                     "growth": pct / mine if mine and np.isfinite(mine) else float("nan"),
                     "outside": flagged})
-    return pd.DataFrame(out), T, P[list(model.targets)].to_numpy()
+    return pd.DataFrame(out)

@@ -121,9 +121,24 @@ def fit(ds: xr.Dataset | Sequence[xr.Dataset], sensor: SensorSpec, *, learner: s
         Per target: held-out RMSE (and % of range), the interval half-width, nominal and
         held-out coverage.
     """
-    if intervals not in INTERVALS:
-        raise ParameterError(f"intervals must be one of {', '.join(INTERVALS)}, got "
-                             f"{intervals!r}")
+    return fit_intervals(ds, sensor, learner=learner, draws=draws, alpha=alpha,
+                         test_fraction=test_fraction, folds=folds,
+                         max_components=max_components, seed=seed, inputs=inputs,
+                         intervals=(intervals,))[intervals]
+
+
+def fit_intervals(ds: xr.Dataset | Sequence[xr.Dataset], sensor: SensorSpec, *,
+                  learner: str = "plsr", draws: int = 3, alpha: float = 0.1,
+                  test_fraction: float = 0.25, folds: int = 5, max_components: int = 10,
+                  seed: int = 0, inputs=INPUTS, intervals: Sequence[str] = INTERVALS
+                  ) -> dict[str, tuple[ForceModel, pd.DataFrame]]:
+    """:func:`fit` once, its intervals calibrated each of the ``intervals`` ways on the
+    same out-of-fold residuals: ``{kind: (model, check)}``, the models sharing one
+    learner and domain (a comparison of interval kinds that differs in nothing else)."""
+    for kind in intervals:
+        if kind not in INTERVALS:
+            raise ParameterError(f"intervals must be one of {', '.join(INTERVALS)}, got "
+                                 f"{kind!r}")
     tyres = Tyres.of(ds)
     Y = tyres.targets()
     _check_sizes(tyres, alpha, test_fraction, folds)
@@ -139,27 +154,31 @@ def fit(ds: xr.Dataset | Sequence[xr.Dataset], sensor: SensorSpec, *, learner: s
     estimator = learners.learner(learner, max_components=max_components, folds=folds,
                                  x_blocks=[Xf.shape[1] // len(inputs)] * len(inputs),
                                  y_blocks=[1] * len(TARGETS), seed=seed)
-    fitted = _train(estimator, Xf, np.tile(Y[train], (reps, 1)),
-                    np.tile(labels[train], reps), np.tile(tyres.paths()[train], reps),
-                    folds, alpha, intervals == "adaptive")
+    calibrated = _train(estimator, Xf, np.tile(Y[train], (reps, 1)),
+                        np.tile(labels[train], reps), np.tile(tyres.paths()[train], reps),
+                        folds, alpha, intervals)
     Xt = tyres.features(virtual, test, draws, rng, inputs)
     Yt = np.tile(Y[test], (Xt.shape[0] // test.size, 1))
     info = {"train": train.tolist(), "test": test.tolist(), "learner": learner,
             "draws": draws, "seed": seed, "range": np.ptp(Y, axis=0).tolist(),
             **tyres.held_out(test)}
-    model = ForceModel(sensor, surface, estimator, fitted, tuple(inputs), info=info,
-                       domain=FeatureDomain().fit(Xf, Xt))
-    return model, _check(model, Xt, Yt, np.ptp(Y, axis=0), alpha)
+    domain = FeatureDomain().fit(Xf, Xt)
+    out = {}
+    for kind, conformal in calibrated.items():
+        model = ForceModel(sensor, surface, estimator, conformal, tuple(inputs),
+                           info=dict(info), domain=domain)
+        out[kind] = (model, _check(model, Xt, Yt, np.ptp(Y, axis=0), alpha))
+    return out
 
 
 def _train(estimator, X, Y, groups, paths, folds: int, alpha: float,
-           adaptive: bool) -> ConformalIntervals:
+           kinds: Sequence[str]) -> dict[str, ConformalIntervals]:
     """Fit ``estimator`` on all rows (its own CV keeping ``paths`` whole) and return the
-    conformal intervals of its out-of-fold residuals (folds keeping ``groups`` whole),
-    scaled by each row's difficulty when ``adaptive``."""
+    conformal intervals of its out-of-fold residuals (folds keeping ``groups`` whole) for
+    each of ``kinds``: ``adaptive`` scales each row by its difficulty."""
     residuals, scale = _out_of_fold(estimator, X, Y, groups, folds, paths)
-    intervals = ConformalIntervals(alpha=alpha).fit(residuals,
-                                                    scale=scale if adaptive else None)
+    intervals = {kind: ConformalIntervals(alpha=alpha).fit(
+        residuals, scale=scale if kind == "adaptive" else None) for kind in kinds}
     estimator.fit(X, Y, paths)
     return intervals
 

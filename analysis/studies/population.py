@@ -31,7 +31,7 @@ import xarray as xr
 
 from analysis.camera import predictor
 from analysis.camera.features import TARGETS, targets
-from analysis.camera.mismatch import mismatch
+from analysis.camera.mismatch import clouds, table
 from analysis.camera.sensor import SensorSpec
 from analysis.render import markdown
 from analysis.studies.common import Report
@@ -71,39 +71,34 @@ def _flat(d: dict, prefix: str = "") -> dict:
 def run(nominal: xr.Dataset, population: Sequence[xr.Dataset],
         mismatched: Mapping[str, xr.Dataset], sensor: SensorSpec, out: Path, *,
         learner: str = "plsr", repeats: int = 5, draws: int = 3, folds: int = 4,
-        test_fraction: float = 0.25, seed: int = 0, intervals: str = "split") -> Report:
+        test_fraction: float = 0.25, seed: int = 0,
+        intervals: Sequence[str] = predictor.INTERVALS) -> Report:
     """Fit both models ``repeats`` times (seeds ``seed`` ..), with the sensor and
-    noise-free; write ``errors.csv`` (every split), ``summary.csv`` and ``summary.md``.
+    noise-free, their intervals calibrated each of the ``intervals`` ways on the same
+    fit; write ``errors.csv`` (every split), ``summary.csv``, ``goals.csv`` and
+    ``summary.md``.
 
     Returns
     -------
     Report
-        Tables ``errors`` (one row per pass, split, model, tyre set and target) and
-        ``summary`` (mean and spread over the splits).
+        Tables ``errors`` (one row per pass, split, model, interval kind, tyre set and
+        target), ``summary`` (mean and spread over the splits) and ``goals``.
     """
+    kinds = tuple(intervals)
     span = np.ptp(targets(nominal), axis=0)
     rows = []
     for noisy, spec in ((True, sensor), (False, sensor.noise_free())):
         for r in range(repeats):
-            s = seed + r
-            fitted = {name: predictor.fit(data, spec, learner=learner, draws=draws,
-                                          folds=folds, test_fraction=test_fraction, seed=s,
-                                          intervals=intervals)
-                      for name, data in (("nominal-only", nominal),
-                                         ("population", list(population)))}
-            test = fitted["nominal-only"][0].info["test"]
+            fitted = {name: predictor.fit_intervals(
+                data, spec, learner=learner, draws=draws, folds=folds,
+                test_fraction=test_fraction, seed=seed + r, intervals=kinds)
+                for name, data in (("nominal-only", nominal), ("population", list(population)))}
+            test = fitted["nominal-only"][kinds[0]][0].info["test"]
             sets = {NOMINAL: nominal.isel(experiment=test), **mismatched}
-            for name, (model, check) in fitted.items():
-                if name == "population":
-                    rows += _rows(check.assign(outside=0.0), noisy, s, name, OWN, span,
-                                  from_check=True)
-                for tyre, data in sets.items():
-                    if name == "nominal-only" and tyre == NOMINAL:
-                        table = check.assign(outside=0.0)
-                        rows += _rows(table, noisy, s, name, tyre, span, from_check=True)
-                        continue
-                    table, _, _ = mismatch(model, data, draws=draws, seed=s)
-                    rows += _rows(table, noisy, s, name, tyre, span)
+            for name, variants in fitted.items():
+                for tyres, tables in _tables(name, variants, sets, draws, seed + r).items():
+                    rows += [{"intervals": kind, **row} for kind, t in tables.items()
+                             for row in _rows(t, noisy, seed + r, name, tyres, span)]
     errors = pd.DataFrame(rows)
     report = Report(out)
     report.csv("errors", errors)
@@ -111,33 +106,51 @@ def run(nominal: xr.Dataset, population: Sequence[xr.Dataset],
     report.csv("summary", summary)
     report.csv("goals", goals(summary, list(mismatched)))
     (out / "summary.md").write_text(_markdown(summary, report.tables["goals"],
-                                              knowable(errors), repeats, sensor,
-                                              f"{learner}, {intervals} intervals"))
+                                              knowable(errors), repeats, sensor, learner))
     report.files.append(out / "summary.md")
     return report
 
 
+def _tables(name: str, variants: Mapping[str, tuple[predictor.ForceModel, pd.DataFrame]],
+            sets: Mapping[str, xr.Dataset], draws: int, seed: int
+            ) -> dict[str, dict[str, pd.DataFrame]]:
+    """``{tyre set: {interval kind: errors}}`` of one fitted model: its own held-out
+    check where the set is its own held-out part, else every set's clouds featurised once
+    (the expensive part) and predicted with each kind's intervals."""
+    own = {kind: check.rename(columns={"heldout_coverage": "coverage"}).assign(outside=0.0)
+           for kind, (_, check) in variants.items()}
+    out = {OWN: own} if name == "population" else {}
+    model = next(iter(variants.values()))[0]
+    for tyres, data in sets.items():
+        if name == "nominal-only" and tyres == NOMINAL:
+            out[tyres] = own
+            continue
+        X, T = clouds(model, data, draws=draws, seed=seed)
+        out[tyres] = {kind: table(m, X, T) for kind, (m, _) in variants.items()}
+    return out
+
+
 def _rows(table: pd.DataFrame, noisy: bool, seed: int, model: str, tyres: str,
-          span: np.ndarray, from_check: bool = False) -> list[dict]:
+          span: np.ndarray) -> list[dict]:
     out = []
     for j, name in enumerate(TARGETS):
         row = table[table["target"] == name].iloc[0]
-        coverage = row["heldout_coverage"] if from_check else row["coverage"]
         out.append({"noisy": noisy, "seed": seed, "model": model, "tyres": tyres,
                     "target": name, "rmse": float(row["rmse"]),
                     "rmse_pct": 100.0 * float(row["rmse"]) / span[j],
-                    "coverage": float(coverage), "outside": float(row["outside"])})
+                    "coverage": float(row["coverage"]), "outside": float(row["outside"])})
     return out
 
 
 def summarise(errors: pd.DataFrame) -> pd.DataFrame:
-    """Mean and standard deviation over the splits of each (pass, model, tyres, target),
-    with the error's growth over the same model's nominal held-out error (per split)."""
-    base = errors[errors["tyres"] == NOMINAL].set_index(["noisy", "seed", "model", "target"])
+    """Mean and standard deviation over the splits of each (pass, interval kind, model,
+    tyres, target), with the error's growth over the same model's nominal held-out error
+    (per split)."""
+    keys = ["noisy", "intervals", "seed", "model", "target"]
+    base = errors[errors["tyres"] == NOMINAL].set_index(keys)
     growth = errors["rmse"].to_numpy() / base.loc[
-        list(zip(errors["noisy"], errors["seed"], errors["model"], errors["target"],
-                 strict=True)), "rmse"].to_numpy()
-    keys = ["noisy", "model", "tyres", "target"]
+        list(zip(*(errors[k] for k in keys), strict=True)), "rmse"].to_numpy()
+    keys = ["noisy", "intervals", "model", "tyres", "target"]
     g = errors.assign(growth=growth).groupby(keys, sort=False)
     out = g[["rmse_pct", "growth", "coverage", "outside"]].agg(["mean", "std"])
     out.columns = [f"{a}_{b}" for a, b in out.columns]
@@ -146,19 +159,24 @@ def summarise(errors: pd.DataFrame) -> pd.DataFrame:
 
 def goals(summary: pd.DataFrame, mismatched: Sequence[str]) -> pd.DataFrame:
     """Per target, issue 47's goals from the noisy pass's means: each model's largest
-    growth and smallest coverage over the mismatched tyres, and the population model's
-    error on the nominal tyre over the nominal-only model's (the GOAL_ constants)."""
-    s = summary[summary["noisy"]].set_index(["model", "tyres", "target"])
+    growth and, per interval kind, smallest coverage over the mismatched tyres, and the
+    population model's error on the nominal tyre over the nominal-only model's (the
+    GOAL_ constants). The errors are one fit's whatever the intervals."""
+    s = summary[summary["noisy"]].set_index(["intervals", "model", "tyres", "target"])
+    kinds = list(dict.fromkeys(summary["intervals"]))
     rows = []
     for name in TARGETS:
         row: dict[str, float | str] = {"target": name}
         for model in ("nominal-only", "population"):
-            part = s.loc[[(model, t, name) for t in mismatched]]
+            part = s.loc[[(kinds[0], model, t, name) for t in mismatched]]
             row[f"{model} growth (max)"] = float(part["growth_mean"].max())
-            row[f"{model} coverage (min)"] = float(part["coverage_mean"].min())
+        for kind in kinds:
+            for model in ("nominal-only", "population"):
+                part = s.loc[[(kind, model, t, name) for t in mismatched]]
+                row[f"{model} {kind} coverage (min)"] = float(part["coverage_mean"].min())
         row["population / nominal-only on the nominal tyre"] = float(
-            s.loc[("population", NOMINAL, name), "rmse_pct_mean"]
-            / s.loc[("nominal-only", NOMINAL, name), "rmse_pct_mean"])
+            s.loc[(kinds[0], "population", NOMINAL, name), "rmse_pct_mean"]
+            / s.loc[(kinds[0], "nominal-only", NOMINAL, name), "rmse_pct_mean"])
         rows.append(row)
     return pd.DataFrame(rows)
 
@@ -174,6 +192,8 @@ def knowable(errors: pd.DataFrame) -> pd.DataFrame:
       differ; no camera model removes it;
     - ``sensor``: what the camera's noise adds (sqrt(pop^2 - pop_nf^2)).
     """
+    if "intervals" in errors:  # one fit's errors, whatever its intervals
+        errors = errors[errors["intervals"] == errors["intervals"].iloc[0]]
     mean = errors.groupby(["noisy", "model", "tyres", "target"])["rmse_pct"].mean()
     rows = []
     for name in TARGETS:
@@ -193,24 +213,16 @@ def _part(a: float, b: float) -> float:
 def _markdown(summary: pd.DataFrame, goal: pd.DataFrame, parts: pd.DataFrame, repeats: int,
               sensor: SensorSpec, learner: str) -> str:
     noisy = summary[summary["noisy"]]
+    kinds = list(dict.fromkeys(summary["intervals"]))
     lines = ["# A population of tyres against one (issue 47)\n",
              f"Sensor {sensor.name} (noise in training and test), learner {learner}, "
              f"{repeats} seeded splits: mean ± standard deviation. RMSE in % of the "
              "nominal tyre's range; growth over the same model's error on the nominal "
-             "tyre's held-out experiments; coverage of the 90 % intervals; outside: the "
-             "share of clouds the model's domain flags.\n"]
+             "tyre's held-out experiments; coverage of the 90 % intervals, calibrated "
+             f"{' and '.join(kinds)} on the same fit; outside: the share of clouds the "
+             "model's domain flags.\n"]
     for model in ("nominal-only", "population"):
-        part = noisy[noisy["model"] == model]
-        lines.append(f"\n## {model}\n")
-        lines.append(markdown.table(pd.DataFrame({
-            "tyres": part["tyres"], "target": part["target"],
-            "RMSE %": [_pm(m, s) for m, s in zip(part["rmse_pct_mean"], part["rmse_pct_std"],
-                                                 strict=True)],
-            "growth": [_pm(m, s, 2) for m, s in zip(part["growth_mean"], part["growth_std"],
-                                                    strict=True)],
-            "coverage": [_pm(m, s, 2) for m, s in zip(part["coverage_mean"],
-                                                      part["coverage_std"], strict=True)],
-            "outside": [f"{v:.2f}" for v in part["outside_mean"]]})))
+        lines += [f"\n## {model}\n", markdown.table(_model_table(noisy, model, kinds))]
     lines.append("\n## Issue 47's goals\n")
     lines.append(f"Growth on mismatched tyres at most {GOAL_GROWTH}x; coverage "
                  f"{GOAL_COVERAGE[0]:.2f}-{GOAL_COVERAGE[1]:.2f}; the population "
@@ -222,6 +234,24 @@ def _markdown(summary: pd.DataFrame, goal: pd.DataFrame, parts: pd.DataFrame, re
                  "of the same splits; `analysis.studies.population.knowable`).\n")
     lines.append(markdown.table(parts.round(2)))
     return "\n".join(lines) + "\n"
+
+
+def _model_table(noisy: pd.DataFrame, model: str, kinds: Sequence[str]) -> pd.DataFrame:
+    """One row per tyre set and target: the error and growth (one fit's) and each
+    interval kind's coverage."""
+    by_kind = {k: noisy[(noisy["model"] == model) & (noisy["intervals"] == k)]
+               .reset_index(drop=True) for k in kinds}
+    part = by_kind[kinds[0]]
+    frame = {"tyres": part["tyres"], "target": part["target"],
+             "RMSE %": [_pm(m, s) for m, s in zip(part["rmse_pct_mean"],
+                                                  part["rmse_pct_std"], strict=True)],
+             "growth": [_pm(m, s, 2) for m, s in zip(part["growth_mean"],
+                                                     part["growth_std"], strict=True)]}
+    for k, p in by_kind.items():
+        frame[f"coverage ({k})"] = [_pm(m, s, 2) for m, s in zip(
+            p["coverage_mean"], p["coverage_std"], strict=True)]
+    frame["outside"] = [f"{v:.2f}" for v in part["outside_mean"]]
+    return pd.DataFrame(frame)
 
 
 def _pm(mean: float, std: float, digits: int = 1) -> str:

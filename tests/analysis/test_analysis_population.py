@@ -27,8 +27,9 @@ def report(tmp_path_factory):
 
 def test_every_split_model_and_tyre_set_is_a_row_and_summarised(report):
     errors, summary = report.tables["errors"], report.tables["summary"]
-    # 2 passes x 2 splits x (nominal-only: 2 sets; population: 3) x 4 targets
-    assert len(errors) == 2 * 2 * 5 * 4
+    # 2 passes x 2 splits x 2 interval kinds x (nominal-only: 2 sets; population: 3)
+    # x 4 targets
+    assert len(errors) == 2 * 2 * 2 * 5 * 4
     assert set(summary["splits"]) == {2}
     assert (report.out / "summary.md").read_text().count("±") > 10
     goal = report.tables["goals"].set_index("target").loc["Fz"]
@@ -55,3 +56,17 @@ def test_what_no_camera_model_removes_is_the_tyre_s_part_of_fz(report):
     assert fz["tyre"] > fz["sensor"] and fz["tyre"] > fz["learner"]
     assert np.isclose(fz["total"] ** 2, fz["learner"] ** 2 + fz["tyre"] ** 2
                       + fz["sensor"] ** 2, rtol=1e-6) or fz["sensor"] == 0
+
+
+def test_the_interval_kinds_share_one_fit_and_differ_only_in_coverage(report):
+    """Split and adaptive intervals are calibrated on the same fits and clouds: every
+    error is equal between them, and the adaptive ones cover the stiff tyre no worse
+    (its clouds are unlike the training clouds only as far as the domain sees)."""
+    e = report.tables["errors"]
+    keys = ["noisy", "seed", "model", "tyres", "target"]
+    split = e[e["intervals"] == "split"].set_index(keys).sort_index()
+    adaptive = e[e["intervals"] == "adaptive"].set_index(keys).sort_index()
+    np.testing.assert_array_equal(split["rmse"], adaptive["rmse"])
+    assert not np.array_equal(split["coverage"], adaptive["coverage"])
+    goal = report.tables["goals"]
+    assert {"population split coverage (min)", "population adaptive coverage (min)"} <= set(goal)

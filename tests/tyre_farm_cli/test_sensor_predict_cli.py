@@ -436,7 +436,17 @@ def test_analyse_population_compares_the_two_models_over_repeated_splits(stores,
     assert set(summary["model"]) == {"nominal-only", "population"}
     assert {"nominal held-out", "population held-out tyres"} < set(summary["tyres"])
     assert (summary["splits"] == 2).all()
-    assert "What limits" in (tmp_path / "p" / "summary.md").read_text()
+    assert set(summary["intervals"]) == {"split", "adaptive"}  # both by default
+    text = (tmp_path / "p" / "summary.md").read_text()
+    assert "What limits" in text and "coverage (adaptive)" in text
+
+
+def test_analyse_population_refuses_an_unknown_interval_kind(stores, population, tmp_path):
+    code, _out, err = _cli(["analyse", "population", stores / "a.zarr", population,
+                           stores / "b.zarr", "--out", tmp_path / "p", "--intervals", "wide"])
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert code not in (0, None) and len(lines) == 1 and "--intervals" in lines[0], err
+    assert not (tmp_path / "p").exists()
 
 
 def test_analyse_population_needs_two_splits_for_a_spread(stores, population, tmp_path):
