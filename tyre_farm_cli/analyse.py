@@ -82,6 +82,7 @@ from tyre_farm_cli.analyse_options import (
     SurrogateFolds,
     SurrogateSeed,
     TestFraction,
+    Tpms,
     TrainNoise,
     Windows,
 )
@@ -394,7 +395,7 @@ def population(nominal: NominalStore, tyres: PopulationStore, mismatched: Mismat
                group: NominalGroup = None, out: Out = None, sensor_: Sensor = "t2cam-2017",
                learner: FitLearner = "plsr", repeats: Repeats = 5, draws: SensorDraws = 3,
                folds: PopulationFolds = 4, test_fraction: TestFraction = 0.25,
-               seed: SplitSeed = 0, intervals: IntervalKinds = "both",
+               seed: SplitSeed = 0, intervals: IntervalKinds = "both", tpms: Tpms = False,
                storage_option: StorageOption = None, as_json: Json = False) -> None:
     """Nominal-only against population force models over repeated splits: error, its
     growth and interval coverage on nominal and mismatched tyres, and the part of each
@@ -424,8 +425,8 @@ def population(nominal: NominalStore, tyres: PopulationStore, mismatched: Mismat
         for g in list_groups(open_target(mismatched, storage_option)))}
     _done(study.run(base, pop, others, spec, folder, learner=learner, repeats=repeats,
                     draws=draws, folds=folds, test_fraction=test_fraction, seed=seed,
-                    intervals=("split", "adaptive") if intervals == "both" else (intervals,)),
-          as_json)
+                    intervals=("split", "adaptive") if intervals == "both" else (intervals,),
+                    tpms=tpms), as_json)
 
 
 # ------------------------------------------------------------------ surrogate (issue 28)

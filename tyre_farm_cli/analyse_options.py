@@ -226,3 +226,9 @@ IntervalKind = Annotated[str, typer.Option(
 IntervalKinds = Annotated[str, typer.Option(
     "--intervals", help="split, adaptive or both (calibrated on the same fits, so the two "
     "differ in nothing else).")]
+Tpms = Annotated[bool, typer.Option(
+    "--tpms", help="Also read the tyre's inflation pressure, as a TPMS does (issue 47): "
+    "farm predict then needs --pressure-kpa.")]
+TpmsPressure = Annotated[float | None, typer.Option(
+    "--pressure-kpa", help="The TPMS reading for a model fitted with --tpms (kPa) "
+    "[default: none: a model fitted without --tpms].")]

@@ -34,7 +34,7 @@ from tyre_farm_cli.analyse import (
     Store,
     load_selection,
 )
-from tyre_farm_cli.analyse_options import IntervalKind
+from tyre_farm_cli.analyse_options import IntervalKind, Tpms, TpmsPressure
 from tyre_farm_cli.checks import model_folder, output_folder
 from tyre_farm_cli.errors import usage
 from tyre_farm_cli.options import open_target
@@ -70,11 +70,13 @@ def fit(
     folds: Annotated[int, typer.Option(help="Folds of the grouped CV (count, intervals).")] = 5,
     seed: Annotated[int, typer.Option(help="Seed of split, folds and noise.")] = 0,
     intervals: IntervalKind = "split",
+    tpms: Tpms = False,
     storage_option: StorageOption = None,
     as_json: Json = False,
 ) -> None:
     """Train a force model on a store as a virtual T2Cam sees it; save it with a manifest."""
     from analysis.camera import predictor
+    from analysis.camera.features import TPMS
     from analysis.camera.population import Tyres
 
     spec = _fit_checks(sensor, learner, out, draws, folds, alpha, test_fraction, intervals)
@@ -82,16 +84,24 @@ def fit(
                       for g in _groups(store, storage_option, group)])
     model, check = predictor.fit(tyres.datasets, spec, learner=learner, draws=draws,
                                  alpha=alpha, test_fraction=test_fraction, folds=folds,
-                                 seed=seed, intervals=intervals)
+                                 seed=seed, intervals=intervals,
+                                 inputs=(*predictor.INPUTS, TPMS) if tpms else predictor.INPUTS)
     ids = [str(i) for i in tyres.ids()[model.info["train"]]]
     path = predictor.save(model, out, store=str(store), group=",".join(tyres.names()),
                           ids=ids, check=check)
+    _print_fit(path, model, check, ids, as_json)
+
+
+def _print_fit(path, model, check, ids: list[str], as_json: bool) -> None:
     if as_json:
         typer.echo(json.dumps({"model": str(path), "check": check.to_dict("records")},
                               indent=1))
         return
-    typer.echo(f"model: {path} ({learner}, sensor {spec.name}, {len(ids)} training "
-               f"experiments x {draws} noisy measurements{_tyres_text(model.info)})")
+    info = model.info
+    tpms = ", reads a TPMS" if model.tpms else ""
+    typer.echo(f"model: {path} ({info['learner']}, sensor {model.sensor.name}{tpms}, "
+               f"{len(ids)} training experiments x {info['draws']} noisy "
+               f"measurements{_tyres_text(info)})")
     typer.echo(check.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
 
 
@@ -190,6 +200,7 @@ def predict(
         "clouds are taken as already in the model's frame).")] = False,
     out: Annotated[Path | None, typer.Option(
         help="Also write the predictions as CSV [default: print only].")] = None,
+    pressure_kpa: TpmsPressure = None,
     as_json: Json = False,
 ) -> None:
     """Fx, Fy, Fz, Mz of measured point clouds, with conformal prediction intervals.
@@ -199,40 +210,43 @@ def predict(
     from analysis.camera import predictor
     from analysis.camera.predict.clouds import read_cloud
 
+    fitted, manifest = predictor.load(model)
     with usage():
         if transform is not None and align:
             raise typer.BadParameter("give --transform or --align, not both")
-    fitted, manifest = predictor.load(model)
+        fitted.check_pressure(pressure_kpa)
     ref = read_cloud(reference)
     measured = [read_cloud(p) for p in clouds]
     ref, measured, rms = _registered(fitted, reference, ref, clouds, measured, transform, align)
-    table = fitted.predict_clouds(ref, measured)
+    table = fitted.predict_clouds(ref, measured, pressure_kpa)
     table.insert(0, "cloud", [str(p) for p in clouds])
     if out is not None:
         table.to_csv(out, index=False)
     outside = int(table["domain"].str.startswith("outside").sum())
     _print_predictions(model, fitted, manifest, table, rms, outside, as_json)
     if outside:
-        typer.echo(f"{outside} of {len(table)} clouds are unlike every cloud the model was "
-                   "trained and checked on (column domain): their forces are not predictions "
-                   "and their intervals are unbounded", err=True)
         raise typer.Exit(OUTSIDE_EXIT)
 
 
 def _print_predictions(model: Path, fitted, manifest: dict, table, rms: float | None,
                        outside: int, as_json: bool) -> None:
-    """The predictions on stdout: one JSON document, or a header and the table."""
+    """The predictions on stdout: one JSON document, or a header and the table; then, on
+    stderr, how many clouds lie outside the model's domain."""
     if as_json:
         typer.echo(json.dumps({"model": str(model), "alpha": fitted.intervals.alpha,
                                "registration_rms_mm": rms, "outside": outside,
                                "predictions": _finite(table).to_dict("records")},
                               indent=1))
-        return
-    level = 100 * (1 - fitted.intervals.alpha)
-    typer.echo(f"model {model} (sensor {manifest['sensor'].get('name')}); intervals: "
-               f"{level:g} % conformal" + ("" if rms is None else
-                                           f"; ICP residual {rms:.3g} mm"))
-    typer.echo(table.to_string(index=False, float_format=lambda v: f"{v:.5g}"))
+    else:
+        level = 100 * (1 - fitted.intervals.alpha)
+        typer.echo(f"model {model} (sensor {manifest['sensor'].get('name')}); intervals: "
+                   f"{level:g} % conformal" + ("" if rms is None else
+                                               f"; ICP residual {rms:.3g} mm"))
+        typer.echo(table.to_string(index=False, float_format=lambda v: f"{v:.5g}"))
+    if outside:
+        typer.echo(f"{outside} of {len(table)} clouds are unlike every cloud the model was "
+                   "trained and checked on (column domain): their forces are not predictions "
+                   "and their intervals are unbounded", err=True)
 
 
 def _registered(fitted, reference: Path, ref: np.ndarray, paths: list[Path],

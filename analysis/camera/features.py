@@ -8,7 +8,9 @@ trains and scores on the same rows:
 - :data:`TARGETS` and :func:`targets`: Fx, Fy, Fz (N) and Mz (N mm) of each experiment;
 - :func:`displacements`: the inner-surface displacements a virtual T2Cam measures;
 - :func:`measured_features`: features of ``draws`` noisy measurements of each experiment
-  (a model applied to measurements is trained on measurements).
+  (a model applied to measurements is trained on measurements);
+- :data:`TPMS` and :func:`pressures`: the inflation pressure a tyre-pressure sensor
+  reads, a model input a real system also has (issue 47), beside the camera's.
 """
 
 from __future__ import annotations
@@ -19,12 +21,40 @@ import xarray as xr
 from analysis.camera.sensor import VirtualSensor
 from analysis.camera.sensor.model import INPUTS
 from analysis.data import TOTALS, totals
-from analysis.errors import MissingVariableError
+from analysis.errors import MissingVariableError, ParameterError
 
-__all__ = ["TARGETS", "UNITS", "displacements", "measured_features", "targets"]
+__all__ = ["MODEL_INPUTS", "TARGETS", "TPMS", "UNITS", "camera_inputs", "displacements",
+           "measured_features", "pressures", "targets", "with_tpms"]
 
 TARGETS = ("Fx", "Fy", "Fz", "Mz")
 UNITS = {"Fx": "N", "Fy": "N", "Fz": "N", "Mz": "N mm"}
+#: the inflation pressure (kPa) a TPMS reads: one feature column after the camera's
+TPMS = "tpms_pressure"
+#: every input a force model may read, in the order of its feature columns
+MODEL_INPUTS = (*INPUTS, TPMS)
+
+
+def camera_inputs(inputs) -> tuple[str, ...]:
+    """The inputs of ``inputs`` the camera measures (all but :data:`TPMS`)."""
+    return tuple(i for i in inputs if i != TPMS)
+
+
+def pressures(ds: xr.Dataset) -> np.ndarray:
+    """(K,) each experiment's inflation pressure in kPa (the store holds MPa)."""
+    if "pressure" not in ds:
+        raise MissingVariableError(f"group {ds.attrs.get('group', '?')!r} has no 'pressure': "
+                                   "a model reading a TPMS needs each experiment's pressure")
+    return 1000.0 * np.asarray(ds["pressure"].values, dtype=float)
+
+
+def with_tpms(X: np.ndarray, kpa: np.ndarray | float | None, inputs) -> np.ndarray:
+    """``X`` (N, F) with the TPMS reading ``kpa`` (N,) as its last column where
+    ``inputs`` hold :data:`TPMS`; ``X`` unchanged otherwise."""
+    if TPMS not in inputs:
+        return X
+    if kpa is None:
+        raise ParameterError("a model reading a TPMS needs a pressure for every cloud")
+    return np.column_stack([X, np.broadcast_to(np.asarray(kpa, dtype=float), X.shape[:1])])
 
 
 def targets(ds: xr.Dataset) -> np.ndarray:

@@ -41,14 +41,18 @@ def mismatch(model: ForceModel, ds: xr.Dataset, *, draws: int = 1,
     return table(model, X, T), T, predicted
 
 
-def clouds(model: ForceModel, ds: xr.Dataset, *, draws: int = 1,
-           seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+def clouds(model: ForceModel, ds: xr.Dataset, *, draws: int = 1, seed: int = 0,
+           tpms_error: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """The features (K x draws, F) of ``ds``'s experiments as ``model`` sees them (each
     tyre measured by its own camera, resampled onto the model's points) and their true
-    totals (K x draws, 4)."""
+    totals (K x draws, 4). A model reading a TPMS reads each experiment's pressure
+    times ``1 + tpms_error`` (a sensor that reads 10 % high: 0.1)."""
     Y = targets(ds)
     parts = tyre_features(model.virtual, ds, draws, np.random.default_rng(seed), model.inputs)
-    return np.concatenate(parts), np.tile(Y, (len(parts), 1))
+    X = np.concatenate(parts)
+    if model.tpms:
+        X[:, -1] *= 1.0 + tpms_error
+    return X, np.tile(Y, (len(parts), 1))
 
 
 def table(model: ForceModel, X: np.ndarray, T: np.ndarray) -> pd.DataFrame:

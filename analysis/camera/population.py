@@ -27,7 +27,15 @@ from functools import cached_property
 import numpy as np
 import xarray as xr
 
-from analysis.camera.features import displacements, measured_features, targets
+from analysis.camera.features import (
+    TPMS,
+    camera_inputs,
+    displacements,
+    measured_features,
+    pressures,
+    targets,
+    with_tpms,
+)
 from analysis.camera.sensor import InnerSurface, VirtualSensor
 from analysis.camera.sensor.model import INPUTS
 from analysis.camera.sensor.resample import to_layout
@@ -63,22 +71,27 @@ def tyre_features(virtual: VirtualSensor, ds: xr.Dataset, draws: int,
     On ``virtual``'s own surface the camera's points are the model's
     (:func:`~analysis.camera.features.measured_features`); on another tyre the camera
     measures that tyre's inner surface and each cloud is resampled onto the model's
-    points (:func:`resampled_features`).
+    points (:func:`resampled_features`). Where ``inputs`` hold
+    :data:`~analysis.camera.features.TPMS`, each row ends with its experiment's pressure.
     """
     U = displacements(ds) if rows is None else displacements(ds)[rows]
+    kpa = None if TPMS not in inputs else (pressures(ds) if rows is None
+                                           else pressures(ds)[rows])
+    camera = camera_inputs(inputs)
     surface = InnerSurface.from_dataset(ds)
     noisy = virtual.spec.noisy and draws > 0
     if _same_surface(surface, virtual.surface):
-        X, _ = measured_features(virtual, virtual.clean(U), draws, rng, inputs)
-        return list(X.reshape(draws if noisy else 1, U.shape[0], -1))
+        X, _ = measured_features(virtual, virtual.clean(U), draws, rng, camera)
+        return [with_tpms(x, kpa, inputs) for x in X.reshape(draws if noisy else 1,
+                                                             U.shape[0], -1)]
     other = VirtualSensor(virtual.spec, surface)
     clean = other.clean(U)
     out = []
     for _ in range(draws if noisy else 1):
         refs, clouds = other.measure(clean, rng if noisy else None)
-        out.append(np.concatenate(
+        out.append(with_tpms(np.concatenate(
             [resampled_features(virtual, refs[k].reshape(-1, 3), clouds[k].reshape(-1, 3),
-                                inputs) for k in range(clean.shape[0])]))
+                                camera) for k in range(clean.shape[0])]), kpa, inputs))
     return out
 
 

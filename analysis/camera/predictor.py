@@ -27,7 +27,7 @@ from sklearn.base import clone
 from sklearn.model_selection import GroupKFold
 
 import analysis.camera.learners as learners
-from analysis.camera.features import TARGETS, UNITS
+from analysis.camera.features import MODEL_INPUTS, TARGETS, TPMS, UNITS, camera_inputs, with_tpms
 from analysis.camera.population import Tyres, resampled_features
 from analysis.camera.predict.domain import FeatureDomain, reference_checks
 from analysis.camera.predict.intervals import ConformalIntervals
@@ -59,23 +59,50 @@ class ForceModel:
         # would otherwise be rebuilt for every cloud predicted
         self.virtual = VirtualSensor(self.sensor, self.surface)
 
-    def features(self, ref_points: np.ndarray, points: np.ndarray) -> np.ndarray:
-        """Features (1, F) of one measured cloud against its reference cloud, both (M, 3)
-        in the model's frame (registered), resampled on the sensor's points."""
-        return resampled_features(self.virtual, ref_points, points, self.inputs)
+    @property
+    def tpms(self) -> bool:
+        """Whether the model reads the tyre's inflation pressure (a TPMS) beside the
+        camera's clouds (issue 47)."""
+        return TPMS in self.inputs
 
-    def predict_clouds(self, ref_points: np.ndarray, clouds: list[np.ndarray]) -> pd.DataFrame:
+    def check_pressure(self, kpa: float | None) -> None:
+        """Refuse a TPMS reading ``kpa`` this model cannot take: missing where it reads
+        one, given where it does not, not a positive finite pressure."""
+        if self.tpms and kpa is None:
+            raise ParameterError("this force model reads the tyre's inflation pressure "
+                                 "(fitted with --tpms): give the TPMS reading with "
+                                 "--pressure-kpa")
+        if not self.tpms and kpa is not None:
+            raise ParameterError("this force model does not read a pressure (fitted "
+                                 "without --tpms): drop --pressure-kpa, or fit a model "
+                                 "with --tpms")
+        if kpa is not None and not (np.isfinite(kpa) and kpa > 0):
+            raise ParameterError(f"--pressure-kpa must be a positive pressure in kPa, "
+                                 f"got {kpa}")
+
+    def features(self, ref_points: np.ndarray, points: np.ndarray) -> np.ndarray:
+        """The camera's features (1, F) of one measured cloud against its reference
+        cloud, both (M, 3) in the model's frame (registered), resampled on the sensor's
+        points."""
+        return resampled_features(self.virtual, ref_points, points,
+                                  camera_inputs(self.inputs))
+
+    def predict_clouds(self, ref_points: np.ndarray, clouds: list[np.ndarray],
+                       pressure_kpa: float | None = None) -> pd.DataFrame:
         """One row per cloud: each target, with the lower and upper interval bounds, and
         ``domain``: ``inside``, ``outside: <the measure over its limit>`` (its intervals
         are then unbounded: the model does not know), or ``not checked`` (a model saved
-        before issue 47).
+        before issue 47). ``pressure_kpa``: the TPMS reading, which a model trained with
+        one (:attr:`tpms`) needs and any other refuses.
 
         Raises :class:`~analysis.errors.CloudError` when the reference cloud is not this
         tyre in the model's frame (:func:`analysis.camera.predict.domain.reference_checks`).
         """
+        self.check_pressure(pressure_kpa)
         seen = np.isfinite(ref_points).all(axis=1)
         reference_checks(self.surface, self.virtual.layout, ref_points[seen])
-        X = np.concatenate([self.features(ref_points, c) for c in clouds])
+        X = with_tpms(np.concatenate([self.features(ref_points, c) for c in clouds]),
+                      pressure_kpa, self.inputs)
         with np.errstate(over="ignore", invalid="ignore"):
             table = self.predict_features(X)
         if self.domain is None:
@@ -139,6 +166,9 @@ def fit_intervals(ds: xr.Dataset | Sequence[xr.Dataset], sensor: SensorSpec, *,
         if kind not in INTERVALS:
             raise ParameterError(f"intervals must be one of {', '.join(INTERVALS)}, got "
                                  f"{kind!r}")
+    if not camera_inputs(inputs) or any(i not in MODEL_INPUTS for i in inputs):
+        raise ParameterError(f"inputs must be camera fields of {', '.join(INPUTS)}, and "
+                             f"optionally {TPMS}, got {list(inputs)}")
     tyres = Tyres.of(ds)
     Y = tyres.targets()
     _check_sizes(tyres, alpha, test_fraction, folds)
@@ -152,7 +182,7 @@ def fit_intervals(ds: xr.Dataset | Sequence[xr.Dataset], sensor: SensorSpec, *,
     # a fold keeps an experiment's noisy draws, a roll's states and a tyre together; a
     # learner's own CV keeps paths together (the same labels for one tyre)
     estimator = learners.learner(learner, max_components=max_components, folds=folds,
-                                 x_blocks=[Xf.shape[1] // len(inputs)] * len(inputs),
+                                 x_blocks=_blocks(Xf.shape[1], inputs),
                                  y_blocks=[1] * len(TARGETS), seed=seed)
     calibrated = _train(estimator, Xf, np.tile(Y[train], (reps, 1)),
                         np.tile(labels[train], reps), np.tile(tyres.paths()[train], reps),
@@ -169,6 +199,15 @@ def fit_intervals(ds: xr.Dataset | Sequence[xr.Dataset], sensor: SensorSpec, *,
                            info=dict(info), domain=domain)
         out[kind] = (model, _check(model, Xt, Yt, np.ptp(Y, axis=0), alpha))
     return out
+
+
+def _blocks(n_features: int, inputs) -> list[int]:
+    """Column counts of the inputs' feature blocks: the camera's fields alike, a TPMS
+    reading one column (a block of its own, so the block scaling weighs it as one
+    input, not as one of thousands of columns)."""
+    camera = camera_inputs(inputs)
+    tpms = int(TPMS in inputs)
+    return [(n_features - tpms) // len(camera)] * len(camera) + [1] * tpms
 
 
 def _train(estimator, X, Y, groups, paths, folds: int, alpha: float,
@@ -272,7 +311,7 @@ def load(path) -> tuple[ForceModel, dict]:
     payload, manifest = load_model(path)
     where = f"model {path}"
     targets_ = v.names(manifest, "targets", TARGETS, where)
-    inputs = v.names(manifest, "inputs", INPUTS, where)
+    inputs = v.names(manifest, "inputs", MODEL_INPUTS, where)
     sensor = v.built(SensorSpec.from_dict, v.sensor_dict(manifest, where), "sensor", where)
     learner, intervals, s = v.payload_parts(payload, len(targets_), where)
     surface = v.built(lambda s: InnerSurface(
@@ -285,7 +324,8 @@ def load(path) -> tuple[ForceModel, dict]:
     if domain is not None:
         domain = v.built(FeatureDomain.from_dict, domain, "feature domain", where)
     model = ForceModel(sensor, surface, learner, intervals, inputs, targets_, info, domain)
-    features = 3 * model.virtual.layout.n_points * len(inputs)
+    features = (3 * model.virtual.layout.n_points * len(camera_inputs(inputs))
+                + int(model.tpms))
     if domain is not None and domain.mean_.size != features:
         raise ModelFileError(f"{where}: its feature domain has {domain.mean_.size} features, "
                              f"its sensor and inputs give {features}; save the model again "

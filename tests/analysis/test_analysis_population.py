@@ -70,3 +70,17 @@ def test_the_interval_kinds_share_one_fit_and_differ_only_in_coverage(report):
     assert not np.array_equal(split["coverage"], adaptive["coverage"])
     goal = report.tables["goals"]
     assert {"population split coverage (min)", "population adaptive coverage (min)"} <= set(goal)
+
+
+def test_with_a_tpms_the_nominal_tyre_is_also_read_with_a_pressure_10_percent_high(
+        tmp_path):
+    pop = [stiffer_tyre(tmp_path / f"t{k}.zarr", s, seed=20 + k, n_experiments=12, **SMALL)
+           for k, s in enumerate((0.9, 1.0, 1.1, 1.05))]
+    nominal = stiffer_tyre(tmp_path / "nominal.zarr", 1.0, seed=2, n_experiments=24, **SMALL)
+    report = population.run(nominal, pop, {}, SENSOR, tmp_path / "out", repeats=2, draws=1,
+                            folds=2, intervals=("split",), tpms=True)
+    e = report.tables["errors"]
+    off = e[(e["tyres"] == population.TPMS_OFF) & e["noisy"]]
+    assert set(off["model"]) == {"nominal-only", "population"} and len(off) == 2 * 2 * 4
+    assert list(report.tables["goals"]["target"]) == ["Fx", "Fy", "Fz", "Mz"]
+    assert "with a TPMS" in (tmp_path / "out" / "summary.md").read_text()

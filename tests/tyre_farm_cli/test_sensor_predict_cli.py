@@ -385,6 +385,39 @@ def test_fit_arguments_are_refused_in_one_line_and_nothing_is_written(stores, tm
 # --- a population of tyres (issue 47) ------------------------------------------------------
 
 
+def test_a_model_fitted_with_tpms_predicts_with_the_reading_and_refuses_without(
+        stores, measured, tmp_path):
+    """``farm fit --tpms`` (issue 47): the model reads the inflation pressure; ``farm
+    predict`` then needs ``--pressure-kpa`` (one line, exit 2, nothing written without
+    it). Store a's pressure is one value: the constant column must not break the fit."""
+    _, _, folder, names = measured
+    files = [folder / f"{n}.csv" for n in names]
+    code, out, err = _cli(["fit", stores / "a.zarr", "--out", tmp_path / "m", "--sensor", SENSOR,
+                           "--folds", 4, "--draws", 2, "--tpms"])
+    assert code in (0, None), err
+    assert "reads a TPMS" in out
+    code, out, err = _cli(["predict", tmp_path / "m", folder / "reference.csv", *files,
+                           "--out", tmp_path / "p.csv"])
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert code == 2 and len(lines) == 1 and "--pressure-kpa" in lines[0], err
+    assert not (tmp_path / "p.csv").exists()
+    code, out, err = _cli(["predict", tmp_path / "m", folder / "reference.csv", *files,
+                           "--pressure-kpa", 200, "--json"])
+    assert code in (0, None), err
+    pred = pd.DataFrame(json.loads(out)["predictions"])
+    truth = pd.read_csv(folder / "truth.csv")
+    assert np.all(np.abs(pred["Fz"] - truth["Fz"]) < 0.25 * np.ptp(truth["Fz"]) + 1e-9)
+
+
+def test_a_camera_only_model_refuses_a_pressure_reading(model, measured):
+    path, _ = model
+    _, _, folder, names = measured
+    code, _out, err = _cli(["predict", path, folder / "reference.csv",
+                            *[folder / f"{n}.csv" for n in names], "--pressure-kpa", 200])
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert code == 2 and len(lines) == 1 and "--tpms" in lines[0], err
+
+
 @pytest.fixture(scope="module")
 def population(tmp_path_factory):
     """One store, five groups: five tyres (the synthetic store's seeds stand in for them)."""
