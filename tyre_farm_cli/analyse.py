@@ -163,6 +163,31 @@ def load_selection(store: str, options: list[str] | None, group: str | None, pre
     return data.load(open_target(store, options), group, pressure=mpa, deflection=deflection)
 
 
+def load_tyres(store: str, options: list[str] | None, groups: list[str | None],
+               pressure: float | None = None, *, skip_empty: bool = False) -> list:
+    """The selections of ``groups`` of ``store``, one per tyre. ``skip_empty`` (every
+    group asked for, as ``--group all`` does): a group with no done experiment yet (a
+    population sweep still running) is left out with a note on stderr, not an error;
+    none left is one."""
+    from analysis.errors import EmptySelectionError
+
+    out, left = [], []
+    for g in groups:
+        try:
+            out.append(load_selection(store, options, g, pressure, None))
+        except EmptySelectionError:
+            if not skip_empty:
+                raise
+            left.append(str(g))
+    if left:
+        typer.echo(f"note: {plural(len(left), 'group')} of {store} with no done experiment "
+                   f"left out: {', '.join(left)}", err=True)
+    if not out:
+        raise EmptySelectionError(f"no group of {store} holds a done experiment: run or "
+                                  "resume its sweep first")
+    return out
+
+
 def _out(out: Path | None, command: str) -> Path:
     folder = out if out is not None else Path("analysis-out") / command
     with usage():
@@ -417,8 +442,8 @@ def population(nominal: NominalStore, tyres: PopulationStore, mismatched: Mismat
                                  f"splits), got {repeats}")
     folder = _out(out, "population")
     base = load_selection(nominal, storage_option, group, None, None)
-    pop = [load_selection(tyres, storage_option, g, None, None)
-           for g in list_groups(open_target(tyres, storage_option))]
+    pop = load_tyres(tyres, storage_option, list(list_groups(open_target(tyres, storage_option))),
+                     skip_empty=True)
     study = _study("population")
     others = {study.tyre_label(ds, base): ds for ds in (
         load_selection(mismatched, storage_option, g, None, None)

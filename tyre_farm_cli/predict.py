@@ -33,6 +33,7 @@ from tyre_farm_cli.analyse import (
     StorageOption,
     Store,
     load_selection,
+    load_tyres,
 )
 from tyre_farm_cli.analyse_options import IntervalKind, Tpms, TpmsPressure
 from tyre_farm_cli.checks import model_folder, output_folder
@@ -80,8 +81,8 @@ def fit(
     from analysis.camera.population import Tyres
 
     spec = _fit_checks(sensor, learner, out, draws, folds, alpha, test_fraction, intervals)
-    tyres = Tyres.of([load_selection(store, storage_option, g, pressure, None)
-                      for g in _groups(store, storage_option, group)])
+    tyres = Tyres.of(load_tyres(store, storage_option, _groups(store, storage_option, group),
+                                pressure, skip_empty=group is not None and group.strip() == "all"))
     model, check = predictor.fit(tyres.datasets, spec, learner=learner, draws=draws,
                                  alpha=alpha, test_fraction=test_fraction, folds=folds,
                                  seed=seed, intervals=intervals,

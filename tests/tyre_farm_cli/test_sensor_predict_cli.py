@@ -442,6 +442,26 @@ def test_fit_on_every_group_of_a_store_holds_out_whole_tyres(population, tmp_pat
     assert len(json.loads(out)["errors"]) == 4
 
 
+def test_a_tyre_whose_sweep_has_not_run_is_left_out_with_a_note(population, tmp_path):
+    """A population sweep still running: ``--group all`` leaves out a group with no done
+    experiment, and says so; naming that group is one line's error."""
+    import shutil
+
+    from tests.synthetic import make_store
+
+    store = tmp_path / "pop.zarr"
+    shutil.copytree(population, store)
+    make_store(store, n_experiments=0, n_pending=2, group="tyre5", **SMALL)
+    code, out, err = _cli(["fit", store, "--group", "all", "--out", tmp_path / "m",
+                           "--sensor", SENSOR, "--folds", 3, "--draws", 1])
+    assert code in (0, None), err
+    assert "left out: tyre5" in err and "5 tyres, 1 held out" in out
+    code, out, err = _cli(["fit", store, "--group", "tyre0,tyre5", "--out", tmp_path / "n",
+                           "--sensor", SENSOR])
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert code not in (0, None) and len(lines) == 1 and "tyre5" in lines[0], err
+
+
 @pytest.mark.parametrize(("group", "folds", "needle"), [
     ("tyre0,tyre0", 2, "each once"),
     ("tyre0,,tyre1", 2, "--group"),
