@@ -250,13 +250,14 @@ def _check_sizes(tyres: Tyres, alpha: float, test_fraction: float, folds: int) -
 def _out_of_fold(estimator, X, Y, groups, folds: int, paths) -> tuple[np.ndarray, np.ndarray]:
     """Residuals (truth - prediction) of every row, each predicted by a model that never
     saw its group (its experiment's path, or its tyre), and each row's difficulty against
-    its fold's training rows; ``paths`` are what each fold's learner keeps whole in its
+    its fold's training rows, relative to its fold's held-out rows (as a new cloud's is
+    to the model's held-out rows); ``paths`` are what each fold's learner keeps whole in its
     own CV."""
     res, scale = np.empty_like(Y), np.empty(Y.shape[0])
     for train, test in GroupKFold(folds).split(X, groups=groups):
         model = clone(estimator).fit(X[train], Y[train], paths[train])
         res[test] = Y[test] - model.predict(X[test])
-        scale[test] = FeatureDomain().fit(X[train]).difficulty(X[test])
+        scale[test] = FeatureDomain().fit(X[train], X[test]).difficulty(X[test])
     return res, scale
 
 

@@ -136,6 +136,9 @@ class FeatureDomain:
         The limits.
     t2_fit_limit_, q_fit_limit_ : float
         The limits of the fitted rows alone (what :meth:`difficulty` divides by).
+    reference_ : float
+        The median raw difficulty of the check rows (1 without them): what
+        :meth:`difficulty` is relative to.
     """
 
     variance: float = 0.99
@@ -162,9 +165,17 @@ class FeatureDomain:
         k = max(1, min(k, int(np.sum(var > 1e-12 * var[0]))))
         self.components_, self.variances_ = vt[:k], var[:k]
         self.t2_fit_limit_, self.q_fit_limit_ = self._limits(X)
-        self.t2_limit_, self.q_limit_ = (
-            (self.t2_fit_limit_, self.q_fit_limit_) if X_check is None
-            else self._limits(np.vstack([X, np.asarray(X_check, dtype=float)])))
+        self.reference_ = 1.0
+        if X_check is None:
+            self.t2_limit_, self.q_limit_ = self.t2_fit_limit_, self.q_fit_limit_
+            return self
+        X_check = np.asarray(X_check, dtype=float)
+        self.t2_limit_, self.q_limit_ = self._limits(np.vstack([X, X_check]))
+        # Rows a domain was not fitted on sit far beyond its fitted rows' limits when the
+        # rows are fewer than the features (their Q is in-sample, nearly zero), by how
+        # far depends on how many rows were fitted: a fold's domain and the model's would
+        # not agree. Relative to unseen rows' typical value they do.
+        self.reference_ = float(np.median(self.difficulty(X_check)))
         return self
 
     def _limits(self, rows: np.ndarray) -> tuple[float, float]:
@@ -184,15 +195,17 @@ class FeatureDomain:
         return t2, q
 
     def difficulty(self, X: np.ndarray) -> np.ndarray:
-        """(n,) ``1 + T2 / L_T2 + Q / L_Q`` of feature rows ``X`` (n, F), the limits those
-        of the fitted rows alone (``fit``'s ``X``, not its check rows): 1 at their
-        centre, ``inf`` where not finite. The scale of normalised conformal intervals
-        (issue 47: wider where a cloud is unlike the training clouds;
+        """(n,) ``(1 + T2 / L_T2 + Q / L_Q) / reference_`` of feature rows ``X`` (n, F),
+        the limits those of the fitted rows alone (``fit``'s ``X``, not its check rows),
+        relative to the check rows' median (1: as unlike the training rows as a typical
+        unseen row); ``inf`` where not finite. The scale of normalised conformal
+        intervals (issue 47: wider where a cloud is unlike the training clouds;
         :class:`~analysis.camera.predict.intervals.ConformalIntervals`). Out-of-fold rows
-        are scaled against their fold's fitted rows, a new cloud against the model's, so
-        that both are rows the domain was not fitted on."""
+        are scaled against a domain of their fold's fitted rows checked on themselves, a
+        new cloud against the model's checked on its held-out rows, so that both are rows
+        the domain was not fitted on, in the same units."""
         t2, q = self.scores(X)
-        return 1.0 + t2 / self.t2_fit_limit_ + q / self.q_fit_limit_
+        return (1.0 + t2 / self.t2_fit_limit_ + q / self.q_fit_limit_) / self.reference_
 
     def outside(self, X: np.ndarray) -> list[str]:
         """Per row: '' inside, else the measures over their limits, e.g.
@@ -212,7 +225,7 @@ class FeatureDomain:
                 "scale": self.scale_, "components": self.components_,
                 "variances": self.variances_, "t2_limit": self.t2_limit_,
                 "q_limit": self.q_limit_, "t2_fit_limit": self.t2_fit_limit_,
-                "q_fit_limit": self.q_fit_limit_}
+                "q_fit_limit": self.q_fit_limit_, "reference": self.reference_}
 
     @classmethod
     def from_dict(cls, d: dict) -> FeatureDomain:
@@ -227,6 +240,7 @@ class FeatureDomain:
         # a domain saved before adaptive intervals: its limits serve (only for difficulty)
         dom.t2_fit_limit_ = float(d.get("t2_fit_limit", dom.t2_limit_))
         dom.q_fit_limit_ = float(d.get("q_fit_limit", dom.q_limit_))
+        dom.reference_ = float(d.get("reference", 1.0))  # saved before it: absolute
         f = dom.mean_.shape
         if (dom.mean_.ndim != 1 or dom.scale_.shape != f or dom.components_.ndim != 2
                 or dom.components_.shape[1] != f[0]

@@ -132,3 +132,28 @@ def test_scaled_intervals_need_the_rows_scale_and_check_it():
     lower, upper = ci.interval(np.zeros((1, 2)), np.array([np.inf]))
     assert np.isinf(upper).all() and np.isinf(lower).all()
     assert not ConformalIntervals().fit(np.ones((20, 2))).scaled_
+
+
+def test_a_difficulty_is_relative_to_unseen_rows_whatever_the_rows_fitted():
+    """Fewer rows than features (noisy clouds): unseen rows lie far beyond the fitted
+    rows' own limits, by a factor that depends on how many were fitted, so a fold's
+    domain and the model's would score one cloud in different units and the adaptive
+    intervals of the model would not be the folds' (issue 47). Relative to the check
+    rows' median, an unseen row of the same kind scores about 1 for both."""
+    from analysis.camera.predict.domain import FeatureDomain
+
+    rng = np.random.default_rng(0)
+    latent = rng.standard_normal((3, 400))
+    rows = lambda n: rng.standard_normal((n, 3)) @ latent + rng.standard_normal((n, 400))  # noqa: E731
+    new, small, large = rows(200), FeatureDomain(), FeatureDomain()
+    raw = [FeatureDomain().fit(rows(n)).difficulty(new) for n in (30, 120)]
+    # what went wrong: the same rows scored 5.8 and 7.8 (and far from 1)
+    assert abs(np.log(np.median(raw[0]) / np.median(raw[1]))) > np.log(1.25)
+    assert min(np.median(r) for r in raw) > 3
+    small.fit(rows(30), rows(30))
+    large.fit(rows(120), rows(60))
+    for dom in (small, large):
+        assert 0.8 < np.median(dom.difficulty(new)) < 1.25
+    # a cloud unlike every row is still much harder
+    assert np.median(large.difficulty(3.0 * new)) > 3.0
+    assert FeatureDomain.from_dict(large.to_dict()).reference_ == large.reference_
