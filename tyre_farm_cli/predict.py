@@ -77,7 +77,7 @@ def fit(
 ) -> None:
     """Train a force model on a store as a virtual T2Cam sees it; save it with a manifest."""
     from analysis.camera import predictor
-    from analysis.camera.features import TPMS
+    from analysis.camera.features import model_inputs
     from analysis.camera.population import Tyres
 
     spec = _fit_checks(sensor, learner, out, draws, folds, alpha, test_fraction, intervals)
@@ -86,7 +86,7 @@ def fit(
     model, check = predictor.fit(tyres.datasets, spec, learner=learner, draws=draws,
                                  alpha=alpha, test_fraction=test_fraction, folds=folds,
                                  seed=seed, intervals=intervals,
-                                 inputs=(*predictor.INPUTS, TPMS) if tpms else predictor.INPUTS)
+                                 inputs=model_inputs(tpms))
     ids = [str(i) for i in tyres.ids()[model.info["train"]]]
     path = predictor.save(model, out, store=str(store), group=",".join(tyres.names()),
                           ids=ids, check=check)

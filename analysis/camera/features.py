@@ -24,7 +24,7 @@ from analysis.data import TOTALS, totals
 from analysis.errors import MissingVariableError, ParameterError
 
 __all__ = ["MODEL_INPUTS", "TARGETS", "TPMS", "UNITS", "camera_inputs", "displacements",
-           "measured_features", "pressures", "targets", "with_tpms"]
+           "measured_features", "model_inputs", "pressures", "targets", "with_tpms"]
 
 TARGETS = ("Fx", "Fy", "Fz", "Mz")
 UNITS = {"Fx": "N", "Fy": "N", "Fz": "N", "Mz": "N mm"}
@@ -32,6 +32,11 @@ UNITS = {"Fx": "N", "Fy": "N", "Fz": "N", "Mz": "N mm"}
 TPMS = "tpms_pressure"
 #: every input a force model may read, in the order of its feature columns
 MODEL_INPUTS = (*INPUTS, TPMS)
+
+
+def model_inputs(tpms: bool) -> tuple[str, ...]:
+    """A force model's inputs: the camera's fields, and the TPMS reading if ``tpms``."""
+    return MODEL_INPUTS if tpms else INPUTS
 
 
 def camera_inputs(inputs) -> tuple[str, ...]:

@@ -37,8 +37,8 @@ def mismatch(model: ForceModel, ds: xr.Dataset, *, draws: int = 1,
     truth, predicted : ndarray of shape (K x draws, 4)
     """
     X, T = clouds(model, ds, draws=draws, seed=seed)
-    predicted = model.predict_features(X)[list(model.targets)].to_numpy()
-    return table(model, X, T), T, predicted
+    P = model.predict_features(X)
+    return table(model, X, T, P), T, P[list(model.targets)].to_numpy()
 
 
 def clouds(model: ForceModel, ds: xr.Dataset, *, draws: int = 1, seed: int = 0,
@@ -55,10 +55,12 @@ def clouds(model: ForceModel, ds: xr.Dataset, *, draws: int = 1, seed: int = 0,
     return X, np.tile(Y, (len(parts), 1))
 
 
-def table(model: ForceModel, X: np.ndarray, T: np.ndarray) -> pd.DataFrame:
+def table(model: ForceModel, X: np.ndarray, T: np.ndarray,
+          P: pd.DataFrame | None = None) -> pd.DataFrame:
     """Per target, ``model``'s errors on the features ``X`` (N, F) of clouds whose true
-    totals are ``T`` (N, 4): the table :func:`mismatch` returns."""
-    P = model.predict_features(X)
+    totals are ``T`` (N, 4): the table :func:`mismatch` returns. ``P``: the model's
+    predictions of ``X`` where already made."""
+    P = model.predict_features(X) if P is None else P
     # the share of these clouds the model's domain (issue 47) would flag in farm predict
     flagged = (float(np.mean([bool(w) for w in model.domain.outside(X)]))
                if model.domain is not None else float("nan"))

@@ -30,7 +30,7 @@ import pandas as pd
 import xarray as xr
 
 from analysis.camera import predictor
-from analysis.camera.features import TARGETS, TPMS, targets
+from analysis.camera.features import TARGETS, model_inputs, targets
 from analysis.camera.mismatch import clouds, table
 from analysis.camera.sensor import SensorSpec
 from analysis.render import markdown
@@ -91,7 +91,7 @@ def run(nominal: xr.Dataset, population: Sequence[xr.Dataset],
         target), ``summary`` (mean and spread over the splits) and ``goals``.
     """
     kinds = tuple(intervals)
-    inputs = (*predictor.INPUTS, TPMS) if tpms else predictor.INPUTS
+    inputs = model_inputs(tpms)
     span = np.ptp(targets(nominal), axis=0)
     rows = []
     for noisy, spec in ((True, sensor), (False, sensor.noise_free())):
