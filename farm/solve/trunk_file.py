@@ -32,7 +32,8 @@ def _motion(m: RoadMotion | None) -> dict[str, Any] | None:
     return None if m is None else dataclasses.asdict(m)
 
 
-def _state(s: SolvedState, name: str, arrays: dict[str, np.ndarray]) -> dict[str, Any]:
+def state_doc(s: SolvedState, name: str, arrays: dict[str, np.ndarray]) -> dict[str, Any]:
+    """``s``'s scalars as JSON; its arrays put into ``arrays`` under ``name.<field>``."""
     for field in _ARRAYS:
         value = getattr(s, field)
         if value is not None:
@@ -50,8 +51,8 @@ def dumps(trunk: Trunk) -> bytes:
         "path": {"deflections": list(trunk.path.deflections), "pressure": trunk.path.pressure,
                  "motion": _motion(trunk.path.motion),
                  "motion_fractions": list(trunk.path.motion_fractions)},
-        "reference": _state(sol.reference, "reference", arrays),
-        "states": [_state(s, f"state{k}", arrays) for k, s in enumerate(sol.states)],
+        "reference": state_doc(sol.reference, "reference", arrays),
+        "states": [state_doc(s, f"state{k}", arrays) for k, s in enumerate(sol.states)],
         "solve_seconds": sol.solve_seconds, "ccx_runs": sol.ccx_runs,
         "increments": sol.increments, "restarts": len(trunk.restarts),
         "touch_z": trunk.touch_z, "fractions": list(trunk.fractions),
@@ -65,7 +66,8 @@ def dumps(trunk: Trunk) -> bytes:
     return out.getvalue()
 
 
-def _read_state(doc: dict[str, Any], name: str, data: Any) -> SolvedState:
+def read_state(doc: dict[str, Any], name: str, data: Any) -> SolvedState:
+    """The state :func:`state_doc` wrote as ``name`` (``data``: the opened .npz)."""
     found = {f: data[f"{name}.{f}"] for f in _ARRAYS if f"{name}.{f}" in data.files}
     motion = doc["motion"]
     return SolvedState(deflection=doc["deflection"], road_z=doc["road_z"],
@@ -86,8 +88,8 @@ def loads(data: bytes) -> Trunk:
             path = LoadPath(tuple(p["deflections"]), p["pressure"], motion,
                             tuple(p["motion_fractions"]))
             solution = PathSolution(
-                _read_state(header["reference"], "reference", npz),
-                tuple(_read_state(s, f"state{k}", npz) for k, s in enumerate(header["states"])),
+                read_state(header["reference"], "reference", npz),
+                tuple(read_state(s, f"state{k}", npz) for k, s in enumerate(header["states"])),
                 header["solve_seconds"], header["ccx_runs"], header["increments"])
             restarts = tuple(npz[f"restart{k}"].tobytes() for k in range(header["restarts"]))
             return Trunk(path, solution, restarts, header["touch_z"],

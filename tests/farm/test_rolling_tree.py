@@ -162,6 +162,35 @@ def test_a_trunk_that_stops_keeps_the_states_it_reached(coarse, gripping):
                                atol=1e-12)
 
 
+def test_a_saved_trunk_reads_back_as_the_trunk_its_branches_roll_on_from(coarse, gripping):
+    """What a rolling tree keeps in its store (farm/solve/rolling_trunk_file.py): read
+    back on the model's mesh it writes the same branch deck, and a branch rolled on from
+    it is the branch rolled on from the trunk itself, bit for bit; bytes cut short, or a
+    trunk of another mesh, are refused."""
+    from farm.errors import ResultsError
+    from farm.solve import rolling_trunk_file
+    from farm.solve.rolling_tree import branch_deck
+
+    _, mesh = coarse
+    data = rolling_trunk_file.dumps(gripping)
+    back = rolling_trunk_file.loads(data, mesh)
+    roll = Roll(friction=MU, distance=BRANCH, rolling_radius=R_E, slip_angle=3.0,
+                slip_ratio=0.02)
+    assert branch_deck(back, roll, SolverSettings()) == branch_deck(gripping, roll,
+                                                                     SolverSettings())
+    assert back.roll == gripping.roll and back.restart == gripping.restart
+    np.testing.assert_array_equal(back.solved.nodes, gripping.solved.nodes)
+    for a, b in zip(_branch(gripping, slip_angle=3.0, slip_ratio=0.02),
+                    _branch(back, slip_angle=3.0, slip_ratio=0.02), strict=True):
+        np.testing.assert_array_equal(a.force, b.force)
+        np.testing.assert_array_equal(a.camera, b.camera)
+    with pytest.raises(ResultsError, match="does not read back"):
+        rolling_trunk_file.loads(data[:len(data) // 2], mesh)
+    other = dataclasses.replace(mesh, nodes=mesh.nodes[:-1])
+    with pytest.raises(ResultsError, match="nodes"):
+        rolling_trunk_file.loads(data, other)
+
+
 def test_a_tree_on_a_windowed_mesh_ends_its_straight_branch_as_the_roll_from_rest():
     """A windowed mesh's trunk starts with the window ahead by the trunk's and a straight
     branch's spin (trunk_start), as the roll from rest of both lengths does, so a

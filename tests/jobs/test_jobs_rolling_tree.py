@@ -220,3 +220,138 @@ def test_a_tree_s_trunk_rolls_with_its_motion_s_stick_slope(tmp_path, monkeypatc
     with pytest.raises(Caught):
         rolling_trees._solve(task, list(tree.trunk), list(tree.branches), set(), None)
     assert seen == [0.9]
+
+
+@pytest.mark.ccx
+def test_a_tree_lost_in_a_branch_rolls_on_from_its_saved_trunk(tmp_path, counting_ccx,
+                                                               monkeypatch):
+    """A tree's task dies in its first branch (its worker lost, its client killed), after
+    the trunk: the trunk was saved in the store, so the resumed study rolls the three
+    branches alone (3 ccx runs; the trunk's 40 mm not again), stores every state, and
+    leaves no saved trunk once the tree is finished."""
+    import jobs.rolling_trees as rolling_trees
+    import storage
+    from jobs.storeio import ensure_group
+    from jobs.sweep import run_sweep
+    from storage.paths import STATES_DIR
+
+    study = load_study(_quick(tmp_path, "[3]"))  # one trunk, 3 branches
+    [tree] = plan(study, SOLVER)
+    assert isinstance(tree, RollTreePlan)
+    ensure_group(study, SOLVER)
+    exps = experiments([tree])
+    storage.reserve(study.store, study.group_name, [e.id for e in exps],
+                    parameters(exps, study.combined, rolling=True, trees=True))
+
+    def lost(*args, **kwargs):
+        raise RuntimeError("the worker died in a branch")
+
+    branch = rolling_trees._branch
+    monkeypatch.setattr(rolling_trees, "_branch", lost)
+    task = rolling_trees.RollTreeTask(tree, study.model, study.settings, study.store,
+                                      study.group_name)
+    with pytest.raises(RuntimeError, match="died in a branch"):
+        rolling_trees.run_rolling_tree(task)
+    monkeypatch.setattr(rolling_trees, "_branch", branch)
+    saved = tmp_path / "tree.zarr" / STATES_DIR
+    assert [p for p in saved.rglob("*") if p.is_file()]
+    assert storage.status_counts(study.store, study.group_name)["done"] == 4  # the trunk's
+    runs = ccx_runs(counting_ccx)
+    report = run_sweep(study, workers=1)
+    assert report.ok and len(report.done) == 9, report.failed
+    assert ccx_runs(counting_ccx) - runs == 3  # the branches; before: 4, the trunk again
+    assert storage.status_counts(study.store, study.group_name) == {
+        "pending": 0, "done": 13, "failed": 0}
+    assert not [p for p in saved.rglob("*") if p.is_file()]
+
+
+@pytest.mark.ccx
+@pytest.mark.e2e  # end to end: run by .ci/run through `scripts/test.sh --e2e`
+def test_a_killed_client_s_rolling_tree_resumes_from_its_saved_trunk(tmp_path, counting_ccx):
+    """`farm sweep submit` killed once the trunk is rolled and saved (its workers and
+    solvers die with it): `farm sweep resume` rolls on from the saved trunk, one ccx run
+    per branch still to do and none for the trunk, and every state ends done once."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    import storage
+    from jobs.sweep import run_sweep
+    from storage.paths import STATES_DIR
+
+    path = _quick(tmp_path, "[3]")  # one trunk (4 states), 3 branches (3 states each)
+    study = load_study(path)
+    saved = tmp_path / "tree.zarr" / STATES_DIR
+    client = subprocess.Popen([sys.executable, "-m", "farm", "sweep", "submit", str(path),
+                               "--workers", "1"], stdout=subprocess.DEVNULL,
+                              stderr=subprocess.DEVNULL, env=dict(os.environ))
+    try:
+        deadline = time.monotonic() + 300
+        while not [p for p in saved.rglob("*") if p.is_file()]:
+            assert time.monotonic() < deadline and client.poll() is None, "no saved trunk"
+            time.sleep(0.2)
+    finally:
+        client.send_signal(signal.SIGKILL)
+        client.wait()
+    time.sleep(2)  # the workers notice their client is gone
+    [tree] = plan(study, SOLVER)
+    status = storage.statuses(study.store, study.group_name, [e.id for e in tree.experiments])
+    todo = [b for b in tree.branches if any(status[e.id] != storage.DONE
+                                            for e in b.experiments)]
+    assert all(status[e.id] == storage.DONE for e in tree.trunk) and todo
+    runs = ccx_runs(counting_ccx)
+    report = run_sweep(study, workers=1)
+    assert report.ok, report.failed
+    assert ccx_runs(counting_ccx) - runs == len(todo)  # the branches alone
+    assert storage.status_counts(study.store, study.group_name) == {
+        "pending": 0, "done": 13, "failed": 0}
+
+
+def test_a_saved_trunk_rolled_for_other_branches_is_removed_not_used(tmp_path):
+    """A trunk saved in the store is rolled on from only where it is the trunk this task
+    would roll (the same branches' length and states, deflection, pressure and roll);
+    one rolled for another (here: branches 10 mm longer), another mesh or bytes that do
+    not read back is removed, and the task rolls its trunk again."""
+    import dataclasses
+
+    import storage
+    import storage.saved
+    from farm.ccx.deck import Road
+    from farm.mesh import mesh_for
+    from farm.solve import rolling_trunk_file
+    from farm.solve.rolling_tree import RollingTrunk
+    from farm.solve.states import SolvedState
+    from jobs.rolling_trees import RollTreeTask, _saved_trunk, _shape
+    from jobs.storeio import ensure_group
+
+    loads = "friction = [0.6]\nslip_ratio = [0.05]\n"
+    roll = "distance_mm = 90\nstates = 3\nrolling_radius_mm = 403.8\nbranch_from_mm = 30\n"
+    study = parse_study(_study(tmp_path, loads, roll))
+    [tree] = plan(study, SOLVER)
+    ensure_group(study, SOLVER)
+    task = RollTreeTask(tree, study.model, study.settings, study.store, study.group_name)
+    mesh, shape = mesh_for(study.model), _shape(tree)
+    n = mesh.n_nodes
+    reference = SolvedState(0.0, np.nan, np.zeros((n, 3)), np.zeros((2, 6)),
+                            np.zeros((2, 3)), np.zeros(3))
+    trunk = RollingTrunk(tree.motion.as_roll(403.8), tree.deflection, tree.pressure, (),
+                         b"restart", shape.branch_mm, shape.along, mesh, mesh, 0.0, reference,
+                         Road(n + 1, 1, -5.0, ("*NODE",), np.zeros((4, 3))), -20.0, 9.0, 3)
+
+    def saved_as(t: RollingTrunk | bytes) -> RollingTrunk | None:
+        data = t if isinstance(t, bytes) else rolling_trunk_file.dumps(t)
+        storage.saved.save(study.store, study.group_name, tree.key, data)
+        return _saved_trunk(task, mesh, shape)
+
+    back = saved_as(trunk)
+    assert back is not None and back.restart == b"restart" and back.branch_mm == 60.0
+    for other in (dataclasses.replace(trunk, branch_mm=70.0),
+                  dataclasses.replace(trunk, roll=dataclasses.replace(trunk.roll,
+                                                                  rolling_radius=400.0)),
+                  dataclasses.replace(trunk, mesh=dataclasses.replace(
+                      mesh, nodes=mesh.nodes[:-1])),
+                  b"not a trunk"):
+        assert saved_as(other) is None
+        assert storage.saved.load(study.store, study.group_name, tree.key) is None

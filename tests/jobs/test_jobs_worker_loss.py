@@ -206,37 +206,53 @@ def test_a_sweep_outlives_a_scheduler_that_allows_one_failure(write_study):
         "pending": 0, "done": 6, "failed": 0}
 
 
-def _tree_example(store: Path):
-    """examples/combined_tree_quick.toml (2 trees, 12 experiments, coarse) into ``store``."""
-    text = (Path(__file__).parents[2] / "examples" / "combined_tree_quick.toml").read_text()
+#: The quick tree studies (coarse model): file, edits, experiments. The rolling one is
+#: cut to one trunk and three branches (slip angle 3 degrees alone).
+TREE_STUDIES = {
+    "static": ("combined_tree_quick.toml", {}, 12),
+    "rolling": ("rolling_tree_quick.toml",
+                {"slip_angle_deg = [-3, 0, 3]": "slip_angle_deg = [3]"}, 13),
+}
+
+
+def _tree_example(store: Path, kind: str):
+    """The quick tree study ``kind`` of :data:`TREE_STUDIES` into ``store``."""
+    name, edits, _ = TREE_STUDIES[kind]
+    text = (Path(__file__).parents[2] / "examples" / name).read_text()
+    for old, new in {f'store = "results/{Path(name).stem}.zarr"': f'store = "{store}"',
+                     **edits}.items():
+        assert old in text, old
+        text = text.replace(old, new)
     path = store.with_suffix(".toml")
-    path.write_text(text.replace('store = "results/combined_tree_quick.zarr"',
-                                 f'store = "{store}"'))
+    path.write_text(text)
     return load_study(path)
 
 
-@pytest.mark.e2e  # chaos: ~1-2 min of nanny restarts, kept out of the default run
+@pytest.mark.e2e  # chaos: ~1-2 min of nanny restarts each, kept out of the default run
 @pytest.mark.ccx
-def test_a_tree_sweep_outlives_workers_lost_in_a_trunk_and_in_a_slide(tmp_path):
+@pytest.mark.parametrize("kind", sorted(TREE_STUDIES))
+def test_a_tree_sweep_outlives_workers_lost_in_a_trunk_and_in_a_branch(tmp_path, kind):
     """Tree tasks are plain futures (no new keys, jobs/sweep.py): the worker running a
-    trunk's ccx is killed, then the one running a slide's. The nanny brings a worker
-    back, Dask runs what was lost again (the trunk's task too, where a slide still needs
-    its states: it reads them from the store since issue 50, storage/saved.py), and every
-    experiment ends done with the results of an undisturbed sweep."""
+    trunk's ccx is killed, then the one running a branch's (a slide, or a roll on from a
+    rolling trunk). The nanny brings a worker back, Dask runs what was lost again (the
+    trunk's task too, where a branch still needs it: it reads the trunk from the store,
+    storage/saved.py - issue 50 for the static trees, issue 45 for the rolling ones),
+    and every experiment ends done with the results of an undisturbed sweep."""
+    total = TREE_STUDIES[kind][2]
     kills: list[int] = []
     with _cluster(3) as cluster:  # Dask's default allowed-failures
         chaos = threading.Thread(target=_kill_workers_running_ccx,
                                  args=(2, kills, ("trunk", "branch")), daemon=True)
         chaos.start()
-        report = run_sweep(_tree_example(tmp_path / "chaos.zarr"),
+        report = run_sweep(_tree_example(tmp_path / "chaos.zarr", kind),
                            scheduler=cluster.scheduler_address)
         chaos.join(timeout=10)
     assert len(kills) == 2
-    assert report.ok and len(report.done) == 12 and not report.failed
-    calm = run_sweep(_tree_example(tmp_path / "calm.zarr"), workers=1)
-    assert calm.ok and len(calm.done) == 12
+    assert report.ok and len(report.done) == total and not report.failed
+    calm = run_sweep(_tree_example(tmp_path / "calm.zarr", kind), workers=1)
+    assert calm.ok and len(calm.done) == total
     a, b = (_road_reactions(tmp_path / f"{n}.zarr") for n in ("chaos", "calm"))
-    assert a.keys() == b.keys() and len(a) == 12
+    assert a.keys() == b.keys() and len(a) == total
     for k in a:  # the same decks: the same numbers
         assert abs(a[k] - b[k]).max() <= 1e-6 * abs(b[k]).max(), k
 
