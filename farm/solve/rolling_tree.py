@@ -17,7 +17,7 @@ static load-path trees share the rise (:mod:`farm.solve.tree`):
 A new step starts with a hold (:func:`farm.ccx.deck.road_step_lines` says why: ccx's
 first iteration of a step whose prescribed displacements move is linear and sees the
 whole preload as out of balance): road and rim stay where the trunk left them for the
-first :data:`~farm.ccx.deck.STEP_DWELL` of the step, then move on. The pause costs
+first :data:`BRANCH_DWELL` of the step, then move on. The pause costs
 nothing physically - the model is quasi-static and rate-free - so a branch that rolls
 on at the trunk's own slip is the same roll as one run from rest
 (tests/farm/test_rolling_tree.py).
@@ -73,6 +73,18 @@ BRANCH_POINTS = "BRANCH"
 #: growth factor of 4 did): the one-run roll takes that place with 5 mm increments.
 BRANCH_GROW_AFTER = 10
 
+#: The part of a branch's step for which road and rim hold still (the hold of
+#: :func:`farm.ccx.deck.road_step_lines`). ccx tries the first moving increment at the
+#: hold's size, and a branch's first moving increment converges only at about 1e-4 (16
+#: round) to 2e-3 (`patch`) of its step: with a hold of 0.1 of the step (3 mm of a
+#: 30 mm branch, :data:`~farm.ccx.deck.STEP_DWELL` as the static trees') a branch of
+#: `patch` failed three tries (13, 12 and 8 iterations) before converging 1/64 of it,
+#: a third of its iterations. With 0.002 its branches took 1.60x less ccx time, their
+#: states within 0.071 % of |F| and 0.099 % of the camera field's RMS
+#: (`benchmarks/bench_branch_hold.py --mesh patch`, docs/rolling.md). The hold is a
+#: pause in step time, not in travel (the model is rate-free).
+BRANCH_DWELL = 0.002
+
 
 @dataclass(frozen=True, eq=False)
 class RollingTrunk:
@@ -125,8 +137,8 @@ class RollingTrunk:
 
 def branch_time(fraction: float) -> float:
     """Step time of a branch at ``fraction`` of its travel: road and rim hold still for
-    the first :data:`~farm.ccx.deck.STEP_DWELL` of the step."""
-    return D.STEP_DWELL + fraction * (1.0 - D.STEP_DWELL)
+    the first :data:`BRANCH_DWELL` of the step."""
+    return BRANCH_DWELL + fraction * (1.0 - BRANCH_DWELL)
 
 
 def _fractions(fractions: Sequence[float]) -> tuple[float, ...]:
@@ -222,7 +234,7 @@ def _filled(blank: RollingTrunk, frd: FrdFile, run: CcxRun, restart: bytes) -> R
 
 def rim_step_lines(mesh: TyreMesh, before: float, after: float) -> list[str]:
     """Step cards turning the bead seat on from ``before`` to ``after`` rad about +y:
-    held for the step's first :data:`~farm.ccx.deck.STEP_DWELL`, then along the circle
+    held for the step's first :data:`BRANCH_DWELL`, then along the circle
     (one amplitude per node and dof, as :func:`farm.solve.rolling.rim_lines`; names new
     to the run, ``RB_<node>_<dof>``)."""
     seat = np.asarray(mesh.node_sets["BEAD_SEAT"])
@@ -262,7 +274,7 @@ def branch_deck(trunk: RollingTrunk, branch: Roll, settings: SolverSettings) -> 
     rise = trunk.centre_z - trunk.road.z_top  # the road's travel to the deflection
     before = (rise, roll.travel)
     after = (rise, (roll.travel[0] + branch.travel[0], roll.travel[1] + branch.travel[1]))
-    cap = travel_cap(settings) * (1.0 - D.STEP_DWELL) / branch.distance
+    cap = travel_cap(settings) * (1.0 - BRANCH_DWELL) / branch.distance
     capped = dataclasses.replace(settings, max_increment=min(settings.max_increment, cap),
                                  initial_increment=min(settings.initial_increment, cap),
                                  min_increment=min(settings.min_increment, cap))
@@ -270,8 +282,9 @@ def branch_deck(trunk: RollingTrunk, branch: Roll, settings: SolverSettings) -> 
     controls = D.friction_controls_lines(grow) if roll.friction > 0 else []
     return "\n".join([
         *D.restart_lines(read=True, write=False),
-        *D.static_step_lines(1.0, capped, first=min(D.STEP_DWELL, cap)), *controls,
-        *D.road_step_lines(trunk.road, before, after, roll.tilt, "normal", "BROAD"),
+        *D.static_step_lines(1.0, capped, first=min(BRANCH_DWELL, cap)), *controls,
+        *D.road_step_lines(trunk.road, before, after, roll.tilt, "normal", "BROAD",
+                           dwell=BRANCH_DWELL),
         *rim_step_lines(trunk.solved, roll.spin, roll.spin + branch.spin),
         *D.cavity_pressure_lines(trunk.solved, trunk.pressure, None),
         *D.output_lines(time_points=True, contact=True, points=BRANCH_POINTS),
