@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import ccx_runs
+from conftest import ccx_processes, ccx_runs
 
 from jobs.errors import StudyError
 from jobs.expand import RollTreePlan, experiments, parameters, plan
@@ -284,9 +284,11 @@ def test_a_killed_client_s_rolling_tree_resumes_from_its_saved_trunk(tmp_path, c
     path = _quick(tmp_path, "[3]")  # one trunk (4 states), 3 branches (3 states each)
     study = load_study(path)
     saved = tmp_path / "tree.zarr" / STATES_DIR
+    mark = ("FARM_TEST_KILLED_CLIENT", str(os.getpid()))  # this client's solvers alone
     client = subprocess.Popen([sys.executable, "-m", "farm", "sweep", "submit", str(path),
                                "--workers", "1"], stdout=subprocess.DEVNULL,
-                              stderr=subprocess.DEVNULL, env=dict(os.environ))
+                              stderr=subprocess.DEVNULL,
+                              env={**os.environ, mark[0]: mark[1]})
     try:
         deadline = time.monotonic() + 300
         while not [p for p in saved.rglob("*") if p.is_file()]:
@@ -295,7 +297,10 @@ def test_a_killed_client_s_rolling_tree_resumes_from_its_saved_trunk(tmp_path, c
     finally:
         client.send_signal(signal.SIGKILL)
         client.wait()
-    time.sleep(2)  # the workers notice their client is gone
+    deadline = time.monotonic() + 30  # the solvers die with their workers: no branch
+    while ccx_processes(mark) and time.monotonic() < deadline:  # writes after this
+        time.sleep(0.5)
+    assert ccx_processes(mark) == []
     [tree] = plan(study, SOLVER)
     status = storage.statuses(study.store, study.group_name, [e.id for e in tree.experiments])
     todo = [b for b in tree.branches if any(status[e.id] != storage.DONE
