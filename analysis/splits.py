@@ -30,16 +30,18 @@ ROLL_FROM = "roll_from"
 TREE_PARAMETERS = (ROLL_FROM, "slip_ratio", "slip_angle")
 
 
-def path_groups(ds: xr.Dataset) -> np.ndarray:
+def path_groups(ds: xr.Dataset, *, trees: bool = True) -> np.ndarray:
     """Group label of each experiment, (K,) int: experiments whose load cases differ in
     ``travel`` alone are states of one roll and share a label; in a store of rolling
     trees (a ``roll_from`` parameter), those that differ in travel, slips and
-    ``roll_from`` alone are one tree's and share one; any other experiment has a label
-    of its own. Labels number the groups in order of first appearance."""
+    ``roll_from`` alone are one tree's and share one (``trees=False``: each trunk and
+    each branch a group of its own); any other experiment has a label of its own.
+    Labels number the groups in order of first appearance."""
     K = ds.sizes["experiment"]
     if TRAVEL not in ds.variables or K == 0:
         return np.arange(K)
-    within = (TRAVEL, *TREE_PARAMETERS) if ROLL_FROM in ds.variables else (TRAVEL,)
+    within = ((TRAVEL, *TREE_PARAMETERS) if trees and ROLL_FROM in ds.variables
+              else (TRAVEL,))
     # the store marks its parameters; an in-memory dataset: its other per-experiment
     # coordinates
     names = [n for n in storage.parameters(ds) if n not in within] or [
@@ -110,13 +112,17 @@ def edge_split(ds: xr.Dataset, parameters: list[str], fraction: float,
     """(train, test) positions that hold out the design's edges (issue 46): a load path
     is at an edge when any of ``parameters`` lies within the outer ``fraction`` of that
     parameter's range (at its lowest or highest end); the model trains on the interior.
-    ``travel`` never counts (a roll's states are one path).
+    ``travel`` never counts (a roll's states are one path). In a store of rolling trees
+    the path is the roll - a trunk, or a branch - not the tree: every tree of a nested
+    design has branches at the slips' edges, so holding out trees would leave no interior;
+    a branch at an edge is held out whole while its trunk's states, the straight roll it
+    left (interior where the trunk's own parameters are), stay in training.
 
     Raises :class:`ParameterError` when the edges or the interior are empty.
     """
     if not 0.0 < fraction < 0.5:
         raise ParameterError(f"the edge fraction must be in (0, 0.5), got {fraction!r}")
-    groups = path_groups(ds)
+    groups = path_groups(ds, trees=False)
     edge = np.zeros(ds.sizes["experiment"], dtype=bool)
     for name in (p for p in parameters if p != TRAVEL):
         v = np.asarray(ds[name].values, dtype=float)

@@ -39,7 +39,7 @@ A study names a store, a model and its load cases::
     # a rolling study (issue 30; slip_ratio / slip_angle_deg as lists or ranges)
     # [loads.roll]
     # distance_mm = 150               # road travel of every roll
-    # rolling_radius_mm = "free"      # or mm
+    # rolling_radius_mm = "free"      # or mm, or "estimate" (no search: R - 0.59 d)
     # states = 1                      # states kept along each roll (issue 45)
     # branch_from_mm = 0              # > 0: rolling trees (straight trunk, then branches)
     # [loads.roll.branches]           # optional: slips sampled per trunk, not listed
@@ -135,6 +135,8 @@ CASE_PARAMETERS = (*MOTION_PARAMETERS, *ROLL_PARAMETERS)
 LOAD_KEYS = {"pressure_kpa", "deflection_mm", "sample", "tree", "rise", "roll", *CASE_KEYS}
 #: [loads.roll]: the road travel of every roll (mm), the free-rolling radius, how many
 #: states along each roll are stored experiments and where rolling trees branch (issue 45)
+#: rolling_radius_mm's words: a search per case, or the estimate from the inflated radius
+RADIUS_WORDS = ("free", "estimate")
 ROLL_DEFAULTS = {"distance_mm": 150.0, "rolling_radius_mm": "free", "states": 1,
                  "branch_from_mm": 0.0}
 #: The most states one roll may keep (a 2000 mm roll's are then 10 mm apart)
@@ -175,6 +177,7 @@ class Rolling:
     states: int = 1
     branch_from: float = 0.0
     branches: RollBranches | None = None  # [loads.roll.branches]: slips per trunk
+    radius_estimate: bool = False  # rolling_radius_mm = "estimate" (issue 46)
 
     @property
     def travels(self) -> tuple[float, ...]:
@@ -356,10 +359,11 @@ def _rolling(data: Any, given: set[str], model: ModelSpec,
     distance = scalars.number(t.get("distance_mm", ROLL_DEFAULTS["distance_mm"]),
                               "loads.roll.distance_mm", low=low, high=high)
     radius = t.get("rolling_radius_mm", "free")
-    if isinstance(radius, str) and radius != "free":
-        raise fail("loads.roll.rolling_radius_mm", f"must be a radius in mm or \"free\", "
-                   f"got {shown(radius)}")
-    if radius != "free":
+    if isinstance(radius, str) and radius not in RADIUS_WORDS:
+        raise fail("loads.roll.rolling_radius_mm", "must be a radius in mm, \"free\" (a "
+                   "search) or \"estimate\" (from the inflated radius, no search), got "
+                   f"{shown(radius)}")
+    if radius not in RADIUS_WORDS:
         low, high = ROLLING_RADIUS_MM
         radius = scalars.number(radius, "loads.roll.rolling_radius_mm", low=low, high=high)
     states = scalars.integer(t.get("states", ROLL_DEFAULTS["states"]), "loads.roll.states",
@@ -370,8 +374,8 @@ def _rolling(data: Any, given: set[str], model: ModelSpec,
     branch_from = _branch_from(t, distance)
     branches = (_branches(t["branches"], branch_from, given, sampled) if "branches" in t
                 else None)
-    return Rolling(float(distance), None if radius == "free" else float(radius), states,
-                   branch_from, branches)
+    return Rolling(float(distance), None if radius in RADIUS_WORDS else float(radius),
+                   states, branch_from, branches, radius_estimate=radius == "estimate")
 
 
 def _branches(data: Any, branch_from: float, given: set[str],

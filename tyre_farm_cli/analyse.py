@@ -81,6 +81,7 @@ from tyre_farm_cli.analyse_options import (
     SurrogateField,
     SurrogateFolds,
     SurrogateSeed,
+    Targets,
     TestFraction,
     Tpms,
     TrainNoise,
@@ -367,10 +368,12 @@ def sensor(store: Store, group: Group = None, out: Out = None, pressure: Pressur
            learners: Learners = "plsr,gp", test_fraction: TestFraction = 0.25,
            folds: SensorFolds = 5, draws: SensorDraws = 3, seed: SplitSeed = 0,
            max_components: SensorMaxComponents = 10, repeats: Repeats = 1,
-           edges: Edges = 0.0, axes_: Axes = "wheel", scheduler: Scheduler = None,
-           storage_option: StorageOption = None, as_json: Json = False) -> None:
-    """Identifiability vs the sensor: held-out Fx, Fy, Fz, Mz errors over window, noise and
-    point spacing of a virtual T2Cam, PLSR beside a Gaussian process (issue 27)."""
+           edges: Edges = 0.0, targets: Targets = "Fx,Fy,Fz,Mz", axes_: Axes = "wheel",
+           scheduler: Scheduler = None, storage_option: StorageOption = None,
+           as_json: Json = False) -> None:
+    """Identifiability vs the sensor: held-out Fx, Fy, Fz, Mz errors (--targets: any
+    force, moment, slip or the camber) over window, noise and point spacing of a virtual
+    T2Cam, PLSR beside a Gaussian process (issue 27)."""
     from analysis.camera.sensor import sensor_spec
 
     with usage():
@@ -381,11 +384,26 @@ def sensor(store: Store, group: Group = None, out: Out = None, pressure: Pressur
         _draws_at_least_one(draws)
         _axes(axes_)
         _repeats_and_edges(repeats, edges)
+        wanted = _targets(targets)
     _analyse("sensor", "sensor", store=store, options=storage_option, group=group,
              pressure=pressure, out=out, scheduler=scheduler, as_json=as_json, axes=axes_,
              sensor=spec, learner_names=names,
              test_fraction=test_fraction, folds=folds, draws=draws,
-             max_components=max_components, seed=seed, repeats=repeats, edges=edges, **grid)
+             max_components=max_components, seed=seed, repeats=repeats, edges=edges,
+             target_names=wanted, **grid)
+
+
+def _targets(text: str) -> tuple[str, ...] | str:
+    from analysis.camera.features import ALL_TARGETS
+
+    names = tuple(n.strip() for n in text.split(",") if n.strip())
+    if names == ("all",):
+        return "all"
+    unknown = [n for n in names if n not in ALL_TARGETS]
+    if unknown or not names:
+        raise ParameterError(f"--targets {text!r}: give some of {', '.join(ALL_TARGETS)}, "
+                             "comma-separated, or all")
+    return names
 
 
 def _sensor_grid(windows: str, noises: str, spacings: str

@@ -159,6 +159,11 @@ Repeats = Annotated[
     int, typer.Option(help="Grouped splits (seeds SEED, SEED+1, ...): every figure a mean "
                       "over them, with its spread (issue 46 asks for at least 5).")
 ]
+Targets = Annotated[
+    str, typer.Option(help="What the models predict, comma-separated: Fx, Fy, Fz, Mx, My, Mz, "
+                      "slip_ratio, slip_angle, tilt (the camber), or all (those that vary "
+                      "in the group; issue 46).")
+]
 Edges = Annotated[
     float, typer.Option(help="Also train on the interior and test on the load paths with a "
                         "varying parameter in this outer fraction of its range, in [0, 0.5) "

@@ -5,7 +5,8 @@ Shared by ``farm analyse sensor`` (:mod:`analysis.studies.sensor`), ``farm fit``
 (:mod:`analysis.camera.predictor`), ``farm measure`` and ``farm mismatch``, so that each
 trains and scores on the same rows:
 
-- :data:`TARGETS` and :func:`targets`: Fx, Fy, Fz (N) and Mz (N mm) of each experiment;
+- :data:`TARGETS` and :func:`targets`: Fx, Fy, Fz (N) and Mz (N mm) of each experiment
+  by default, any of :data:`ALL_TARGETS` on request (issue 46);
 - :func:`displacements`: the inner-surface displacements a virtual T2Cam measures;
 - :func:`measured_features`: features of ``draws`` noisy measurements of each experiment
   (a model applied to measurements is trained on measurements);
@@ -23,11 +24,16 @@ from analysis.camera.sensor.model import INPUTS
 from analysis.data import TOTALS, totals
 from analysis.errors import MissingVariableError, ParameterError
 
-__all__ = ["MODEL_INPUTS", "TARGETS", "TPMS", "UNITS", "camera_inputs", "displacements",
-           "measured_features", "model_inputs", "pressures", "targets", "with_tpms"]
+__all__ = ["ALL_TARGETS", "MODEL_INPUTS", "TARGETS", "TPMS", "UNITS", "camera_inputs",
+           "displacements", "measured_features", "model_inputs", "pressures", "targets",
+           "varying_targets", "with_tpms"]
 
 TARGETS = ("Fx", "Fy", "Fz", "Mz")
-UNITS = {"Fx": "N", "Fy": "N", "Fz": "N", "Mz": "N mm"}
+#: every target a study may ask for (issue 46): the six forces and moments, and the
+#: load case's slip ratio, slip angle and camber (the road's tilt) themselves
+ALL_TARGETS = (*TOTALS, "slip_ratio", "slip_angle", "tilt")
+UNITS = {"Fx": "N", "Fy": "N", "Fz": "N", "Mx": "N mm", "My": "N mm", "Mz": "N mm",
+         "slip_ratio": "1", "slip_angle": "deg", "tilt": "deg"}
 #: the inflation pressure (kPa) a TPMS reads: one feature column after the camera's
 TPMS = "tpms_pressure"
 #: every input a force model may read, in the order of its feature columns
@@ -62,11 +68,37 @@ def with_tpms(X: np.ndarray, kpa: np.ndarray | float | None, inputs) -> np.ndarr
     return np.column_stack([X, np.broadcast_to(np.asarray(kpa, dtype=float), X.shape[:1])])
 
 
-def targets(ds: xr.Dataset) -> np.ndarray:
-    """(K, 4): Fx, Fy, Fz (N) from ``total_force``, Mz (N mm) from ``moment``."""
+def targets(ds: xr.Dataset, names=TARGETS) -> np.ndarray:
+    """(K, len(names)) of :data:`ALL_TARGETS`: forces (N) from ``total_force``, moments
+    (N mm) from ``moment``, the slips and the tilt from the load case's parameters
+    (default: Fx, Fy, Fz, Mz)."""
     if "displacement" not in ds:
         raise MissingVariableError(f"group {ds.attrs.get('group', '?')!r} has no 'displacement'")
-    return totals(ds)[:, [TOTALS.index(name) for name in ("Fx", "Fy", "Fz", "Mz")]]
+    unknown = [n for n in names if n not in ALL_TARGETS]
+    if unknown:
+        raise ParameterError(f"unknown targets {unknown}: give some of {', '.join(ALL_TARGETS)}")
+    forces = totals(ds)
+    return np.column_stack([forces[:, TOTALS.index(n)] if n in TOTALS else _parameter(ds, n)
+                            for n in names])
+
+
+def _parameter(ds: xr.Dataset, name: str) -> np.ndarray:
+    if name not in ds.variables:
+        raise MissingVariableError(f"group {ds.attrs.get('group', '?')!r} has no {name!r}: its "
+                                   "load cases do not set it; leave it out of the targets")
+    return np.asarray(ds[name].values, dtype=float)
+
+
+def varying_targets(ds: xr.Dataset) -> tuple[str, ...]:
+    """The :data:`ALL_TARGETS` a group holds and that vary over its experiments (what
+    ``--targets all`` asks a study to predict)."""
+    out = []
+    for name in ALL_TARGETS:
+        if name not in TOTALS and name not in ds.variables:
+            continue
+        if np.ptp(targets(ds, (name,))) > 0:
+            out.append(name)
+    return tuple(out)
 
 
 def displacements(ds: xr.Dataset) -> np.ndarray:

@@ -20,7 +20,7 @@ and for each sensor:
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -28,8 +28,16 @@ import pandas as pd
 import xarray as xr
 
 from analysis.camera import learners
-from analysis.camera.features import TARGETS, UNITS, displacements, measured_features, targets
+from analysis.camera.features import (
+    TARGETS,
+    UNITS,
+    displacements,
+    measured_features,
+    targets,
+    varying_targets,
+)
 from analysis.camera.sensor import InnerSurface, SensorSpec, VirtualSensor
+from analysis.camera.sensor.reference import ReferenceGap, reference_gap
 from analysis.camera.sensor.spec import NOISE_FIELDS
 from analysis.errors import ParameterError, TooFewExperimentsError
 from analysis.render import markdown, plots
@@ -59,6 +67,7 @@ class Setup:
     max_components: int
     seed: int
     groups: np.ndarray  # (K,) load path of each experiment (analysis.splits.path_groups)
+    targets: tuple[str, ...] = TARGETS  # issue 46: any of features.ALL_TARGETS
 
 
 def variants(base: SensorSpec, windows=WINDOWS, noises=NOISES,
@@ -89,6 +98,7 @@ def run(
     seed: int = 0,
     repeats: int = 1,
     edges: float = 0.0,
+    target_names=TARGETS,
 ) -> Report:
     """Run the sensor study on one loaded group; tables, figures and summary in ``out``.
 
@@ -101,25 +111,26 @@ def run(
     ``edges`` > 0 (issue 46: check the design's edges): the base sensor once more,
     trained on the interior and tested on the load paths with a varying parameter in
     the outer ``edges`` of its range (:func:`analysis.splits.edge_split`);
-    ``errors_edges.csv`` and the summary's "At the design's edges"."""
+    ``errors_edges.csv`` and the summary's "At the design's edges".
+
+    ``target_names``: what the models predict, any of
+    :data:`analysis.camera.features.ALL_TARGETS` (issue 46: the six forces and moments,
+    the slips and the camber), or ``"all"``: those that vary in the group."""
     varying = check_combined(ds)
-    Y = targets(ds)
-    K = Y.shape[0]
-    if 2 * folds > K:
-        raise TooFewExperimentsError(f"the sensor study needs at least {2 * folds} done "
-                                     f"experiments ({folds} CV folds), the selection has {K}")
-    if draws < 1:
-        raise ParameterError(f"draws must be at least 1, got {draws}")
-    if not (isinstance(repeats, int) and 1 <= repeats <= MAX_REPEATS):
-        raise ParameterError(f"repeats must be an integer in [1, {MAX_REPEATS}], got "
-                             f"{repeats!r}")
-    for name in learner_names:
-        learners.learner(name)  # unknown names fail here, before any work
+    if target_names == "all":
+        target_names = varying_targets(ds)
+    Y = targets(ds, target_names)
+    _check(Y.shape[0], folds, draws, repeats, learner_names)
     groups = path_groups(ds)
     setups = [Setup(*split(ds, test_fraction, seed + r),  # whole rolls (issue 45)
                     tuple(learner_names), tuple(inputs), draws, folds, max_components,
-                    seed + r, groups) for r in range(repeats)]
+                    seed + r, groups, tuple(target_names)) for r in range(repeats)]
     setup = setups[0]
+    # the edges' split first: a fraction that leaves no interior fails before any work
+    at_edges = None
+    if edges > 0:
+        inner, outer = edge_split(ds, varying, edges)
+        at_edges = replace(setup, train=inner, test=outer)
     surface = InnerSurface.from_dataset(ds)
     U = displacements(ds)
     report = Report(Path(out))
@@ -135,18 +146,41 @@ def run(
     report.csv("errors", errors)
     report.csv("errors_by_split", by_split)
     report.csv("sensors", pd.DataFrame(points))
-    edge = None
-    if edges > 0:
-        inner, outer = edge_split(ds, varying, edges)
-        at_edges = replace(setup, train=inner, test=outer)
-        edge = pd.DataFrame(_one_sensor(VirtualSensor(sensor, surface), U, Y, at_edges, 0,
-                                        "base"))
-        report.csv("errors_edges", edge)
-        edge.attrs.update(fraction=edges, train=inner.size, test=outer.size,
-                          paths=len(set(groups[outer].tolist())))
+    edge = _edge_errors(ds, VirtualSensor(sensor, surface), U, Y, at_edges, report, edges)
+    gap = (reference_gap(ds, surface, U, sensor, np.random.default_rng([seed, 46]))
+           if "surface_strain" in inputs and "surface_strain" in ds else None)
+    if gap is not None:
+        report.csv("reference", pd.DataFrame([{**asdict(gap), "relative": gap.relative}]))
     figures = _figures(report, errors, sensor)
-    _summary(report, ds, sensor, errors, setup, varying, figures, repeats, edge)
+    _summary(report, ds, sensor, errors, setup, varying, figures, repeats, edge, gap)
     return report
+
+
+def _edge_errors(ds: xr.Dataset, virtual: VirtualSensor, U: np.ndarray, Y: np.ndarray,
+                 at_edges: Setup | None, report: Report, fraction: float
+                 ) -> pd.DataFrame | None:
+    """The base sensor trained on the interior, tested at the edges (None: not asked)."""
+    if at_edges is None:
+        return None
+    edge = pd.DataFrame(_one_sensor(virtual, U, Y, at_edges, 0, "base"))
+    report.csv("errors_edges", edge)
+    edge.attrs.update(fraction=fraction, train=at_edges.train.size, test=at_edges.test.size,
+                      paths=len(set(path_groups(ds, trees=False)[at_edges.test])))
+    return edge
+
+
+def _check(K: int, folds: int, draws: int, repeats: int, learner_names) -> None:
+    """Refuse a study that cannot run, before any work."""
+    if 2 * folds > K:
+        raise TooFewExperimentsError(f"the sensor study needs at least {2 * folds} done "
+                                     f"experiments ({folds} CV folds), the selection has {K}")
+    if draws < 1:
+        raise ParameterError(f"draws must be at least 1, got {draws}")
+    if not (isinstance(repeats, int) and 1 <= repeats <= MAX_REPEATS):
+        raise ParameterError(f"repeats must be an integer in [1, {MAX_REPEATS}], got "
+                             f"{repeats!r}")
+    for name in learner_names:
+        learners.learner(name)  # unknown names fail here, before any work
 
 
 def _one_sensor(virtual: VirtualSensor, U: np.ndarray, Y: np.ndarray, setup: Setup,
@@ -170,10 +204,10 @@ def _one_sensor(virtual: VirtualSensor, U: np.ndarray, Y: np.ndarray, setup: Set
         for name in setup.learners:
             model = learners.learner(name, max_components=setup.max_components,
                                      folds=setup.folds, x_blocks=blocks,
-                                     y_blocks=[1] * len(TARGETS), seed=setup.seed)
+                                     y_blocks=[1] * len(setup.targets), seed=setup.seed)
             P = model.fit(Xf, Yf, groups).predict(Xt)
             rmse = np.sqrt(np.mean((P - Yt) ** 2, axis=0))
-            for j, target in enumerate(TARGETS):
+            for j, target in enumerate(setup.targets):
                 rows.append({"axis": axis, **virtual.spec.to_dict(), "training": training,
                              "learner": name, "n_components": model.n_components_,
                              "target": target, "unit": UNITS[target],
@@ -211,7 +245,12 @@ def spread_table(errors: pd.DataFrame) -> pd.DataFrame:
              for (t, lrn), g in base.groupby(["target", "learner"])}
     learners_ = sorted({lrn for _, lrn in cells})
     return pd.DataFrame([{"target": t, **{lrn: cells.get((t, lrn), "") for lrn in learners_}}
-                         for t in TARGETS if any((t, lrn) in cells for lrn in learners_)])
+                         for t in _targets(errors)])
+
+
+def _targets(errors: pd.DataFrame) -> list[str]:
+    """The targets of an error table, in the order the study asked for them."""
+    return list(dict.fromkeys(errors["target"]))
 
 
 def _pct(rmse: float, span: float) -> float:
@@ -251,9 +290,9 @@ def best_table(errors: pd.DataFrame, axis: str = "base") -> pd.DataFrame:
     table = sel.pivot_table(index="target", columns=["learner", "training"],
                             values="rmse_pct_range", aggfunc="first")
     table.columns = [f"{lrn}, trained {tr}" for lrn, tr in table.columns]
-    table = table.reindex(list(TARGETS))
-    table["published anchor"] = [ANCHORS[t] for t in table.index]
-    table["issue 27 goal"] = [GOALS[t] for t in table.index]
+    table = table.reindex(_targets(sel))
+    table["published anchor"] = [ANCHORS.get(t, np.nan) for t in table.index]
+    table["issue 27 goal"] = [GOALS.get(t, np.nan) for t in table.index]
     return table.reset_index()
 
 
@@ -274,7 +313,7 @@ def axis_table(errors: pd.DataFrame, axis: str) -> pd.DataFrame:
     sel = measured(errors[errors["axis"].isin(["base", axis])])
     wide = sel.pivot_table(index=column, columns=["target", "learner"],
                            values="rmse_pct_range", aggfunc="first")
-    wide = wide.reindex(columns=[c for t in TARGETS for c in wide.columns if c[0] == t])
+    wide = wide.reindex(columns=[c for t in _targets(sel) for c in wide.columns if c[0] == t])
     wide.columns = [f"{t} {lrn}" for t, lrn in wide.columns]
     return wide.reset_index()
 
@@ -284,16 +323,16 @@ def findings(errors: pd.DataFrame) -> list[str]:
     what training on noise-free data does to a noisy sensor."""
     base = measured(errors[errors["axis"] == "base"])
     out = []
-    for target in TARGETS:
+    for target in _targets(base):
         rows = base[base["target"] == target]
-        if rows.empty:
-            continue
         best = rows.loc[rows["rmse_pct_range"].idxmin()]
-        goal, anchor = GOALS[target], ANCHORS[target]
-        verdict = "meets" if best["rmse_pct_range"] <= goal else "misses"
+        goal, anchor = GOALS.get(target, np.nan), ANCHORS.get(target, np.nan)
+        verdict = ("" if np.isnan(goal) else
+                   f" {'meets' if best['rmse_pct_range'] <= goal else 'misses'} the goal "
+                   f"of {goal:g} %")
         against = "" if np.isnan(anchor) else f", published anchor {anchor:g} %"
         out.append(f"- {target}: {best['rmse_pct_range']:.2f} % of range ({best['learner']})"
-                   f" {verdict} the goal of {goal:g} %{against}.")
+                   f"{verdict}{against}.")
     base = errors[(errors["axis"] == "base") & _noisy(errors)]
     if not base.empty:
         pct = base.set_index(["target", "learner", "training"])["rmse_pct_range"].unstack()
@@ -323,7 +362,7 @@ def _edges(edge: pd.DataFrame | None) -> list[str]:
 
 def _summary(report: Report, ds: xr.Dataset, sensor: SensorSpec, errors: pd.DataFrame,
              setup: Setup, varying: list[str], figures: list[Path], repeats: int = 1,
-             edge: pd.DataFrame | None = None) -> None:
+             edge: pd.DataFrame | None = None, gap: ReferenceGap | None = None) -> None:
     paths = len(set(setup.groups.tolist()))
     held = (f"{setup.train.size} for training, {setup.test.size} held out (seed "
             f"{setup.seed})" if repeats == 1 else
@@ -345,6 +384,8 @@ def _summary(report: Report, ds: xr.Dataset, sensor: SensorSpec, errors: pd.Data
         *(["Over the splits, mean ± standard deviation (min-max), % of range:", "",
            markdown.table(spread_table(errors)), ""] if repeats > 1 else []),
         *_edges(edge),
+        *(["## The reference cloud", "", gap.sentence() + " (`reference.csv`; "
+           "analysis/camera/sensor/reference.py)", ""] if gap is not None else []),
         "Below, models are trained on noisy measurements (noise-free only where the sensor "
         "has no noise); `errors.csv` holds every row (`errors_by_split.csv`: each split's).",
         "",

@@ -75,6 +75,11 @@ class RoadMotion:
         ``slip_angle`` apply (issue 45, :mod:`farm.solve.rolling_tree`: a branch of a
         rolling tree, continued from its trunk's end); 0: the slips from the start. A
         roll without slips is the same roll whatever this says, and is stored as 0.
+    radius_estimate : with ``rolling_radius`` None, roll at the free-rolling radius's
+        estimate from the inflated radius and the deflection
+        (:func:`farm.solve.rolling.estimated_radius`) instead of searching for it (issue
+        46: a search costs about three rolls per pressure, deflection, friction and
+        camber); the slip ratio is then relative to that radius.
 
     All at their defaults the motion is no motion at all: :class:`LoadPath` then holds
     None, so decks, results and ids are those of a vertical experiment.
@@ -93,6 +98,7 @@ class RoadMotion:
     slip_angle: float = 0.0
     rolling_radius: float | None = None
     roll_from: float = 0.0
+    radius_estimate: bool = False
 
     def __post_init__(self) -> None:
         self._check_roll()
@@ -106,7 +112,7 @@ class RoadMotion:
             raise SpecError(f"motion.rise = {self.rise!r}: give one of {', '.join(RISES)}")
         for f in dataclasses.fields(self):  # canonical floats: 1 and 1.0 hash alike
             v = getattr(self, f.name)
-            if v is not None and f.name != "rise":
+            if v is not None and f.name not in ("rise", "radius_estimate"):
                 object.__setattr__(self, f.name, float(v) + 0.0)
         if self.tilt == 0.0:  # an untilted road rises along its normal either way
             object.__setattr__(self, "rise", "vertical")
@@ -116,10 +122,14 @@ class RoadMotion:
     def _check_roll(self) -> None:
         if self.roll == 0.0:
             if (self.slip_ratio or self.slip_angle or self.rolling_radius is not None
-                    or self.roll_from):
-                raise SpecError("motion.slip_ratio, slip_angle, rolling_radius and roll_from "
-                                "belong to a roll: give motion.roll, the road travel in mm")
+                    or self.roll_from or self.radius_estimate):
+                raise SpecError("motion.slip_ratio, slip_angle, rolling_radius, roll_from "
+                                "and radius_estimate belong to a roll: give motion.roll, the "
+                                "road travel in mm")
             return
+        if self.radius_estimate and self.rolling_radius is not None:
+            raise SpecError(f"motion.radius_estimate estimates a radius, and rolling_radius "
+                            f"= {self.rolling_radius!r} gives one: drop one of them")
         if not 0.0 <= self.roll_from < self.roll:
             raise SpecError(f"motion.roll_from = {self.roll_from!r}: the straight part of a "
                             f"roll lies in [0, roll = {self.roll!r}) mm")
@@ -183,9 +193,12 @@ class RoadMotion:
         if self.rise == "vertical":  # the rise of before: ids and decks as they were
             del data["rise"]
         if not self.rolls:  # ids of slides and standing tyres as before rolling existed
-            for name in ("roll", "slip_ratio", "slip_angle", "rolling_radius", "roll_from"):
+            for name in ("roll", "slip_ratio", "slip_angle", "rolling_radius", "roll_from",
+                         "radius_estimate"):
                 del data[name]
             return data
+        if not self.radius_estimate:  # ids of rolls as before the estimate existed
+            del data["radius_estimate"]
         if self.rolling_radius is None:  # free: found by the worker
             del data["rolling_radius"]
         if not self.roll_from:  # rolls from rest keep the ids they had before trees

@@ -273,3 +273,28 @@ def test_the_edge_split_holds_out_whole_paths_at_any_face_of_the_box():
         edge_split(two, ["slip_angle"], 0.1)
     with pytest.raises(ParameterError, match=r"\(0, 0.5\)"):
         edge_split(ds, ["slip_angle"], 0.5)
+
+
+def test_the_edge_split_of_rolling_trees_holds_out_branches_not_trees():
+    """In a store of rolling trees (issue 46) every tree of a nested design has branches
+    at the slips' edges: the edge split holds out a branch whole (its states) and keeps
+    its trunk's states - the straight roll it left - in training where the trunk's own
+    parameters are interior; a trunk at an edge goes with all its branches."""
+    import xarray as xr
+
+    # two trees (friction 0.6 interior, 1.0 at the edge), each: a trunk at 20 and 40 mm,
+    # a branch at alpha 0.5 (interior) and one at +-4 (edge), states at 60 and 80 mm;
+    # then a lone trunk at friction 0.3 (the other edge)
+    tree = {"travel": [20, 40, 60, 80, 60, 80], "slip_angle": [0, 0, 0.5, 0.5, 4, 4],
+            "roll_from": [0, 0, 40, 40, 40, 40]}
+    lone = {"travel": [20, 40], "slip_angle": [0, 0], "roll_from": [0, 0]}
+    coords = {n: ("experiment", np.array(v * 2 + lone[n], dtype=float))
+              for n, v in tree.items()}
+    coords["friction"] = ("experiment", np.repeat([0.6, 1.0, 0.3], [6, 6, 2]))
+    coords["slip_angle"] = ("experiment", np.concatenate([tree["slip_angle"],
+                                                          np.negative(tree["slip_angle"]),
+                                                          lone["slip_angle"]]))
+    ds = xr.Dataset(coords=coords)
+    train, test = edge_split(ds, ["friction", "slip_angle", "travel"], 0.1)
+    assert train.tolist() == [0, 1, 2, 3]  # the interior tree's trunk and inner branch
+    assert test.tolist() == [4, 5, *range(6, 14)]  # its edge branch; the edge trees whole

@@ -438,6 +438,14 @@ def test_a_rolling_motion_is_a_roll_and_keeps_other_ids():
         RoadMotion(friction=0.5, slip_ratio=0.01)
     with pytest.raises(SpecError, match=r"motion\.slip_angle"):
         RoadMotion(friction=0.5, roll=80.0, slip_angle=45.0)
+    # issue 46: an estimated radius is a roll's, and not given beside a radius
+    estimate = RoadMotion(friction=0.5, roll=80.0, radius_estimate=True)
+    assert estimate.to_dict()["radius_estimate"] is True
+    assert RoadMotion.from_dict(estimate.to_dict()) == estimate
+    with pytest.raises(SpecError, match="radius_estimate belong to a roll"):
+        RoadMotion(friction=0.5, radius_estimate=True)
+    with pytest.raises(SpecError, match="drop one"):
+        RoadMotion(friction=0.5, roll=80.0, rolling_radius=400.0, radius_estimate=True)
 
 
 # two element pitches of the coarse model at 2 degrees of slip angle: whole pitches, so

@@ -222,6 +222,39 @@ def test_a_tree_s_trunk_rolls_with_its_motion_s_stick_slope(tmp_path, monkeypatc
     assert seen == [0.9]
 
 
+def test_an_estimated_radius_rolls_the_trunk_without_a_search(tmp_path, monkeypatch):
+    """``rolling_radius_mm = "estimate"`` (issue 46: a study over pressure and deflection
+    would search a radius per trunk, about three rolls each): the trunk rolls at
+    R - FREE_RADIUS_DROP x deflection of its own pressure's inflated tyre, no search roll;
+    the ids of the radius's other modes are unchanged and a bad word is one error."""
+    import dataclasses
+
+    from farm.solve import rolling
+    from farm.specs import SolverSettings
+    from jobs import rolling_trees
+
+    monkeypatch.setattr(rolling, "inflated_radius", lambda spec, mesh, kpa, s: 400.0 + kpa)
+    monkeypatch.setattr(rolling_trees, "cached_free_radius", pytest.fail)
+    roll = "distance_mm = 60\nbranch_from_mm = 30\n"
+    study = parse_study(_study(tmp_path, "friction = [0.6]\nslip_angle_deg = [0, 2]\n",
+                               roll + 'rolling_radius_mm = "estimate"\n'))
+    [tree] = plan(study, SOLVER)
+    assert tree.motion.radius_estimate and tree.motion.rolling_radius is None
+    task = rolling_trees.RollTreeTask(tree, study.model, SolverSettings(), study.store, "g")
+    radius, seconds, runs = rolling_trees._radius(task, study.model, None, None)
+    assert radius == pytest.approx(400.2 - rolling.FREE_RADIUS_DROP * 15.0)
+    assert (seconds, runs) == (0.0, 0)
+    # other ids than a search's (another motion), the search's ids as they were
+    free = plan(parse_study(_study(tmp_path, "friction = [0.6]\nslip_angle_deg = [0, 2]\n",
+                                   roll)), SOLVER)[0]
+    ids = {e.id for e in experiments([tree])}
+    assert not ids & {e.id for e in experiments([free])}
+    assert "radius_estimate" not in free.motion.to_dict()
+    assert dataclasses.replace(tree.motion, radius_estimate=False) == free.motion
+    with pytest.raises(StudyError, match="estimate"):
+        parse_study(_study(tmp_path, "friction = [0.6]\n", roll + 'rolling_radius_mm = "guess"'))
+
+
 @pytest.mark.ccx
 def test_a_tree_lost_in_a_branch_rolls_on_from_its_saved_trunk(tmp_path, counting_ccx,
                                                                monkeypatch):

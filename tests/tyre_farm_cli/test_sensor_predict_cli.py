@@ -126,6 +126,38 @@ def test_the_edges_of_the_design_are_checked_on_their_own(stores, tmp_path):
     assert code == 2 and "--edges must be in [0, 0.5)" in err
 
 
+def test_targets_beyond_the_four_totals_are_predicted_and_scored(stores, tmp_path):
+    """--targets (issue 46): the six forces and moments and the load case's camber; all:
+    those that vary; an unknown name, or one the group does not hold, is one error."""
+    code, _out, err = _cli(["analyse", "sensor", stores / "a.zarr", "--out", tmp_path,
+                           "--sensor", SENSOR, "--windows", "360", "--noises", "0.2",
+                           "--spacings", "20", "--learners", "plsr", "--folds", 4,
+                           "--draws", 2, "--targets", "Mx,My,tilt"])
+    assert code in (0, None), err
+    errors = pd.read_csv(tmp_path / "errors.csv")
+    assert list(dict.fromkeys(errors["target"])) == ["Mx", "My", "tilt"]
+    tilt = errors[errors["target"] == "tilt"]
+    assert (tilt["unit"] == "deg").all() and (tilt["range"] > 0).all()
+    # the synthetic fields are linear in the tilt: PLSR recovers it to a few % of range
+    assert (tilt[tilt["training"] == "noise-free"]["rmse_pct_range"] < 5).all()
+    summary = (tmp_path / "summary.md").read_text()
+    assert "- tilt:" in summary and "goal" not in summary.split("- tilt:")[1].split("\n")[0]
+    code, _out, err = _cli(["analyse", "sensor", stores / "a.zarr", "--out", tmp_path / "all",
+                           "--sensor", SENSOR, "--windows", "360", "--noises", "0.2",
+                           "--spacings", "20", "--learners", "plsr", "--folds", 4,
+                           "--draws", 1, "--targets", "all"])
+    assert code in (0, None), err
+    every = set(pd.read_csv(tmp_path / "all" / "errors.csv")["target"])
+    assert {"Fx", "Fy", "Fz", "Mx", "My", "Mz", "tilt"} <= every
+    assert "slip_ratio" not in every  # a standing store has no slips
+    code, _out, err = _cli(["analyse", "sensor", stores / "a.zarr", "--out", tmp_path / "x",
+                           "--targets", "Fx,Fw"])
+    assert code == 2 and "--targets 'Fx,Fw'" in err and not (tmp_path / "x").exists()
+    code, _out, err = _cli(["analyse", "sensor", stores / "a.zarr", "--out", tmp_path / "y",
+                           "--targets", "slip_angle"])
+    assert code != 0 and "has no 'slip_angle'" in err
+
+
 def test_fit_checks_its_intervals_on_held_out_experiments(model):
     path, doc = model
     check = pd.DataFrame(doc["check"])
