@@ -60,6 +60,7 @@ from tyre_farm_cli.analyse_options import (
     PlsCv,
     PopulationFolds,
     PopulationStore,
+    Positions,
     Pressure,
     PressuresKpa,
     Reference,
@@ -364,7 +365,7 @@ def _draws_at_least_one(draws: int) -> int:
 @with_tls
 def sensor(store: Store, group: Group = None, out: Out = None, pressure: Pressure = None,
            sensor_: Sensor = "t2cam-2017", windows: Windows = "10,20,40,90,360",
-           noises: Noises = "0,0.5,1,2", spacings: Spacings = "5,10,20",
+           noises: Noises = "0,0.5,1,2", spacings: Spacings = "5,10,20", positions: Positions = "",
            learners: Learners = "plsr,gp", test_fraction: TestFraction = 0.25,
            folds: SensorFolds = 5, draws: SensorDraws = 3, seed: SplitSeed = 0,
            max_components: SensorMaxComponents = 10, repeats: Repeats = 1,
@@ -378,7 +379,7 @@ def sensor(store: Store, group: Group = None, out: Out = None, pressure: Pressur
 
     with usage():
         spec = sensor_spec(sensor_)
-        grid = _sensor_grid(windows, noises, spacings)
+        grid = _sensor_grid(windows, noises, spacings) | {"positions": _positions(positions)}
         names = _learners(learners)
         _split(test_fraction, folds)
         _draws_at_least_one(draws)
@@ -413,6 +414,22 @@ def _sensor_grid(windows: str, noises: str, spacings: str
                 noises=_numbers(noises, "--noises", low=0.0),
                 spacings=_numbers(spacings, "--spacings", low=0.5,
                                   what="spacings of at least 0.5 mm"))
+
+
+def _positions(text: str) -> tuple[tuple[float, float], ...]:
+    """``--positions DEG:MM,...`` as (centre_deg, centre_mm) pairs."""
+    out = []
+    for part in (p.strip() for p in text.split(",") if p.strip()):
+        try:
+            deg, mm = (float(v) for v in part.split(":"))
+        except ValueError:
+            raise ParameterError(f"--positions: {part!r} is not DEG:MM (e.g. 20:0 for 20° "
+                                 "ahead of the patch on the crown)") from None
+        if not (-180.0 <= deg <= 180.0 and math.isfinite(mm)):
+            raise ParameterError(f"--positions: {part!r} needs an angle in [-180, 180] "
+                                 "degrees and a finite arc length in mm")
+        out.append((deg, mm))
+    return tuple(out)
 
 
 def _learners(text: str) -> tuple[str, ...]:

@@ -159,6 +159,12 @@ Repeats = Annotated[
     int, typer.Option(help="Grouped splits (seeds SEED, SEED+1, ...): every figure a mean "
                       "over them, with its spread (issue 46 asks for at least 5).")
 ]
+Positions = Annotated[
+    str, typer.Option(help="Where else the base window looks, DEG:MM pairs, comma-separated: "
+                      "its centre's angle from the contact centre (+: ahead of the patch) "
+                      "and arc length from the crown (+: towards +y), e.g. "
+                      "20:0,-20:0,0:150 (issue 46: where to look) [default: none].")
+]
 Targets = Annotated[
     str, typer.Option(help="What the models predict, comma-separated: Fx, Fy, Fz, Mx, My, Mz, "
                       "slip_ratio, slip_angle, tilt (the camber), or all (those that vary "

@@ -71,13 +71,17 @@ class Setup:
 
 
 def variants(base: SensorSpec, windows=WINDOWS, noises=NOISES,
-             spacings=SPACINGS) -> list[tuple[str, SensorSpec]]:
-    """(varied axis, sensor): the base sensor, then one axis changed at a time."""
+             spacings=SPACINGS, positions=()) -> list[tuple[str, SensorSpec]]:
+    """(varied axis, sensor): the base sensor, then one axis changed at a time;
+    ``positions``: (centre_deg, centre_mm) pairs, the base's window moved there (issue
+    46: where to look)."""
     out = [("base", base)]
     out += [("window", replace(base, window_deg=w)) for w in windows if w != base.window_deg]
     out += [("noise", replace(base, noise_mm=n)) for n in noises if n != base.noise_mm]
     out += [("spacing", replace(base, spacing_mm=s)) for s in spacings
             if s != base.spacing_mm]
+    out += [("position", replace(base, centre_deg=float(a), centre_mm=float(m)))
+            for a, m in positions if (a, m) != (base.centre_deg, base.centre_mm)]
     return out
 
 
@@ -89,6 +93,7 @@ def run(
     windows=WINDOWS,
     noises=NOISES,
     spacings=SPACINGS,
+    positions=(),
     learner_names=("plsr", "gp"),
     inputs=INPUTS,
     test_fraction: float = 0.25,
@@ -132,15 +137,12 @@ def run(
         inner, outer = edge_split(ds, varying, edges)
         at_edges = replace(setup, train=inner, test=outer)
     surface = InnerSurface.from_dataset(ds)
+    # every sensor's layout first: a window that sees too few points fails before work
+    sensors = [(axis, VirtualSensor(spec, surface))
+               for axis, spec in variants(sensor, windows, noises, spacings, positions)]
     U = displacements(ds)
     report = Report(Path(out))
-    rows, points = [], []
-    for k, (axis, spec) in enumerate(variants(sensor, windows, noises, spacings)):
-        virtual = VirtualSensor(spec, surface)
-        points.append({"axis": axis, **spec.to_dict(),
-                       "points": int(np.prod(virtual.layout.xyz.shape[:2]))})
-        for r, one in enumerate(setups):
-            rows += [{**row, "split": r} for row in _one_sensor(virtual, U, Y, one, k, axis)]
+    rows, points = _all_sensors(sensors, U, Y, setups)
     by_split = pd.DataFrame(rows)
     errors = over_splits(by_split)
     report.csv("errors", errors)
@@ -154,6 +156,18 @@ def run(
     figures = _figures(report, errors, sensor)
     _summary(report, ds, sensor, errors, setup, varying, figures, repeats, edge, gap)
     return report
+
+
+def _all_sensors(sensors: list[tuple[str, VirtualSensor]], U: np.ndarray, Y: np.ndarray,
+                 setups: list[Setup]) -> tuple[list[dict], list[dict]]:
+    """Error rows of every sensor on every split, and each sensor's points."""
+    rows, points = [], []
+    for k, (axis, virtual) in enumerate(sensors):
+        points.append({"axis": axis, **virtual.spec.to_dict(),
+                       "points": int(np.prod(virtual.layout.xyz.shape[:2]))})
+        for r, one in enumerate(setups):
+            rows += [{**row, "split": r} for row in _one_sensor(virtual, U, Y, one, k, axis)]
+    return rows, points
 
 
 def _edge_errors(ds: xr.Dataset, virtual: VirtualSensor, U: np.ndarray, Y: np.ndarray,
@@ -296,7 +310,8 @@ def best_table(errors: pd.DataFrame, axis: str = "base") -> pd.DataFrame:
     return table.reset_index()
 
 
-AXIS_COLUMNS = {"window": "window_deg", "noise": "noise_mm", "spacing": "spacing_mm"}
+AXIS_COLUMNS = {"window": ["window_deg"], "noise": ["noise_mm"], "spacing": ["spacing_mm"],
+                "position": ["centre_deg", "centre_mm"]}
 
 
 def measured(errors: pd.DataFrame) -> pd.DataFrame:
@@ -316,6 +331,23 @@ def axis_table(errors: pd.DataFrame, axis: str) -> pd.DataFrame:
     wide = wide.reindex(columns=[c for t in _targets(sel) for c in wide.columns if c[0] == t])
     wide.columns = [f"{t} {lrn}" for t, lrn in wide.columns]
     return wide.reset_index()
+
+
+def where_to_look(errors: pd.DataFrame) -> list[str]:
+    """Bullets: for each target, the window position (base included) whose model, reading
+    that region alone, recovers it best (issue 46: which region carries Mz)."""
+    sel = measured(errors[errors["axis"].isin(["base", "position"])])
+    if not (errors["axis"] == "position").any():
+        return []
+    out = []
+    for target in _targets(sel):
+        rows = sel[sel["target"] == target]
+        best = rows.loc[rows["rmse_pct_range"].idxmin()]
+        base = rows[rows["axis"] == "base"]["rmse_pct_range"].min()
+        out.append(f"- {target}: best seen at {best['centre_deg']:g}°, "
+                   f"{best['centre_mm']:g} mm ({best['rmse_pct_range']:.2f} % of range, "
+                   f"{best['learner']}; centred: {base:.2f} %).")
+    return out
 
 
 def findings(errors: pd.DataFrame) -> list[str]:
@@ -394,6 +426,10 @@ def _summary(report: Report, ds: xr.Dataset, sensor: SensorSpec, errors: pd.Data
         if (errors["axis"] == axis).any():
             lines += [f"## Varying the {axis}", "",
                       markdown.table(axis_table(errors, axis)), ""]
+    if (errors["axis"] == "position").any():
+        lines += ["Where to look: the same window moved (centre_deg from the contact "
+                  "centre, + ahead of the patch; centre_mm from the crown, + towards +y), "
+                  "each model reading that region alone:", "", *where_to_look(errors), ""]
     lines += [f"![{p.stem}]({p.name})" for p in figures]
     path = report.out / "summary.md"
     path.write_text("\n".join(lines) + "\n")

@@ -158,6 +158,31 @@ def test_targets_beyond_the_four_totals_are_predicted_and_scored(stores, tmp_pat
     assert code != 0 and "has no 'slip_angle'" in err
 
 
+def test_the_window_moved_shows_where_to_look(stores, tmp_path):
+    """--positions (issue 46): the base window moved ahead of the patch and towards a
+    side, each a model of its own; a bad pair, or a window off the surface, is one error
+    before any work."""
+    code, _out, err = _cli(["analyse", "sensor", stores / "a.zarr", "--out", tmp_path,
+                           "--sensor", f"{SENSOR},window_deg=30,width_mm=100", "--windows",
+                           "30", "--noises", "0.2", "--spacings", "20", "--learners", "plsr",
+                           "--folds", 4, "--draws", 2, "--positions", "20:0,0:40"])
+    assert code in (0, None), err
+    errors = pd.read_csv(tmp_path / "errors.csv")
+    moved = errors[errors["axis"] == "position"]
+    assert {(a, m) for a, m in zip(moved["centre_deg"], moved["centre_mm"],
+                                   strict=True)} == {(20.0, 0.0), (0.0, 40.0)}
+    summary = (tmp_path / "summary.md").read_text()
+    assert "Varying the position" in summary and "Where to look" in summary
+    assert "- Fz: best seen at" in summary
+    code, _out, err = _cli(["analyse", "sensor", stores / "a.zarr", "--out", tmp_path / "x",
+                           "--positions", "20"])
+    assert code == 2 and "is not DEG:MM" in err
+    code, _out, err = _cli(["analyse", "sensor", stores / "a.zarr", "--out", tmp_path / "y",
+                           "--sensor", SENSOR, "--windows", "40", "--noises", "0.2",
+                           "--spacings", "20", "--positions", "150:0"])
+    assert code != 0 and "sees only" in err and not (tmp_path / "y").exists()
+
+
 def test_fit_checks_its_intervals_on_held_out_experiments(model):
     path, doc = model
     check = pd.DataFrame(doc["check"])

@@ -73,7 +73,8 @@ def layout(surface: InnerSurface, spec: SensorSpec) -> Layout:
     """The points of the sensor ``spec`` on ``surface``.
 
     ``spacing_mm=None``: the FE nodes inside the window (weights select them). Else a
-    regular grid centred on (theta = 0, s = 0): circumferential step
+    regular grid centred on the window's centre (``centre_deg``, ``centre_mm``; 0, 0:
+    the contact centre and the crown): circumferential step
     ``spacing_mm / crown_radius`` radians, meridional step ``spacing_mm``; clipped to the
     window and to the surface (a sector model's columns, the meridian's ends).
 
@@ -85,14 +86,15 @@ def layout(surface: InnerSurface, spec: SensorSpec) -> Layout:
     """
     half = np.radians(spec.window_deg) / 2.0
     full = spec.window_deg == 360.0
+    centre = np.radians(spec.centre_deg)
     if spec.spacing_mm is None:
-        cols, theta = _node_columns(surface, half, full)
-        rows = _inside(surface.s, spec.width_mm)
+        cols, theta = _node_columns(surface, half, full, centre)
+        rows = _inside(surface.s - spec.centre_mm, spec.width_mm)
         s = surface.s[rows]
         periodic = full and surface.periodic
     else:
-        theta, periodic = _point_columns(surface, spec.spacing_mm, half, full)
-        s = _point_rows(surface, spec.spacing_mm, spec.width_mm)
+        theta, periodic = _point_columns(surface, spec.spacing_mm, half, full, centre)
+        s = _point_rows(surface, spec.spacing_mm, spec.width_mm, spec.centre_mm)
     pr, pc = s.size, theta.size
     if pr < 3 or pc < 3:
         raise ParameterError(
@@ -228,20 +230,23 @@ def _inside(values: np.ndarray, width: float | None) -> np.ndarray:
     return np.flatnonzero(np.abs(values) <= width / 2.0 + _TOL * max(width, 1.0))
 
 
-def _node_columns(surface: InnerSurface, half: float, full: bool):
-    """Columns inside the window, in angle order, and their angles."""
+def _node_columns(surface: InnerSurface, half: float, full: bool, centre: float = 0.0):
+    """Columns inside the window about ``centre`` (radians), in angle order, and their
+    angles."""
     if surface.periodic:
-        d = wrap_angle(surface.angles)
+        d = wrap_angle(surface.angles - (0.0 if full else centre))
         keep = np.arange(d.size) if full else np.flatnonzero(np.abs(d) <= half + _TOL)
         keep = keep[np.argsort(d[keep], kind="stable")]
-    else:
-        d = surface.angles
-        keep = np.arange(d.size) if full else np.flatnonzero(np.abs(d) <= half + _TOL)
+        return keep, d[keep] + (0.0 if full else centre)
+    d = surface.angles
+    keep = np.arange(d.size) if full else np.flatnonzero(np.abs(d - centre) <= half + _TOL)
     return keep, d[keep]
 
 
-def _point_columns(surface: InnerSurface, spacing: float, half: float, full: bool):
-    """Angles of the point columns (pc,) and whether they wrap around."""
+def _point_columns(surface: InnerSurface, spacing: float, half: float, full: bool,
+                   centre: float = 0.0):
+    """Angles of the point columns (pc,) and whether they wrap around; a window short of
+    the circle is a grid about ``centre`` (radians)."""
     step = spacing / surface.crown_radius
     if full and surface.periodic:
         ratio = TWO_PI / step
@@ -253,20 +258,26 @@ def _point_columns(surface: InnerSurface, spacing: float, half: float, full: boo
         theta = k * step
         theta = theta[theta > -np.pi + _TOL]  # -pi is +pi
         return theta, False
-    lo, hi = -half, half
+    if full:
+        centre = 0.0
+    lo, hi = centre - half, centre + half
     if not surface.periodic:
         lo, hi = max(lo, surface.angles[0]), min(hi, surface.angles[-1])
-    k = np.arange(np.ceil(lo / step - _TOL), np.floor(hi / step + _TOL) + 1)
-    theta = k * step
+    k = np.arange(np.ceil((lo - centre) / step - _TOL),
+                  np.floor((hi - centre) / step + _TOL) + 1)
+    theta = centre + k * step
     if full:
         theta = theta[theta > -np.pi + _TOL]
     return theta, False
 
 
-def _point_rows(surface: InnerSurface, spacing: float, width: float | None) -> np.ndarray:
-    """Meridional arc lengths of the point rows (pr,), centred on the crown."""
+def _point_rows(surface: InnerSurface, spacing: float, width: float | None,
+               centre: float = 0.0) -> np.ndarray:
+    """Meridional arc lengths of the point rows (pr,), a grid about ``centre`` (mm from
+    the crown)."""
     lo, hi = surface.s[0], surface.s[-1]
     if width is not None:
-        lo, hi = max(lo, -width / 2.0), min(hi, width / 2.0)
-    k = np.arange(np.ceil(lo / spacing - _TOL), np.floor(hi / spacing + _TOL) + 1)
-    return k * spacing
+        lo, hi = max(lo, centre - width / 2.0), min(hi, centre + width / 2.0)
+    k = np.arange(np.ceil((lo - centre) / spacing - _TOL),
+                  np.floor((hi - centre) / spacing + _TOL) + 1)
+    return centre + k * spacing

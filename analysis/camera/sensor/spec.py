@@ -50,7 +50,8 @@ __all__ = ["NOISE_FIELDS", "PRESETS", "T2CAM_2020_NOISE_MM", "SensorSpec", "sens
 NOISE_FIELDS = ("noise_mm", "correlated_mm", "rotation_deg", "scale", "drop_fraction")
 _OPTIONAL = ("width_mm", "spacing_mm")  # None allowed
 _FLOATS = ("window_deg", "width_mm", "spacing_mm", "noise_mm", "correlated_mm",
-           "correlation_mm", "rotation_deg", "scale", "drop_fraction")
+           "correlation_mm", "rotation_deg", "scale", "drop_fraction", "centre_deg",
+           "centre_mm")
 
 #: CST strain std 0.25 % (the 2020 paper's 0.5 % band read as +-1 std) on a 10 mm grid:
 #: sigma = 2.5e-3 * 10 mm / (sqrt(2) * c) with c = 1/sqrt(2) (module docstring).
@@ -88,6 +89,12 @@ class SensorSpec:
     drop_fraction : float
         Share of the points that the image correlation misses in each cloud
         (0 <= drop_fraction < 0.5); they are filled from their neighbours in the features.
+    centre_deg, centre_mm : float
+        Where the window looks (issue 46: where to look): its centre's angle from the
+        contact centre, degrees in [-180, 180], positive towards +x (ahead of the patch
+        for the farm's rolls, whose wheel travels along +x: docs/rolling.md), and its
+        centre's meridional arc length from the crown, mm, positive towards +y (a
+        shoulder, a sidewall). 0, 0: centred on the patch and the crown, as T2Cam looks.
     """
 
     name: str = "custom"
@@ -100,6 +107,8 @@ class SensorSpec:
     rotation_deg: float = 0.0
     scale: float = 0.0
     drop_fraction: float = 0.0
+    centre_deg: float = 0.0
+    centre_mm: float = 0.0
 
     def __post_init__(self) -> None:
         for key in _FLOATS:  # ints, numpy numbers become floats: one value, one type
@@ -135,6 +144,9 @@ class SensorSpec:
         if self.correlation_mm <= 0.0:
             raise ParameterError(f"sensor correlation_mm must be positive (a kernel length "
                                  f"in mm), got {self.correlation_mm:g}")
+        if not -180.0 <= self.centre_deg <= 180.0:
+            raise ParameterError(f"sensor centre_deg must be in [-180, 180] degrees, got "
+                                 f"{self.centre_deg:g}")
         if not 0.0 <= self.drop_fraction < 0.5:
             raise ParameterError(f"sensor drop_fraction must be in [0, 0.5), got "
                                  f"{self.drop_fraction:g}")

@@ -116,3 +116,29 @@ def test_a_window_with_fewer_than_3x3_points_is_refused(torus):
     assert "\n" not in str(info.value)
     with pytest.raises(ParameterError, match="3 x 3"):
         layout(torus, SensorSpec(width_mm=15.0))
+
+
+@pytest.mark.parametrize("spacing", ["10", "none"])
+@pytest.mark.parametrize(("centre_deg", "centre_mm"), [(20.0, 0.0), (-170.0, 0.0),
+                                                       (0.0, 60.0), (25.0, -40.0)])
+def test_a_window_looks_where_its_centre_says(torus, spacing, centre_deg, centre_mm):
+    """centre_deg / centre_mm (issue 46: where to look): the window's points lie within
+    its half-extents of its centre - ahead of the patch, across the +-180° seam, on a
+    shoulder - and a grid of points is the centred grid moved there."""
+    from analysis.camera.sensor.surface import wrap_angle
+
+    spec = sensor_spec(f"t2cam-2017,window_deg=30,width_mm=120,spacing_mm={spacing},"
+                       f"centre_deg={centre_deg},centre_mm={centre_mm}")
+    lay = layout(torus, spec)
+    off = np.degrees(wrap_angle(lay.theta - np.radians(centre_deg)))
+    assert np.all(np.abs(off) <= 15.0 + 1e-9) and np.all(np.abs(lay.s - centre_mm) <= 60 + 1e-9)
+    # the points are on the surface where their angles and arc lengths say
+    theta = np.arctan2(lay.xyz[..., 0], -lay.xyz[..., 2])
+    assert np.allclose(wrap_angle(theta - lay.theta[None, :]), 0.0, atol=1e-4)  # chords
+    if spacing == "10":
+        centred = layout(torus, sensor_spec("t2cam-2017,window_deg=30,width_mm=120"))
+        assert lay.shape == centred.shape
+        assert np.allclose(lay.theta - np.radians(centre_deg), centred.theta)
+        assert np.allclose(lay.s - centre_mm, centred.s)
+    with pytest.raises(ParameterError, match="centre_deg must be in"):
+        sensor_spec("t2cam-2017,centre_deg=200")
