@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import xarray as xr
+from sklearn.base import clone
 
 from analysis.camera import learners
 from analysis.camera.features import (
@@ -36,12 +37,14 @@ from analysis.camera.features import (
     targets,
     varying_targets,
 )
+from analysis.camera.predict.intervals import ConformalIntervals
 from analysis.camera.sensor import InnerSurface, SensorSpec, VirtualSensor
 from analysis.camera.sensor.reference import ReferenceGap, reference_gap
 from analysis.camera.sensor.spec import NOISE_FIELDS
 from analysis.errors import ParameterError, TooFewExperimentsError
 from analysis.render import markdown, plots
 from analysis.splits import edge_split, path_groups, split
+from analysis.splits import folds as path_folds
 from analysis.studies.combined import check_combined
 from analysis.studies.common import Report
 
@@ -215,19 +218,39 @@ def _one_sensor(virtual: VirtualSensor, U: np.ndarray, Y: np.ndarray, setup: Set
         # a CV fold keeps an experiment's noisy draws, and a roll's states, together
         groups = np.tile(setup.groups[setup.train], max(n, 1))
         Yf = np.tile(Y[setup.train], (max(n, 1), 1))
+        # the intervals are checked where the model is meant for use: the base sensor,
+        # trained on measurements (noise-free only for a sensor without noise)
+        check = axis == "base" and (training == "noisy" or not noisy)
         for name in setup.learners:
             model = learners.learner(name, max_components=setup.max_components,
                                      folds=setup.folds, x_blocks=blocks,
                                      y_blocks=[1] * len(setup.targets), seed=setup.seed)
             P = model.fit(Xf, Yf, groups).predict(Xt)
             rmse = np.sqrt(np.mean((P - Yt) ** 2, axis=0))
+            cover = (_coverage(model, Xf, Yf, groups, setup.folds, P, Yt) if check
+                     else np.full(len(setup.targets), np.nan))
             for j, target in enumerate(setup.targets):
                 rows.append({"axis": axis, **virtual.spec.to_dict(), "training": training,
                              "learner": name, "n_components": model.n_components_,
                              "target": target, "unit": UNITS[target],
                              "rmse": float(rmse[j]), "range": float(span[j]),
-                             "rmse_pct_range": _pct(rmse[j], span[j])})
+                             "rmse_pct_range": _pct(rmse[j], span[j]),
+                             "coverage_90": float(cover[j])})
     return rows
+
+
+def _coverage(model, Xf: np.ndarray, Yf: np.ndarray, groups: np.ndarray, folds: int,
+              P: np.ndarray, Yt: np.ndarray) -> np.ndarray:
+    """Held-out coverage (n_targets,) of split-conformal 90 % intervals (issue 46) whose
+    half-widths are the training rows' out-of-fold residuals (each row predicted by a
+    model fitted without its group: :func:`analysis.splits.folds`), as ``farm fit``
+    calibrates its own; ``P`` the fitted ``model``'s predictions of the held-out
+    ``Yt``."""
+    residuals = np.empty_like(Yf)
+    for train, test in path_folds(groups, folds, None):
+        fold = clone(model).fit(Xf[train], Yf[train], groups[train])
+        residuals[test] = Yf[test] - fold.predict(Xf[test])
+    return ConformalIntervals(alpha=0.1).fit(residuals).coverage(Yt, P)
 
 
 #: The most repeated splits one study may take (each refits every learner and sensor)
@@ -238,14 +261,19 @@ def over_splits(by_split: pd.DataFrame) -> pd.DataFrame:
     """Per-split error rows (a ``split`` column) -> one row per sensor, training, learner
     and target: ``rmse``, ``range``, ``rmse_pct_range`` and ``n_components`` their means
     over the splits, with ``rmse_pct_std`` (0 for one split), ``rmse_pct_min``,
-    ``rmse_pct_max`` and ``splits``."""
-    values = ["rmse", "range", "rmse_pct_range", "n_components", "split"]
-    keys = [c for c in by_split.columns if c not in values]
+    ``rmse_pct_max`` and ``splits``; ``coverage_90`` (the base sensor's held-out interval
+    coverage) its mean, with ``coverage_90_min`` and ``coverage_90_max``."""
+    means = [c for c in ("rmse", "range", "rmse_pct_range", "n_components", "coverage_90")
+             if c in by_split]
+    keys = [c for c in by_split.columns if c not in (*means, "split")]
     grouped = by_split.groupby(keys, sort=False, dropna=False)
-    out = grouped[["rmse", "range", "rmse_pct_range", "n_components"]].mean()
+    out = grouped[means].mean()
     pct = grouped["rmse_pct_range"]
     out["rmse_pct_std"] = pct.std(ddof=0)
     out["rmse_pct_min"], out["rmse_pct_max"] = pct.min(), pct.max()
+    if "coverage_90" in by_split:  # the held-out coverage's spread over the splits
+        out["coverage_90_min"] = grouped["coverage_90"].min()
+        out["coverage_90_max"] = grouped["coverage_90"].max()
     out["splits"] = grouped["split"].nunique()
     return out.reset_index()
 
@@ -260,6 +288,23 @@ def spread_table(errors: pd.DataFrame) -> pd.DataFrame:
     learners_ = sorted({lrn for _, lrn in cells})
     return pd.DataFrame([{"target": t, **{lrn: cells.get((t, lrn), "") for lrn in learners_}}
                          for t in _targets(errors)])
+
+
+def coverage_table(errors: pd.DataFrame) -> pd.DataFrame:
+    """The base sensor's held-out coverage of its 90 % intervals, one row per target, one
+    column per learner: the mean over the splits (min-max where there are several)."""
+    rows = errors[(errors["axis"] == "base") & errors["coverage_90"].notna()]
+
+    def cell(g: pd.DataFrame) -> str:
+        text = f"{g['coverage_90'].iat[0]:.2f}"
+        if "coverage_90_min" in g and g["splits"].iat[0] > 1:
+            text += f" ({g['coverage_90_min'].iat[0]:.2f}-{g['coverage_90_max'].iat[0]:.2f})"
+        return text
+
+    cells = {key: cell(g) for key, g in rows.groupby(["target", "learner"])}
+    names = sorted({lrn for _, lrn in cells})
+    return pd.DataFrame([{"target": t, **{n: cells.get((t, n), "") for n in names}}
+                         for t in _targets(rows)])
 
 
 def _targets(errors: pd.DataFrame) -> list[str]:
@@ -389,7 +434,8 @@ def _edges(edge: pd.DataFrame | None) -> list[str]:
             f"{a['test']} experiments of the {a['paths']} load paths with a varying "
             f"parameter in the outer {a['fraction']:g} of its range (`errors_edges.csv`): "
             "what a model does at and just beyond the edges of what it was trained on.", "",
-            markdown.table(best_table(edge)), ""]
+            markdown.table(best_table(edge)), "", "Their 90 % intervals' coverage:", "",
+            markdown.table(coverage_table(edge)), ""]
 
 
 def _summary(report: Report, ds: xr.Dataset, sensor: SensorSpec, errors: pd.DataFrame,
@@ -415,6 +461,9 @@ def _summary(report: Report, ds: xr.Dataset, sensor: SensorSpec, errors: pd.Data
         "## Base sensor", "", markdown.table(best_table(errors)), "",
         *(["Over the splits, mean ± standard deviation (min-max), % of range:", "",
            markdown.table(spread_table(errors)), ""] if repeats > 1 else []),
+        "Held-out coverage of the 90 % intervals (split-conformal, calibrated on the "
+        "training rows' out-of-fold residuals as `farm fit` does; goal 0.85-0.95):", "",
+        markdown.table(coverage_table(errors)), "",
         *_edges(edge),
         *(["## The reference cloud", "", gap.sentence() + " (`reference.csv`; "
            "analysis/camera/sensor/reference.py)", ""] if gap is not None else []),

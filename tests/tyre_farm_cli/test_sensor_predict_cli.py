@@ -89,8 +89,15 @@ def test_repeated_grouped_splits_give_a_mean_and_its_spread(stores, tmp_path):
         assert row["rmse_pct_range"] == pytest.approx(same["rmse_pct_range"].mean())
         assert row["rmse_pct_min"] <= row["rmse_pct_range"] <= row["rmse_pct_max"]
     assert (errors["rmse_pct_std"] > 0).any()  # the splits differ: one would hide that
+    # the 90 % intervals are checked held out for the base sensor trained on measurements
+    checked = errors[(errors["axis"] == "base") & (errors["training"] == "noisy")]
+    assert checked["coverage_90"].between(0, 1).all()
+    assert errors.loc[errors["training"] == "noise-free", "coverage_90"].isna().all()
+    assert checked["coverage_90"].mean() > 0.75  # exchangeable draws: about 0.9 or more
+    assert (checked["coverage_90_min"] <= checked["coverage_90"]).all()
     summary = (tmp_path / "summary.md").read_text()
     assert "3 grouped splits (seeds 7-9" in summary and " ± " in summary
+    assert "Held-out coverage of the 90 % intervals" in summary
     code, _out, err = _cli(["analyse", "sensor", stores / "a.zarr", "--out", tmp_path / "x",
                            "--repeats", 0])
     assert code == 2 and "--repeats must be in [1, 100]" in err
