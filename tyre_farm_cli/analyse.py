@@ -75,6 +75,7 @@ from tyre_farm_cli.analyse_options import (
     SensorFolds,
     SensorMaxComponents,
     ShuffleSeed,
+    Sizes,
     Spacings,
     SplitSeed,
     StorageOption,
@@ -369,7 +370,8 @@ def sensor(store: Store, group: Group = None, out: Out = None, pressure: Pressur
            learners: Learners = "plsr,gp", test_fraction: TestFraction = 0.25,
            folds: SensorFolds = 5, draws: SensorDraws = 3, seed: SplitSeed = 0,
            max_components: SensorMaxComponents = 10, repeats: Repeats = 1,
-           edges: Edges = 0.0, targets: Targets = "Fx,Fy,Fz,Mz", axes_: Axes = "wheel",
+           edges: Edges = 0.0, targets: Targets = "Fx,Fy,Fz,Mz", sizes: Sizes = "",
+           axes_: Axes = "wheel",
            scheduler: Scheduler = None, storage_option: StorageOption = None,
            as_json: Json = False) -> None:
     """Identifiability vs the sensor: held-out Fx, Fy, Fz, Mz errors (--targets: any
@@ -379,7 +381,10 @@ def sensor(store: Store, group: Group = None, out: Out = None, pressure: Pressur
 
     with usage():
         spec = sensor_spec(sensor_)
-        grid = _sensor_grid(windows, noises, spacings) | {"positions": _positions(positions)}
+        grid = _sensor_grid(windows, noises, spacings) | {
+            "positions": _positions(positions),
+            "sizes": _numbers(sizes, "--sizes", low=1e-9, high=1 - 1e-9,
+                              what="shares in (0, 1)") if sizes.strip() else ()}
         names = _learners(learners)
         _split(test_fraction, folds)
         _draws_at_least_one(draws)

@@ -165,6 +165,11 @@ Positions = Annotated[
                       "and arc length from the crown (+: towards +y), e.g. "
                       "20:0,-20:0,0:150 (issue 46: where to look) [default: none].")
 ]
+Sizes = Annotated[
+    str, typer.Option(help="Also train the base sensor on these shares of each split's "
+                      "training paths, comma-separated in (0, 1) (issue 46: the error "
+                      "against the training set's size) [default: none].")
+]
 Targets = Annotated[
     str, typer.Option(help="What the models predict, comma-separated: Fx, Fy, Fz, Mx, My, Mz, "
                       "slip_ratio, slip_angle, tilt (the camber), or all (those that vary "

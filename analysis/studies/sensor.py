@@ -107,6 +107,7 @@ def run(
     repeats: int = 1,
     edges: float = 0.0,
     target_names=TARGETS,
+    sizes=(),
 ) -> Report:
     """Run the sensor study on one loaded group; tables, figures and summary in ``out``.
 
@@ -123,7 +124,12 @@ def run(
 
     ``target_names``: what the models predict, any of
     :data:`analysis.camera.features.ALL_TARGETS` (issue 46: the six forces and moments,
-    the slips and the camber), or ``"all"``: those that vary in the group."""
+    the slips and the camber), or ``"all"``: those that vary in the group.
+
+    ``sizes``: fractions in (0, 1) of each split's training groups (issue 46: the error
+    against the training set's size): the base sensor trained on that share of them
+    (seeded), tested on the same held-out paths; axis ``size``, column
+    ``train_fraction``."""
     varying = check_combined(ds)
     if target_names == "all":
         target_names = varying_targets(ds)
@@ -134,7 +140,8 @@ def run(
                     tuple(learner_names), tuple(inputs), draws, folds, max_components,
                     seed + r, groups, tuple(target_names)) for r in range(repeats)]
     setup = setups[0]
-    # the edges' split first: a fraction that leaves no interior fails before any work
+    # the smaller training sets and the edges' split first: what cannot run fails here
+    sized = [(f, r, fewer(one, f)) for f in sizes for r, one in enumerate(setups)]
     at_edges = None
     if edges > 0:
         inner, outer = edge_split(ds, varying, edges)
@@ -145,32 +152,60 @@ def run(
                for axis, spec in variants(sensor, windows, noises, spacings, positions)]
     U = displacements(ds)
     report = Report(Path(out))
-    rows, points = _all_sensors(sensors, U, Y, setups)
+    rows, points = _all_sensors(sensors, U, Y, setups, sized)
     by_split = pd.DataFrame(rows)
     errors = over_splits(by_split)
     report.csv("errors", errors)
     report.csv("errors_by_split", by_split)
     report.csv("sensors", pd.DataFrame(points))
     edge = _edge_errors(ds, VirtualSensor(sensor, surface), U, Y, at_edges, report, edges)
-    gap = (reference_gap(ds, surface, U, sensor, np.random.default_rng([seed, 46]))
-           if "surface_strain" in inputs and "surface_strain" in ds else None)
-    if gap is not None:
-        report.csv("reference", pd.DataFrame([{**asdict(gap), "relative": gap.relative}]))
+    gap = _reference(ds, surface, U, sensor, seed, inputs, report)
     figures = _figures(report, errors, sensor)
     _summary(report, ds, sensor, errors, setup, varying, figures, repeats, edge, gap)
     return report
 
 
 def _all_sensors(sensors: list[tuple[str, VirtualSensor]], U: np.ndarray, Y: np.ndarray,
-                 setups: list[Setup]) -> tuple[list[dict], list[dict]]:
-    """Error rows of every sensor on every split, and each sensor's points."""
+                 setups: list[Setup], sized=()) -> tuple[list[dict], list[dict]]:
+    """Error rows of every sensor on every split (and of the base sensor on each
+    smaller training set of ``sized``: (fraction, split, setup)), and each sensor's
+    points."""
     rows, points = [], []
     for k, (axis, virtual) in enumerate(sensors):
         points.append({"axis": axis, **virtual.spec.to_dict(),
                        "points": int(np.prod(virtual.layout.xyz.shape[:2]))})
         for r, one in enumerate(setups):
-            rows += [{**row, "split": r} for row in _one_sensor(virtual, U, Y, one, k, axis)]
+            rows += [{**row, "split": r, "train_fraction": 1.0}
+                     for row in _one_sensor(virtual, U, Y, one, k, axis)]
+    for f, r, one in sized:
+        rows += [{**row, "split": r, "train_fraction": f}
+                 for row in _one_sensor(sensors[0][1], U, Y, one, 0, "size")]
     return rows, points
+
+
+def fewer(setup: Setup, fraction: float) -> Setup:
+    """``setup`` trained on ``fraction`` of its training groups (at least its CV's
+    folds; seeded by the split), tested on the same held-out ones."""
+    if not 0.0 < fraction < 1.0:
+        raise ParameterError(f"a training-set fraction must be in (0, 1), got {fraction!r}")
+    labels = np.unique(setup.groups[setup.train])
+    keep = round(fraction * labels.size)
+    if keep < setup.folds:
+        raise ParameterError(f"{fraction:g} of the {labels.size} training paths is {keep}, "
+                             f"fewer than the {setup.folds} CV folds: give a larger fraction "
+                             "or fewer --folds")
+    chosen = np.random.default_rng([setup.seed, 46]).permutation(labels)[:keep]
+    return replace(setup, train=setup.train[np.isin(setup.groups[setup.train], chosen)])
+
+
+def _reference(ds: xr.Dataset, surface: InnerSurface, U: np.ndarray, sensor: SensorSpec,
+               seed: int, inputs, report: Report) -> ReferenceGap | None:
+    """The reference cloud's effect on the measured strain (None: no strain read)."""
+    if "surface_strain" not in inputs or "surface_strain" not in ds:
+        return None
+    gap = reference_gap(ds, surface, U, sensor, np.random.default_rng([seed, 46]))
+    report.csv("reference", pd.DataFrame([{**asdict(gap), "relative": gap.relative}]))
+    return gap
 
 
 def _edge_errors(ds: xr.Dataset, virtual: VirtualSensor, U: np.ndarray, Y: np.ndarray,
@@ -322,7 +357,8 @@ def _figures(report: Report, errors: pd.DataFrame, base: SensorSpec) -> list[Pat
     figures = []
     for axis, column, label in (("window", "window_deg", "window (°)"),
                                 ("noise", "noise_mm", "position noise σ (mm)"),
-                                ("spacing", "spacing_mm", "point spacing (mm)")):
+                                ("spacing", "spacing_mm", "point spacing (mm)"),
+                                ("size", "train_fraction", "share of the training paths")):
         sel = measured(errors[errors["axis"].isin(["base", axis])])
         if sel[column].nunique() < 2:
             continue
@@ -356,7 +392,7 @@ def best_table(errors: pd.DataFrame, axis: str = "base") -> pd.DataFrame:
 
 
 AXIS_COLUMNS = {"window": ["window_deg"], "noise": ["noise_mm"], "spacing": ["spacing_mm"],
-                "position": ["centre_deg", "centre_mm"]}
+                "position": ["centre_deg", "centre_mm"], "size": ["train_fraction"]}
 
 
 def measured(errors: pd.DataFrame) -> pd.DataFrame:

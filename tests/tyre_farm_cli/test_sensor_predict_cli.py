@@ -190,6 +190,30 @@ def test_the_window_moved_shows_where_to_look(stores, tmp_path):
     assert code != 0 and "sees only" in err and not (tmp_path / "y").exists()
 
 
+def test_the_error_against_the_training_set_s_size(stores, tmp_path):
+    """--sizes (issue 46): the base sensor trained on shares of each split's training
+    paths, tested on the same held-out ones; fewer paths than folds is one error before
+    any work."""
+    code, _out, err = _cli(["analyse", "sensor", stores / "a.zarr", "--out", tmp_path,
+                           "--sensor", SENSOR, "--windows", "40", "--noises", "0.2",
+                           "--spacings", "20", "--learners", "plsr", "--folds", 3,
+                           "--draws", 2, "--repeats", 2, "--sizes", "0.3,0.6"])
+    assert code in (0, None), err
+    errors = pd.read_csv(tmp_path / "errors.csv")
+    size = errors[errors["axis"].isin(["base", "size"]) & (errors["training"] == "noisy")]
+    assert sorted(size["train_fraction"].unique()) == [0.3, 0.6, 1.0]
+    by = size.groupby("train_fraction")["rmse_pct_range"].mean()
+    assert by.loc[0.3] > by.loc[1.0]  # fewer training paths: a larger held-out error
+    assert "Varying the size" in (tmp_path / "summary.md").read_text()
+    assert (tmp_path / "error_vs_size.png").stat().st_size > 0
+    code, _out, err = _cli(["analyse", "sensor", stores / "a.zarr", "--out", tmp_path / "x",
+                           "--folds", 5, "--sizes", "0.1"])
+    assert code != 0 and "fewer than the 5 CV folds" in err and not (tmp_path / "x").exists()
+    code, _out, err = _cli(["analyse", "sensor", stores / "a.zarr", "--out", tmp_path / "y",
+                           "--sizes", "1.5"])
+    assert code == 2 and "--sizes must be shares in (0, 1)" in err
+
+
 def test_fit_checks_its_intervals_on_held_out_experiments(model):
     path, doc = model
     check = pd.DataFrame(doc["check"])
