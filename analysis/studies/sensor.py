@@ -144,8 +144,7 @@ def run(
     sized = [(f, r, fewer(one, f)) for f in sizes for r, one in enumerate(setups)]
     at_edges = None
     if edges > 0:
-        inner, outer = edge_split(ds, varying, edges)
-        at_edges = replace(setup, train=inner, test=outer)
+        at_edges = _at_edges(setup, ds, varying, edges)
     surface = InnerSurface.from_dataset(ds)
     # every sensor's layout first: a window that sees too few points fails before work
     sensors = [(axis, VirtualSensor(spec, surface))
@@ -196,6 +195,17 @@ def fewer(setup: Setup, fraction: float) -> Setup:
                              "or fewer --folds")
     chosen = np.random.default_rng([setup.seed, 46]).permutation(labels)[:keep]
     return replace(setup, train=setup.train[np.isin(setup.groups[setup.train], chosen)])
+
+
+def _at_edges(setup: Setup, ds: xr.Dataset, varying: list[str], edges: float) -> Setup:
+    """The base setup trained on the design's interior and tested at its edges."""
+    inner, outer = edge_split(ds, varying, edges)
+    paths = np.unique(setup.groups[inner]).size
+    if paths < setup.folds:
+        raise ParameterError(f"the interior left by --edges {edges:g} holds {paths} load "
+                             f"paths, fewer than the {setup.folds} CV folds: give a smaller "
+                             "--edges or fewer --folds, or run more load cases")
+    return replace(setup, train=inner, test=outer)
 
 
 def _reference(ds: xr.Dataset, surface: InnerSurface, U: np.ndarray, sensor: SensorSpec,
@@ -283,7 +293,10 @@ def _coverage(model, Xf: np.ndarray, Yf: np.ndarray, groups: np.ndarray, folds: 
     ``Yt``."""
     residuals = np.empty_like(Yf)
     for train, test in path_folds(groups, folds, None):
-        fold = clone(model).fit(Xf[train], Yf[train], groups[train])
+        # a fold's model chooses its own count by CV over the paths it has: fewer folds
+        # where it has fewer paths than the study's folds
+        inner = min(folds, np.unique(groups[train]).size)
+        fold = clone(model).set_params(folds=inner).fit(Xf[train], Yf[train], groups[train])
         residuals[test] = Yf[test] - fold.predict(Xf[test])
     return ConformalIntervals(alpha=0.1).fit(residuals).coverage(Yt, P)
 

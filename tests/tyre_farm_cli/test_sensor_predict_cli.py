@@ -131,6 +131,9 @@ def test_the_edges_of_the_design_are_checked_on_their_own(stores, tmp_path):
     code, _out, err = _cli(["analyse", "sensor", stores / "a.zarr", "--out", tmp_path / "x",
                            "--edges", 0.5])
     assert code == 2 and "--edges must be in [0, 0.5)" in err
+    code, _out, err = _cli(["analyse", "sensor", stores / "a.zarr", "--out", tmp_path / "y",
+                           "--edges", 0.2, "--folds", 6])  # 5 inside: before any work
+    assert code != 0 and "fewer than the 6 CV folds" in err and not (tmp_path / "y").exists()
 
 
 def test_targets_beyond_the_four_totals_are_predicted_and_scored(stores, tmp_path):
