@@ -148,6 +148,7 @@ CASE_9 = LoadPath((11.109725648,), 0.2, RoadMotion(
     friction=0.914098968, shift_x=2.626087713, shift_y=-1.250409206, tilt=-1.099586489))
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 @pytest.mark.ccx
 def test_a_case_that_stops_at_first_touch_goes_through_with_the_rise_split():
     mesh = mesh_for(COARSE)

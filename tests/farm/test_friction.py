@@ -325,6 +325,7 @@ def test_each_node_obeys_coulomb(lateral):
             assert np.all(f[m.contact_status == OPEN] == 0)
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 def test_a_high_friction_slide_on_a_soft_tyre_gets_through(ccx):
     """80 kPa, 21.5 mm, mu 0.87, a 3.95 mm longitudinal slide: its first increment needs
     the step cut to ~1e-3 of the ramp, which ccx's default 5 cutbacks never reach ("too

@@ -284,6 +284,7 @@ def test_linear_cords_deck_has_linear_springs():
 
 # --- physics (real ccx) -------------------------------------------------------------------
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 @pytest.mark.ccx
 def test_cord_belts_solve_and_change_the_lateral_force():
     """Coarse full mesh, 30 mm at 200 kPa, then a 5 mm lateral slide with mu = 0.8: the

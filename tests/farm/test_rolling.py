@@ -296,6 +296,7 @@ def test_a_state_solved_on_the_turned_mesh_is_referred_back_to_the_stored_one(co
     assert "tread_force" not in rolled or rolled["tread_force"] is force
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 @pytest.mark.ccx
 def test_a_frictionless_roll_on_a_windowed_mesh_ends_as_the_standing_tyre():
     """Started with its window ahead, a windowed tyre ends its roll with the window under
@@ -486,6 +487,7 @@ def _rms(a: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.square(a))))
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 @pytest.mark.ccx
 def test_a_roll_keeps_a_state_per_fraction_and_stops_keeping_what_it_reached(
         coarse, two_pitches):

@@ -61,6 +61,7 @@ def _balanced(state, rtol=5e-3):
                                atol=rtol * abs(state.force[2]))
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 def test_a_frictionless_branch_is_the_roll_done_in_one_run(coarse):
     """Restart, road and rim carried on from the trunk's end: with no friction to
     remember the path, the branch's states are those of one roll of the whole travel,
@@ -128,6 +129,7 @@ def test_the_trunk_s_states_are_experiments_along_its_roll(gripping):
         _balanced(state)
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 def test_a_branch_that_stops_keeps_the_states_it_reached(gripping):
     """Out of increments between its two states (24 of the 26 the branch takes with
     ccx 2.20), a branch raises with the state it reached, equal to the whole branch's:
@@ -162,6 +164,7 @@ def test_a_trunk_that_stops_keeps_the_states_it_reached(coarse, gripping):
                                atol=1e-12)
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 def test_a_saved_trunk_reads_back_as_the_trunk_its_branches_roll_on_from(coarse, gripping):
     """What a rolling tree keeps in its store (farm/solve/rolling_trunk_file.py): read
     back on the model's mesh it writes the same branch deck, and a branch rolled on from
@@ -191,6 +194,7 @@ def test_a_saved_trunk_reads_back_as_the_trunk_its_branches_roll_on_from(coarse,
         rolling_trunk_file.loads(data, other)
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 def test_a_tree_on_a_windowed_mesh_ends_its_straight_branch_as_the_roll_from_rest():
     """A windowed mesh's trunk starts with the window ahead by the trunk's and a straight
     branch's spin (trunk_start), as the roll from rest of both lengths does, so a

@@ -144,6 +144,7 @@ def _unheld_steps(road, before, after, tilt, rise, name, dwell=0.1):
     return D.road_position_lines(road, after[0], after[1], tilt, rise)
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 @pytest.mark.ccx
 def test_a_trunk_whose_step_fails_is_rerooted_from_rest(coarse, monkeypatch):
     """Without the hold ccx diverges in the tilted trunk's third step (the first

@@ -106,6 +106,7 @@ def test_a_frictionless_slide_moves_nothing(model, vertical):
                                    atol=1e-3 * np.abs(vertical.displacement).max())
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 def test_the_reinforced_preset_slides_to_coulomb_node_by_node():
     """reinforced-calibrated (issue 24): belts along their cords, tension-only cords and
     nu = 0.49 rubber. With the derived stick slope no frictional slide converged on this

@@ -134,6 +134,7 @@ class _Stop(Exception):
     """Stands for the client dying between storing a round and sweeping it."""
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 @pytest.mark.ccx
 def test_a_stopped_adaptive_study_resumes_at_its_round(tmp_path, counting_ccx):
     from analysis.adaptive import SurrogateChooser
@@ -173,6 +174,7 @@ def test_a_stopped_adaptive_study_resumes_at_its_round(tmp_path, counting_ccx):
     assert out["groups"][0]["counts"] == {"done": 8, "failed": 0, "pending": 0}
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 @pytest.mark.ccx
 def test_an_adaptive_study_stops_once_its_target_is_met(tmp_path, counting_ccx):
     """A target every output meets after the initial design: no round is chosen."""

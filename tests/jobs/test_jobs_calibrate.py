@@ -95,6 +95,7 @@ def _curve(spec, deflections):
     return [m.total_force[2] for m in result.measurements]
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 @pytest.mark.ccx
 def test_recovers_known_moduli_from_the_models_own_curve(tmp_path):
     truth = {"tread": 7.0, "sidewall": 14.0}
@@ -117,6 +118,7 @@ def test_recovers_known_moduli_from_the_models_own_curve(tmp_path):
     assert result.stats.rounds < result.stats.evaluations  # Jacobian columns side by side
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 @pytest.mark.ccx
 def test_cli_fits_a_modulus_to_a_csv_and_writes_the_report(tmp_path, capsys):
     spec = dataclasses.replace(COARSE, materials=Materials(*(Material(6.0, 0.499),) * 3))

@@ -64,6 +64,7 @@ def _consistent(study) -> None:
         "pending": 0, "done": 2, "failed": 0}
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 def test_two_clients_on_one_scheduler_solve_each_experiment_once(write_study, counting_ccx):
     from distributed import LocalCluster
 
@@ -83,6 +84,7 @@ def test_two_clients_on_one_scheduler_solve_each_experiment_once(write_study, co
     _consistent(study)
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 def test_two_embedded_clusters_on_one_store_solve_each_experiment_once(write_study,
                                                                         counting_ccx):
     path = write_study(deflections=DEFLECTIONS)

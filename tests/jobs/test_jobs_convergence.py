@@ -109,6 +109,7 @@ def test_a_solver_failure_is_a_record_with_its_reason():
     assert record["reason"].startswith("ccx failed (timeout")
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 @pytest.mark.ccx
 def test_two_levels_solve_on_a_dask_cluster_and_balance():
     case = Case("vertical", 200.0, (15.0,))

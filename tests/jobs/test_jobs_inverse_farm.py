@@ -148,6 +148,7 @@ def _solvers_in(folder) -> list:
     return found
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 def test_a_killed_client_resumes_to_the_same_result(solved, tmp_path, counting_ccx):
     _, clean = solved
     path = write(tmp_path, LSQ, cache="resume-cache")
@@ -174,6 +175,7 @@ def test_a_killed_client_resumes_to_the_same_result(solved, tmp_path, counting_c
     np.testing.assert_array_equal(resumed.results[0].x, clean.results[0].x)
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 @pytest.mark.timeout(600)
 def test_more_loops_than_workers_finish_and_share_evaluations(tmp_path):
     study = load_inverse_study(write(tmp_path, MANY))

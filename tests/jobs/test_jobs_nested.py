@@ -192,6 +192,7 @@ def test_tree_sweep_stores_the_results_of_the_plain_sweep_in_fewer_runs(tmp_path
             assert np.abs(a[i] - b[i]).max() <= rtol * np.linalg.norm(b[i]), (name, a[i], b[i])
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 @pytest.mark.ccx
 def test_a_slide_whose_trunk_failed_is_solved_from_rest(tmp_path):
     study = _study(tmp_path / "s.zarr")
@@ -233,6 +234,7 @@ def _reserved(study):
     return trees
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 @pytest.mark.ccx
 def test_a_trunk_is_solved_once_and_read_back_by_the_next_task(tmp_path):
     """Issue 50: a trunk's states lived in one worker's memory, so a lost worker's
@@ -263,6 +265,7 @@ def test_a_trunk_is_solved_once_and_read_back_by_the_next_task(tmp_path):
         np.testing.assert_array_equal(x.displacement, y.displacement)
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 @pytest.mark.ccx
 def test_a_resumed_tree_study_solves_no_trunk_again(tmp_path):
     """The trunks ran (a client killed after them): resume solves the four slides only,

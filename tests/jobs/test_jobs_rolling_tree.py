@@ -255,6 +255,7 @@ def test_an_estimated_radius_rolls_the_trunk_without_a_search(tmp_path, monkeypa
         parse_study(_study(tmp_path, "friction = [0.6]\n", roll + 'rolling_radius_mm = "guess"'))
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 @pytest.mark.ccx
 def test_a_tree_lost_in_a_branch_rolls_on_from_its_saved_trunk(tmp_path, counting_ccx,
                                                                monkeypatch):

@@ -24,6 +24,7 @@ from tyre_farm_cli import main
 pytestmark = pytest.mark.ccx
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 def test_sweep_fills_the_store_and_resubmission_solves_nothing(write_study, counting_ccx):
     study = load_study(write_study())
     report = run_sweep(study, workers=2)
@@ -50,6 +51,7 @@ def test_sweep_fills_the_store_and_resubmission_solves_nothing(write_study, coun
     assert ccx_runs(counting_ccx) == runs
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 def test_a_case_that_cannot_converge_is_recorded(write_study, capsys):
     path = write_study(deflections="[10, 20, 170]",
                        solver="max_path_length = 1\nretry_smaller_increments = false")
@@ -102,6 +104,7 @@ def test_killed_client_then_resume_solves_only_what_was_left(write_study, counti
     assert ccx_runs(counting_ccx) - runs == before["pending"]
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 def test_repair_then_resume_restores_every_promised_case(write_study, counting_ccx, capsys):
     """Issue 26, end to end with the solver: each kind of damage is repaired, then the
     study resumed; the runs it costs are exactly the experiments whose data were lost."""

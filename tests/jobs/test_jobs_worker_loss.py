@@ -68,6 +68,7 @@ def _raises(_: int) -> int:
     raise ValueError("a bug, not a lost worker")
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 def test_a_task_is_resubmitted_until_it_outlives_its_workers(strict, tmp_path):
     task = Attempts(strict, _dies_first, (str(tmp_path), 2), key="dies-twice", limit=3)
     assert task.result(timeout=120) == 2
@@ -187,6 +188,7 @@ def _kill_workers_running_ccx(kills: int, done: list[int], jobs: tuple[str, ...]
         time.sleep(0.05)
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 @pytest.mark.ccx
 def test_a_sweep_outlives_a_scheduler_that_allows_one_failure(write_study):
     """Two kills of the worker running the sweep's only task: the scheduler re-runs it

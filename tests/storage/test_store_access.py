@@ -117,6 +117,7 @@ def test_a_full_disk_is_one_line_and_the_half_made_group_is_named(tiny_disk, tmp
     assert info.value.code == 1 and "creation never finished" in out, out
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 @pytest.mark.ccx
 def test_a_disk_full_mid_sweep_is_one_line_naming_the_worker_log(small_disk, tmp_path,
                                                                  capsys, monkeypatch):

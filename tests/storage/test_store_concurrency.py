@@ -41,6 +41,7 @@ N_INNER, N_TREAD = 300, 100
 WORKERS, PER_WORKER = 4, 100
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 def test_four_processes_write_400_experiments_bit_identical(tmp_path):
     path = tmp_path / "farm.zarr"
     storage.create_group(path, GROUP, make_mesh(N_INNER, N_TREAD), make_attrs())
@@ -173,6 +174,7 @@ def _raw(results: list[tuple]) -> list[str]:
     return [f"{r[1]}: {r[2]}\n{r[4]}" for r in results if r[0] == "err"]
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 def test_racing_reserves_lose_and_mislabel_nothing(racers, tmp_path):
     path = str(tmp_path / "farm.zarr")
     lost = mislabelled = misplaced = duplicated = 0
@@ -385,6 +387,7 @@ def s3_store(s3_endpoint, tmp_path, monkeypatch):
     return storage.open_store(url, storage_options=options), fs, url
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 def test_racing_reserves_on_an_object_store_take_turns(s3_store):
     """Two clients (threads: 1-3 s a reserve on moto) released together."""
     store, fs, url = s3_store

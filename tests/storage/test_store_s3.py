@@ -31,6 +31,7 @@ def bucket(s3_endpoint, monkeypatch):
     return name
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 def test_a_store_url_goes_through_fsspec(bucket):
     url = f"s3://{bucket}/farm.zarr"
     mesh = make_mesh()

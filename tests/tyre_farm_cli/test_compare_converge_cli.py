@@ -35,6 +35,7 @@ def test_bad_input_is_one_line_and_nothing_is_solved(argv, needle, capsys, monke
     assert code == 2 and out == "" and err.count("\n") == 1 and needle in err, err
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 @pytest.mark.ccx
 def test_compare_puts_both_readings_beside_the_model(tmp_path, capsys, monkeypatch):
     monkeypatch.setenv("FARM_CACHE_DIR", str(tmp_path / "cache"))
@@ -68,6 +69,7 @@ def test_converge_quick_writes_the_table(tmp_path, capsys, monkeypatch):
     assert {r["status"] for r in doc["records"]} == {"done"}
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 @pytest.mark.ccx
 def test_converge_refines_one_direction_and_judges_it_on_its_own(tmp_path, capsys,
                                                                  monkeypatch):

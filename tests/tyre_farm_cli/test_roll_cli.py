@@ -27,6 +27,7 @@ def test_bad_arguments_give_one_line_and_nonzero_exit(argv, needle, capsys, monk
     assert err.count("\n") == 1 and err.startswith("farm: error: ") and needle in err
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 @pytest.mark.ccx
 def test_roll_prints_forces_along_the_roll_as_json(capsys):
     code, out, _ = run_cli(["roll", *COARSE, "--rolling-radius", "402.9", "--distance", "20",
@@ -41,6 +42,7 @@ def test_roll_prints_forces_along_the_roll_as_json(capsys):
     assert doc["inflated_radius_mm"] - 15.0 < doc["roll"]["rolling_radius"]
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 @pytest.mark.ccx
 def test_a_searched_radius_is_the_one_rolled_and_reported(capsys, monkeypatch):
     """``--rolling-radius free``: the roll runs at the radius the search returns, and the

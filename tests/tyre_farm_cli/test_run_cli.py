@@ -61,6 +61,7 @@ def test_run_prints_the_force_table_and_saves_arrays(tmp_path, capsys):
         assert np.all(z["total_force"][:, 2] > 0)
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 @pytest.mark.ccx
 def test_a_combined_run_keeps_every_array_and_prints_json(tmp_path, capsys):
     """Issue 25: --out dropped every combined-load array (both states of a slide read

@@ -168,6 +168,7 @@ def test_targets_beyond_the_four_totals_are_predicted_and_scored(stores, tmp_pat
     assert code != 0 and "has no 'slip_angle'" in err
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 def test_the_window_moved_shows_where_to_look(stores, tmp_path):
     """--positions (issue 46): the base window moved ahead of the patch and towards a
     side, each a model of its own; a bad pair, or a window off the surface, is one error
@@ -193,6 +194,7 @@ def test_the_window_moved_shows_where_to_look(stores, tmp_path):
     assert code != 0 and "sees only" in err and not (tmp_path / "y").exists()
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 def test_the_error_against_the_training_set_s_size(stores, tmp_path):
     """--sizes (issue 46): the base sensor trained on shares of each split's training
     paths, tested on the same held-out ones; fewer paths than folds is one error before
@@ -325,6 +327,7 @@ def test_a_gp_model_saves_loads_and_predicts(stores, tmp_path):
     assert len(json.loads(stdout)["predictions"]) == 2
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 @pytest.mark.parametrize("learner", ["krr", "auto"])
 def test_fit_with_kernel_ridge_or_auto_saves_loads_and_predicts(stores, tmp_path, learner):
     """Issue 46: the kernel ridge on the scores, and the learner chosen by grouped CV."""
@@ -345,6 +348,7 @@ def test_fit_with_kernel_ridge_or_auto_saves_loads_and_predicts(stores, tmp_path
     assert len(json.loads(stdout)["predictions"]) == 2
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 def test_sensor_study_takes_the_new_learners(stores, tmp_path):
     code, _out, err = _cli(["analyse", "sensor", stores / "a.zarr", "--out", tmp_path,
                            "--sensor", SENSOR, "--windows", "20", "--noises", "0.2",
@@ -569,6 +573,7 @@ def test_fit_refuses_groups_it_cannot_use_in_one_line(population, tmp_path, grou
     assert not (tmp_path / "m").exists()
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 def test_analyse_population_compares_the_two_models_over_repeated_splits(stores, population,
                                                                        tmp_path):
     code, out, err = _cli(["analyse", "population", stores / "a.zarr", population,

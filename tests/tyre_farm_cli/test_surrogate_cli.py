@@ -24,6 +24,7 @@ def _cli(argv, capsys):
     return run_cli([str(a) for a in argv], capsys)
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 def test_the_json_carries_the_held_out_table_and_the_model_is_written(store, tmp_path,
                                                                        capsys):
     code, out, err = _cli(["analyse", "surrogate", store, "--out", tmp_path, "--folds", 4,
