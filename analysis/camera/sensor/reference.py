@@ -11,7 +11,8 @@ inflation (a few mm on a 400 mm tyre, the store's ``inflation_growth``).
 :func:`reference_gap` measures what that costs on a store's own experiments: the ideal
 sensor's CST strain (every node in the window, no noise: the uninflated reference) against
 the store's ``surface_strain`` (the same CST function on the inflated reference) at the
-same nodes, beside how far the sensor's own noise moves the strain it measures. A gap far
+same nodes (the whole circumference where the window holds too few node columns),
+beside how far the sensor's own noise moves the strain it measures. A gap far
 below the noise does not matter to a model trained on measurements; a gap near it would.
 """
 
@@ -26,7 +27,7 @@ from analysis.camera.sensor.layout import interpolate
 from analysis.camera.sensor.model import VirtualSensor
 from analysis.camera.sensor.spec import SensorSpec
 from analysis.camera.sensor.surface import InnerSurface
-from analysis.errors import MissingVariableError
+from analysis.errors import MissingVariableError, ParameterError
 
 __all__ = ["ReferenceGap", "reference_gap"]
 
@@ -89,7 +90,7 @@ def reference_gap(ds: xr.Dataset, surface: InnerSurface, U: np.ndarray, spec: Se
     if "surface_strain" not in ds:
         raise MissingVariableError(f"group {ds.attrs.get('group', '?')!r} has no "
                                    "'surface_strain': the reference's effect is measured on it")
-    ideal = VirtualSensor(replace(spec.noise_free(), spacing_mm=None), surface)
+    ideal = _ideal(spec, surface)
     clean = ideal.clean(U)
     measured = ideal.features(*ideal.measure(clean, None), ["surface_strain"])[0]
     stored = np.asarray(ds["surface_strain"].transpose("experiment", "inner_node", ...)
@@ -102,6 +103,17 @@ def reference_gap(ds: xr.Dataset, surface: InnerSurface, U: np.ndarray, spec: Se
     return ReferenceGap(gap=gap, signal=_rms(truth[:, inner]),
                         noise=_noise(VirtualSensor(spec, surface), U, rng),
                         points=int(inner.sum()), experiments=K)
+
+
+def _ideal(spec: SensorSpec, surface: InnerSurface) -> VirtualSensor:
+    """The noise-free sensor at the FE nodes of ``spec``'s window; the whole circumference
+    where the window holds too few node columns (a coarse mesh: 16 elements round leave
+    one column in 40°)."""
+    exact = replace(spec.noise_free(), spacing_mm=None)
+    try:
+        return VirtualSensor(exact, surface)
+    except ParameterError:
+        return VirtualSensor(replace(exact, window_deg=360.0, centre_deg=0.0), surface)
 
 
 def _interior(pr: int, pc: int, periodic: bool) -> np.ndarray:

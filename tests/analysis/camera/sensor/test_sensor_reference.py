@@ -63,3 +63,15 @@ def test_the_gap_is_set_beside_the_sensor_s_own_noise(torus_ds, torus):
     assert gap.points < window.layout.n_points  # the window's edge rows and columns out
     assert gap.noise > gap.gap > 0.0  # 2 mm of position noise swamps a 1 % stretch
     assert f"{gap.noise / gap.gap:.0f}x the gap" in gap.sentence()
+
+
+def test_a_window_with_too_few_node_columns_is_measured_round_the_tyre(torus_ds, torus):
+    """A coarse mesh leaves fewer than three node columns in the window (16 elements
+    round: one in 40°): the gap is then measured on the whole circumference."""
+    U = _displacements(torus)
+    ds = _with_store_strain(torus_ds, torus, U, 0.01)
+    narrow = reference_gap(ds, torus, U, sensor_spec("t2cam-2017,window_deg=8,width_mm=150"),
+                           np.random.default_rng(3))
+    whole = reference_gap(ds, torus, U, sensor_spec("t2cam-2017,window_deg=360,width_mm=150"),
+                          np.random.default_rng(3))
+    assert narrow.points == whole.points and narrow.gap == whole.gap > 0.0
