@@ -4,18 +4,24 @@ Every other analysis reads every inner-surface node exactly. This one measures t
 group's experiments with a virtual T2Cam (:mod:`analysis.camera.sensor`): a window about the
 contact patch, points on a grid of their own, noisy reference and deformed clouds,
 strain by four CSTs from the noisy clouds (thesis §2.2). Around a base sensor it varies
-one thing at a time - the window (10°-360°), the position noise, the point spacing -
-and for each sensor:
+one thing at a time - the window (10°-360°), the position noise, the point spacing,
+where the window looks (issue 46) - and for each sensor:
 
-- a seeded held-out split of the experiments (the same for every sensor and learner);
+- seeded held-out splits that keep load paths whole (the same for every sensor and
+  learner; repeated over seeds, issue 46);
 - features of the training experiments from ``draws`` noisy measurements each (what a
   model trained on measurements sees), and again noise-free (``training`` column), and
   of the held-out ones from ``draws`` noisy measurements;
 - each learner of :mod:`analysis.camera.learners` (PLSR with the count chosen by grouped CV on
   the training part; a Gaussian process on the PLS scores) fitted on the same rows;
-- held-out RMSE of Fx, Fy, Fz and Mz as % of each total's range over all selected
-  experiments, beside the published anchors (Fz 1.8, Fy 3, Fx 4.7 %) and issue 27's
-  goals (Fz 1.5, Fy 2.5, Fx 4, Mz 5 %).
+- held-out RMSE of Fx, Fy, Fz and Mz (or any target of ``ALL_TARGETS``) as % of each
+  target's range over all selected experiments, beside the published anchors (Fz 1.8,
+  Fy 3, Fx 4.7 %) and issue 27's goals (Fz 1.5, Fy 2.5, Fx 4, Mz 5 %);
+- for the base sensor, the held-out coverage of 90 % split-conformal intervals.
+
+Optionally (issue 46) the base sensor trained on the design's interior and tested at
+its edges, and on smaller shares of each split's training paths; every study measures
+its reference cloud's effect (:mod:`analysis.camera.sensor.reference`).
 """
 
 from __future__ import annotations
