@@ -33,13 +33,7 @@ from farm.measure.camera import camera_state
 from farm.measure.measurement import measure
 from farm.mesh import TyreMesh, mesh_for
 from farm.solve import rolling_trunk_file
-from farm.solve.rolling import (
-    RolledState,
-    cached_free_radius,
-    estimated_radius,
-    search_roll,
-    with_stick_slope,
-)
+from farm.solve.rolling import RolledState, motion_radius, with_stick_slope
 from farm.solve.rolling_tree import RollingTrunk, solve_rolling_branch, solve_rolling_trunk
 from farm.solve.states import PathSolution
 from farm.specs import ModelSpec, Roll, SolverSettings
@@ -218,19 +212,14 @@ def _drop_if_finished(task: RollTreeTask) -> None:
 def _radius(task: RollTreeTask, spec: ModelSpec, mesh: TyreMesh,
             should_stop: Callable[[], bool] | None
             ) -> tuple[float | Failed, float, int]:
-    """The trunk's rolling radius (the study's; estimated from the inflated radius, issue
-    46; or found by a search: cached per model, pressure, deflection and roll as for
+    """The trunk's rolling radius (:func:`farm.solve.rolling.motion_radius`: the study's,
+    the estimate, or a search cached per model, pressure, deflection and roll as for
     plain rolls), with the search's seconds and runs."""
-    motion, tree = task.tree.motion, task.tree
-    if motion.rolling_radius is not None:
-        return motion.rolling_radius, 0.0, 0
-    found: list = []
+    tree, found = task.tree, []
 
     def find(settings: SolverSettings) -> float:
-        if motion.radius_estimate:
-            return estimated_radius(spec, mesh, tree.deflection, tree.pressure, settings)
-        radius, tried = cached_free_radius(spec, mesh, tree.deflection, tree.pressure,
-                                           search_roll(spec, motion), settings, should_stop)
+        radius, tried = motion_radius(spec, mesh, tree.motion, tree.deflection,
+                                      tree.pressure, settings, should_stop)
         found.extend(tried)
         return radius
 

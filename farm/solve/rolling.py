@@ -426,15 +426,10 @@ def roll_path(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: SolverS
         raise SpecError(f"a rolling path has one deflection, got {list(path.deflections)}")
     [deflection] = path.deflections
     spec = with_stick_slope(spec, motion)
-    spent, runs, increments = 0.0, 0, 0
-    radius = motion.rolling_radius
-    if radius is None and motion.radius_estimate:
-        radius = estimated_radius(spec, mesh, deflection, path.pressure, settings)
-    if radius is None:
-        radius, tried = cached_free_radius(spec, mesh, deflection, path.pressure,
-                                           search_roll(spec, motion), settings, should_stop)
-        spent, runs = sum(t.seconds for t in tried), len(tried)
-        increments = sum(t.increments for t in tried)
+    radius, tried = motion_radius(spec, mesh, motion, deflection, path.pressure, settings,
+                                  should_stop)
+    spent, runs = sum(t.seconds for t in tried), len(tried)
+    increments = sum(t.increments for t in tried)
     try:
         run, states = _roll_run(spec, mesh, deflection, path.pressure,
                                 motion.as_roll(radius), settings, path.motion_fractions,
@@ -442,7 +437,7 @@ def roll_path(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: SolverS
     except SolverError as e:
         if isinstance(e.partial, tuple):  # the rolled states it reached
             e = e.with_partial(tuple(_after(s, spent) for s in e.partial))
-        if motion.rolling_radius is not None or motion.radius_estimate:
+        if not motion.searches_radius:
             raise e from None
         # what the search found is kept (and cached: a retry rolls at once)
         raise e.noting(f"The free-rolling radius found before the roll: {radius:.3f} mm "
@@ -625,6 +620,22 @@ def estimated_radius(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressur
     search (:func:`free_rolling_radius`) costs about three. A roll at it is not free
     rolling exactly: its Fx at kappa = 0 shows the gap (issue 46's study stores it)."""
     return inflated_radius(spec, mesh, pressure, settings) - FREE_RADIUS_DROP * deflection
+
+
+def motion_radius(spec: ModelSpec, mesh: TyreMesh, motion: RoadMotion, deflection: float,
+                  pressure: float, settings: SolverSettings,
+                  should_stop: Callable[[], bool] | None = None,
+                  ) -> tuple[float, list[RadiusTry]]:
+    """The radius a roll of ``motion`` turns the rim with - the given one, the estimate
+    (:func:`estimated_radius`) or a search (:func:`cached_free_radius`) - and the search's
+    rolls (none for the other two, or when the cache answered). Rolls from rest and
+    rolling trees' trunks take theirs here."""
+    if motion.rolling_radius is not None:
+        return motion.rolling_radius, []
+    if motion.radius_estimate:
+        return estimated_radius(spec, mesh, deflection, pressure, settings), []
+    return cached_free_radius(spec, mesh, deflection, pressure, search_roll(spec, motion),
+                              settings, should_stop)
 
 
 def inflated_radius(spec: ModelSpec, mesh: TyreMesh, pressure: float,

@@ -165,6 +165,11 @@ class RoadMotion:
                     rolling_radius=radius)
 
     @property
+    def searches_radius(self) -> bool:
+        """Whether the roll's radius is searched for (neither given nor estimated)."""
+        return self.rolls and self.rolling_radius is None and not self.radius_estimate
+
+    @property
     def moves(self) -> bool:
         """Whether the road moves after the deflection (a shift)."""
         return bool(self.shift_x or self.shift_y)

@@ -234,7 +234,7 @@ def test_an_estimated_radius_rolls_the_trunk_without_a_search(tmp_path, monkeypa
     from jobs import rolling_trees
 
     monkeypatch.setattr(rolling, "inflated_radius", lambda spec, mesh, kpa, s: 400.0 + kpa)
-    monkeypatch.setattr(rolling_trees, "cached_free_radius", pytest.fail)
+    monkeypatch.setattr(rolling, "cached_free_radius", pytest.fail)  # no search roll
     roll = "distance_mm = 60\nbranch_from_mm = 30\n"
     study = parse_study(_study(tmp_path, "friction = [0.6]\nslip_angle_deg = [0, 2]\n",
                                roll + 'rolling_radius_mm = "estimate"\n'))
