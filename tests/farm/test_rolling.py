@@ -224,6 +224,30 @@ def test_mirrored_slip_angles_mirror_fy_mx_mz(coarse):
     _balanced(left)
 
 
+def test_a_roll_from_rest_at_an_estimated_radius_searches_none(monkeypatch, coarse):
+    """``radius_estimate`` (issue 46) on a roll from rest: it rolls at R - 0.59 d of its
+    pressure's inflated radius, runs no search roll, and a failed roll's reason names no
+    searched radius. Synthetic rolls (the logic, not the solver)."""
+    spec, mesh = coarse
+    rolled = []
+
+    def failing_roll(spec_, mesh_, deflection, pressure, roll, settings, fractions, stop):
+        rolled.append(roll.rolling_radius)
+        raise SolverError("increment_below_minimum", ["ccx", "roll"], 201, "too small",
+                          reached=2.3)
+
+    monkeypatch.setattr(rolling, "inflated_radius", lambda *a: 411.0)
+    monkeypatch.setattr(rolling, "cached_free_radius", pytest.fail)
+    monkeypatch.setattr(rolling, "_roll_run", failing_roll)
+    motion = RoadMotion(friction=MU, roll=200.0, slip_ratio=0.01, radius_estimate=True)
+    assert not motion.searches_radius and RoadMotion(friction=MU, roll=1.0).searches_radius
+    with pytest.raises(SolverError) as failed:
+        rolling.roll_path(spec, mesh, LoadPath((DEFLECTION,), PRESSURE, motion),
+                          SolverSettings())
+    assert rolled == [pytest.approx(411.0 - rolling.FREE_RADIUS_DROP * DEFLECTION)]
+    assert "free-rolling radius found" not in str(failed.value)
+
+
 @pytest.mark.slow
 @pytest.mark.ccx
 def test_fx_grows_with_the_slip_ratio(coarse):

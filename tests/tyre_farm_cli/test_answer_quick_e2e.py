@@ -11,19 +11,14 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from tests.tyre_farm_cli.cli_helpers import run_cli
+
 ROOT = Path(__file__).resolve().parents[2]
 
 
 def _farm(argv, capsys) -> tuple[int, str, str]:
-    from tyre_farm_cli import main
-
-    try:
-        main([str(a) for a in argv])
-        code = 0
-    except SystemExit as e:
-        code = int(e.code or 0)
-    out = capsys.readouterr()
-    return code, out.out, out.err
+    code, out, err = run_cli([str(a) for a in argv], capsys)
+    return int(code or 0), out, err
 
 
 @pytest.mark.ccx

@@ -45,6 +45,8 @@ class ReferenceGap:
     noise : the sensor's measured strain minus its noise-free measurement (the spec's
         own noise; 0 for a noise-free sensor).
     points, experiments : how many interior points and experiments the RMS values span.
+    window_deg : the window the points lie in: the sensor's, or 360 where its window held
+        too few node columns.
     """
 
     gap: float
@@ -52,6 +54,7 @@ class ReferenceGap:
     noise: float
     points: int
     experiments: int
+    window_deg: float
 
     @property
     def relative(self) -> float:
@@ -64,8 +67,9 @@ class ReferenceGap:
                    f"({self.noise / self.gap:.0f}x the gap)" if self.noise > 0
                    and self.gap > 0 else "the sensor has no noise")
         return (f"The virtual camera's reference cloud is the uninflated mesh; measured "
-                f"against the store's strain on the inflated tyre over {self.points} points "
-                f"of the window and {self.experiments} experiments, the CST strain differs "
+                f"against the store's strain on the inflated tyre over {self.points} nodes "
+                f"of a {self.window_deg:g}° window and {self.experiments} experiments, the "
+                f"CST strain differs "
                 f"by {self.gap:.2e} RMS ({100 * self.relative:.2f} % of the strain's "
                 f"{self.signal:.2e}); {against}.")
 
@@ -102,7 +106,8 @@ def reference_gap(ds: xr.Dataset, surface: InnerSurface, U: np.ndarray, spec: Se
     gap = _rms((mine - truth)[:, inner])
     return ReferenceGap(gap=gap, signal=_rms(truth[:, inner]),
                         noise=_noise(VirtualSensor(spec, surface), U, rng),
-                        points=int(inner.sum()), experiments=K)
+                        points=int(inner.sum()), experiments=K,
+                        window_deg=ideal.spec.window_deg)
 
 
 def _ideal(spec: SensorSpec, surface: InnerSurface) -> VirtualSensor:

@@ -75,3 +75,4 @@ def test_a_window_with_too_few_node_columns_is_measured_round_the_tyre(torus_ds,
     whole = reference_gap(ds, torus, U, sensor_spec("t2cam-2017,window_deg=360,width_mm=150"),
                           np.random.default_rng(3))
     assert narrow.points == whole.points and narrow.gap == whole.gap > 0.0
+    assert narrow.window_deg == 360.0 and "a 360° window" in narrow.sentence()
