@@ -28,6 +28,7 @@ from farm.solve.paths import PathSolver
 from farm.solve.rolling import (
     RadiusTry,
     RolledState,
+    free_roll_mm,
     free_rolling_radius,
     inflated_radius,
     solve_roll,
@@ -173,7 +174,12 @@ def roll_once(model: ModelSpec, deflection: float, pressure: float, motion: Roll
     tried: tuple[RadiusTry, ...] = ()
     if find_radius:
         say("finding the free-rolling radius (rolls at kappa = 0)")
-        radius, found = free_rolling_radius(model, mesh, deflection, pressure, motion, settings)
+        # the search's rolls have their own length, not the roll's: a short roll's
+        # Fx at its end is still the roll-in's (``farm roll --distance 20`` searched with
+        # 20 mm rolls until 2026-11-30, and found 394.7 mm for patch where a tree's
+        # states put free rolling near 392.6 mm; docs/rolling.md)
+        search = dataclasses.replace(motion, distance=free_roll_mm(model))
+        radius, found = free_rolling_radius(model, mesh, deflection, pressure, search, settings)
         motion, tried = dataclasses.replace(motion, rolling_radius=radius), tuple(found)
     say(f"rolling {motion.distance:g} mm at r_e {motion.rolling_radius:.2f} mm")
     fractions = tuple(float(f) for f in np.round(np.linspace(0, 1, samples + 1), 9))

@@ -453,6 +453,20 @@ def _repeats_and_edges(repeats: int, edges: float) -> None:
         raise ParameterError(f"--edges must be in [0, 0.5), got {edges}")
 
 
+# -------------------------------------------------------------- free rolling (issue 46)
+
+@app.command("free-rolling")
+@with_tls
+def free_rolling(store: Store, group: Group = None, out: Out = None, pressure: Pressure = None,
+                 scheduler: Scheduler = None, storage_option: StorageOption = None,
+                 as_json: Json = False) -> None:
+    """Each rolling tree's free rolling, measured from its states: the commanded slip
+    at which it rolls freely and its free-rolling radius (the slip target
+    free_slip_ratio is measured from it; issue 46)."""
+    _analyse("free_rolling", "free-rolling", store=store, options=storage_option,
+             group=group, pressure=pressure, out=out, scheduler=scheduler, as_json=as_json)
+
+
 # ----------------------------------------------------------------- population (issue 47)
 
 @app.command("population")

@@ -172,8 +172,9 @@ Sizes = Annotated[
 ]
 Targets = Annotated[
     str, typer.Option(help="What the models predict, comma-separated: Fx, Fy, Fz, Mx, My, Mz, "
-                      "slip_ratio, slip_angle, tilt (the camber), or all (those that vary "
-                      "in the group; issue 46).")
+                      "slip_ratio (commanded), free_slip_ratio (from each rolling tree's "
+                      "measured free rolling: farm analyse free-rolling), slip_angle, tilt "
+                      "(the camber), or all (those that vary in the group; issue 46).")
 ]
 Edges = Annotated[
     float, typer.Option(help="Also train on the interior and test on the load paths with a "

@@ -23,17 +23,23 @@ from analysis.camera.sensor import VirtualSensor
 from analysis.camera.sensor.model import INPUTS
 from analysis.data import TOTALS, totals
 from analysis.errors import MissingVariableError, ParameterError
+from analysis.free_rolling import free_rolling, free_slip_ratio
 
-__all__ = ["ALL_TARGETS", "MODEL_INPUTS", "TARGETS", "TPMS", "UNITS", "camera_inputs",
+__all__ = ["ALL_TARGETS", "FREE_SLIP", "MODEL_INPUTS", "TARGETS", "TPMS", "UNITS", "camera_inputs",
            "displacements", "measured_features", "model_inputs", "pressures", "targets",
            "varying_targets", "with_tpms"]
 
 TARGETS = ("Fx", "Fy", "Fz", "Mz")
+#: the slip ratio measured from each rolling tree's own free rolling
+#: (:func:`analysis.free_rolling.free_slip_ratio`), where ``slip_ratio`` is the one
+#: commanded against the radius the trunk rolled with
+FREE_SLIP = "free_slip_ratio"
 #: every target a study may ask for (issue 46): the six forces and moments, and the
-#: load case's slip ratio, slip angle and camber (the road's tilt) themselves
-ALL_TARGETS = (*TOTALS, "slip_ratio", "slip_angle", "tilt")
+#: load case's slip ratio (commanded, and from free rolling), slip angle and camber (the
+#: road's tilt) themselves
+ALL_TARGETS = (*TOTALS, "slip_ratio", FREE_SLIP, "slip_angle", "tilt")
 UNITS = {"Fx": "N", "Fy": "N", "Fz": "N", "Mx": "N mm", "My": "N mm", "Mz": "N mm",
-         "slip_ratio": "1", "slip_angle": "deg", "tilt": "deg"}
+         "slip_ratio": "1", FREE_SLIP: "1", "slip_angle": "deg", "tilt": "deg"}
 #: the inflation pressure (kPa) a TPMS reads: one feature column after the camera's
 TPMS = "tpms_pressure"
 #: every input a force model may read, in the order of its feature columns
@@ -83,10 +89,39 @@ def targets(ds: xr.Dataset, names=TARGETS) -> np.ndarray:
 
 
 def _parameter(ds: xr.Dataset, name: str) -> np.ndarray:
+    if name == FREE_SLIP:
+        return _free_slip(ds)
     if name not in ds.variables:
         raise MissingVariableError(f"group {ds.attrs.get('group', '?')!r} has no {name!r}: its "
                                    "load cases do not set it; leave it out of the targets")
     return np.asarray(ds[name].values, dtype=float)
+
+
+def _free_slip(ds: xr.Dataset) -> np.ndarray:
+    slip = free_slip_ratio(ds)
+    if np.isnan(slip).any():
+        table = free_rolling(ds)
+        lost = table[table["kappa0"].isna()]
+        where = ", ".join(f"{p:.0f} kPa and {d:.1f} mm" for p, d in
+                          zip(lost["pressure_kPa"], lost["deflection_mm"], strict=True))
+        raise MissingVariableError(
+            f"{FREE_SLIP}: the free rolling of {len(lost)} of {len(table)} trees is not "
+            f"measured (fewer than two slips in their linear range: {where}); wait for "
+            "their branches, or leave the target out")
+    return slip
+
+
+def _measurable(ds: xr.Dataset, name: str) -> bool:
+    """Whether ``ds`` holds target ``name``: a total always, a parameter where stored,
+    the free slip where every tree's free rolling is measured."""
+    if name in TOTALS:
+        return True
+    if name == FREE_SLIP:
+        try:
+            return bool(np.isfinite(_free_slip(ds)).all())
+        except MissingVariableError:
+            return False
+    return name in ds.variables
 
 
 def varying_targets(ds: xr.Dataset) -> tuple[str, ...]:
@@ -94,7 +129,7 @@ def varying_targets(ds: xr.Dataset) -> tuple[str, ...]:
     ``--targets all`` asks a study to predict)."""
     out = []
     for name in ALL_TARGETS:
-        if name not in TOTALS and name not in ds.variables:
+        if not _measurable(ds, name):
             continue
         if np.ptp(targets(ds, (name,))) > 0:
             out.append(name)

@@ -50,6 +50,12 @@ def test_the_quick_answer_study_sweeps_and_is_analysed_over_repeated_grouped_spl
     assert np.unique(np.round(radius, 6)).size == np.unique(groups).size
     unloaded = radius + FREE_RADIUS_DROP * done["deflection"].values - growth
     np.testing.assert_allclose(unloaded, unloaded[0], atol=1e-3)  # touch vs crown node
+    # each tree's free rolling measured from its states (the free_slip_ratio target's)
+    code, _, err = _farm(["analyse", "free-rolling", s.store, "--out", tmp_path / "free"],
+                         capsys)
+    assert code == 0, err
+    free = pd.read_csv(tmp_path / "free" / "free_rolling.csv")
+    assert len(free) == np.unique(groups).size and free["kappa0"].notna().any()
     out = tmp_path / "answer"
     code, _, err = _farm(["analyse", "sensor", s.store, "--out", out, "--repeats", 3,
                           "--edges", 0.1, "--folds", 3, "--targets", "all",
@@ -60,6 +66,7 @@ def test_the_quick_answer_study_sweeps_and_is_analysed_over_repeated_grouped_spl
     base = errors[(errors["axis"] == "base") & (errors["training"] == "noisy")]
     assert {"Fx", "Fy", "Fz", "Mz", "slip_ratio", "slip_angle"} <= set(base["target"])
     assert (base["splits"] == 3).all() and (base["rmse_pct_std"] > 0).any()
+    assert ("free_slip_ratio" in set(base["target"])) == free["kappa0"].notna().all()
     edges = pd.read_csv(out / "errors_edges.csv")
     assert set(edges["target"]) == set(errors["target"])
     gap = pd.read_csv(out / "reference.csv").iloc[0]

@@ -74,3 +74,15 @@ def test_road_axes_turn_the_learned_forces_of_tilted_experiments(stores, tmp_pat
     _run("combined", stores, "--group", "combined", "--out", tmp_path / "road", "--folds", 3,
          "--draws", 2, "--max-components", 6, "--axes", "road")
     assert "road's axes" in (tmp_path / "road" / "summary.md").read_text()
+
+
+def test_free_rolling_of_a_store_without_trees_is_one_line(stores, tmp_path, capsys):
+    """``farm analyse free-rolling`` (issue 46) on a group that never rolled: one line
+    naming what is missing, exit 1, no output folder."""
+    with pytest.raises(SystemExit) as info:
+        main(["analyse", "free-rolling", str(stores), "--group", "combined", "--out",
+              str(tmp_path / "fr")])
+    assert info.value.code == 1
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "a store of rolling trees" in err
+    assert "'slip_ratio'" in err and not (tmp_path / "fr" / "summary.md").exists()

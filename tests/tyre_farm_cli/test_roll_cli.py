@@ -62,3 +62,34 @@ def test_a_searched_radius_is_the_one_rolled_and_reported(capsys, monkeypatch):
         {"radius_mm": 401.0, "fx_n": 12.0, "fz_n": 3000.0},
         {"radius_mm": 402.5, "fx_n": 0.5, "fz_n": 3001.0}]}
     assert [s["travel_mm"] for s in doc["states"]] == [0.0, 10.0]
+
+
+class _Searched(Exception):
+    pass
+
+
+@pytest.mark.parametrize(("argv", "searched_mm"), [
+    (["--distance", "20"], 400.0),  # the coarse mesh's search length, not the roll's 20 mm
+    (["--distance", "20", "--mesh", "patch", "--materials", "reinforced-calibrated"], 150.0),
+])
+def test_the_radius_search_rolls_its_own_length_not_the_rolls(argv, searched_mm, capsys,
+                                                                 monkeypatch):
+    """``--rolling-radius free`` searches with rolls of ``free_roll_mm`` at kappa = 0,
+    whatever ``--distance`` asks of the roll itself: a 20 mm search roll reads Fx in the
+    roll-in (it found 394.7 mm for ``patch`` at 200 kPa and 15 mm, where 135 mm rolls put
+    free rolling at about 392.6 mm; docs/rolling.md)."""
+    import farm.experiment
+
+    rolls = []
+
+    def spy(model, mesh, deflection, pressure, roll, settings, **kw):
+        rolls.append(roll)
+        raise _Searched
+
+    monkeypatch.setattr(farm.experiment, "free_rolling_radius", spy)
+    monkeypatch.setattr(farm.experiment, "mesh_for", lambda model: None)
+    with pytest.raises(_Searched):
+        run_cli(["roll", *([] if "patch" in argv else COARSE), *argv, "--slip-ratio", "0.05"],
+                capsys)
+    [roll] = rolls
+    assert roll.distance == searched_mm and roll.slip_ratio == 0.05  # zeroed by the search
