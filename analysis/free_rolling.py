@@ -68,10 +68,11 @@ def segments(ds: xr.Dataset) -> pd.DataFrame:
         "alpha": np.asarray(ds["slip_angle"].values, float),
         "from": np.asarray(ds[ROLL_FROM].values, float),
         "travel": np.asarray(ds[TRAVEL].values, float), "fx": F[:, 0], "linear": linear})
-    rows = [_path_segments(tree, path, trunk)
-            for tree, one in frame.groupby("tree", sort=True)
-            for trunk in [one[one["from"] == 0].set_index("travel")]
-            for _, path in one.groupby(["from", "kappa", "alpha"], sort=True)]
+    rows = []
+    for tree, one in frame.groupby("tree", sort=True):
+        trunk = one[one["from"] == 0].set_index("travel")  # the states branches leave
+        rows += [_path_segments(int(tree), path, trunk)
+                 for _, path in one.groupby(["from", "kappa", "alpha"], sort=True)]
     return pd.concat(rows, ignore_index=True) if rows else pd.DataFrame(
         columns=["tree", "kappa", "ds", "fx0", "fx1", "linear"])
 
