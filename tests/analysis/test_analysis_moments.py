@@ -52,3 +52,25 @@ def test_chunked_moments_survive_a_large_mean():
     np.testing.assert_allclose(m.xx, Xc.T @ Xc, rtol=1e-6)
     naive = X.T @ X - 400 * np.outer(X.mean(0), X.mean(0))
     assert np.abs(naive - Xc.T @ Xc).max() > 1e-3 * np.abs(Xc.T @ Xc).max()  # it really fails
+
+
+@pytest.mark.parametrize("rank", [None, 20])
+def test_many_rows_are_reduced_through_the_gram_matrix_to_the_same_moments(random_xy, rank):
+    """K >= GRAM_ROWS (a sensor study's noisy draws): the Gram route reproduces the
+    centred products to 1e-10 of their scale and its basis is orthonormal; a block of
+    low rank keeps only its rank's directions, as the SVD does."""
+    from analysis.moments import GRAM_ROWS
+
+    K, N = GRAM_ROWS + 44, 700
+    X, Y = random_xy(K, N, 9, seed=3)
+    if rank is not None:
+        X = X[:, :rank] @ np.random.default_rng(1).standard_normal((rank, N))
+    m = compute_moments(X, Y)
+    Xc, Yc = X - X.mean(0), Y - Y.mean(0)
+    xx, xy, _ = _full(m)
+    scale = np.abs(Xc.T @ Xc).max()
+    np.testing.assert_allclose(xx, Xc.T @ Xc, atol=1e-10 * scale)
+    np.testing.assert_allclose(xy, Xc.T @ Yc, atol=1e-10 * np.abs(Xc.T @ Yc).max())
+    r = m.x_basis.shape[1]
+    assert r == (K - 1 if rank is None else rank)
+    np.testing.assert_allclose(m.x_basis.T @ m.x_basis, np.eye(r), atol=1e-8)
