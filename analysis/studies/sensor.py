@@ -27,7 +27,7 @@ its reference cloud's effect (:mod:`analysis.camera.sensor.reference`).
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
 
 import numpy as np
@@ -54,6 +54,7 @@ from analysis.splits import edge_split, path_groups, split
 from analysis.splits import folds as path_folds
 from analysis.studies.combined import check_combined
 from analysis.studies.common import Report
+from analysis.studies.resume import RowCache, fingerprint
 
 #: published recovery from inner-liner strains (% of range) and issue 27's goals
 ANCHORS = {"Fz": 1.8, "Fy": 3.0, "Fx": 4.7, "Mz": float("nan")}
@@ -158,7 +159,8 @@ def run(
                for axis, spec in variants(sensor, windows, noises, spacings, positions)]
     U = displacements(ds)
     report = Report(Path(out))
-    rows, points = _all_sensors(sensors, U, Y, setups, sized)
+    cache = RowCache(out, fingerprint(ds, Y))  # a stopped study resumes from its units
+    rows, points = _all_sensors(sensors, U, Y, setups, sized, cache)
     by_split = pd.DataFrame(rows)
     errors = over_splits(by_split)
     report.csv("errors", errors)
@@ -172,20 +174,28 @@ def run(
 
 
 def _all_sensors(sensors: list[tuple[str, VirtualSensor]], U: np.ndarray, Y: np.ndarray,
-                 setups: list[Setup], sized=()) -> tuple[list[dict], list[dict]]:
+                 setups: list[Setup], sized=(), cache: RowCache | None = None
+                 ) -> tuple[list[dict], list[dict]]:
     """Error rows of every sensor on every split (and of the base sensor on each
     smaller training set of ``sized``: (fraction, split, setup)), and each sensor's
-    points."""
+    points; each sensor on each split kept in ``cache`` as it ends (a stopped study
+    resumes: :mod:`analysis.studies.resume`)."""
+    def unit(k: int, axis: str, one: Setup) -> list[dict]:
+        virtual = sensors[k][1]
+        if cache is None:
+            return _one_sensor(virtual, U, Y, one, k, axis)
+        key = {"axis": axis, "k": k, "sensor": virtual.spec.to_dict(),
+               **{f.name: getattr(one, f.name) for f in fields(one)}}
+        return cache.rows(key, lambda: _one_sensor(virtual, U, Y, one, k, axis))
+
     rows, points = [], []
     for k, (axis, virtual) in enumerate(sensors):
         points.append({"axis": axis, **virtual.spec.to_dict(),
                        "points": int(np.prod(virtual.layout.xyz.shape[:2]))})
         for r, one in enumerate(setups):
-            rows += [{**row, "split": r, "train_fraction": 1.0}
-                     for row in _one_sensor(virtual, U, Y, one, k, axis)]
+            rows += [{**row, "split": r, "train_fraction": 1.0} for row in unit(k, axis, one)]
     for f, r, one in sized:
-        rows += [{**row, "split": r, "train_fraction": f}
-                 for row in _one_sensor(sensors[0][1], U, Y, one, 0, "size")]
+        rows += [{**row, "split": r, "train_fraction": f} for row in unit(0, "size", one)]
     return rows, points
 
 

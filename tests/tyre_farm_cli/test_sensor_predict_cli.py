@@ -728,3 +728,38 @@ def test_a_deformation_unlike_every_trained_one_is_flagged_not_predicted(model, 
         assert row["Fz_lower"] is None and row["Fz_upper"] is None  # unbounded
     code, out, _ = _cli(["predict", model[0], *paths])  # the table says it too
     assert code == OUTSIDE_EXIT and "outside: " in out
+
+
+def test_a_stopped_sensor_study_resumes_from_the_units_it_finished(stores, tmp_path,
+                                                                    monkeypatch):
+    """Issue 46 (the answer's study runs for hours): each sensor on each split is kept
+    under --out/.partial as it ends; run again, the same command computes only the
+    units it lacks and writes the same tables as an uninterrupted run."""
+    import analysis.studies.sensor as study
+
+    argv = ["analyse", "sensor", stores / "a.zarr", "--sensor", SENSOR, "--windows",
+            "360", "--noises", "0.5", "--spacings", "20", "--learners", "plsr",
+            "--folds", 4, "--draws", 2, "--repeats", 2]
+    whole = tmp_path / "whole"
+    assert _cli([*argv, "--out", whole])[0] in (0, None)
+    units = len(list((whole / ".partial").glob("*.json")))
+    assert units == 3 * 2  # base, window 360, noise 0.5 - on each of 2 splits
+
+    made, real = [], study._one_sensor
+
+    def stops_after_three(*args, **kwargs):
+        if len(made) == 3:
+            raise KeyboardInterrupt  # the machine goes away mid-study
+        made.append(args[-1])
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(study, "_one_sensor", stops_after_three)
+    stopped = tmp_path / "stopped"
+    assert _cli([*argv, "--out", stopped])[0] not in (0, None)  # the CLI's interrupt exit
+    assert len(list((stopped / ".partial").glob("*.json"))) == 3
+    made.clear()
+    monkeypatch.setattr(study, "_one_sensor", lambda *a, **k: made.append(a[-1]) or real(*a, **k))
+    assert _cli([*argv, "--out", stopped])[0] in (0, None)
+    assert len(made) == units - 3  # only what the stopped run had not finished
+    pd.testing.assert_frame_equal(pd.read_csv(stopped / "errors_by_split.csv"),
+                                  pd.read_csv(whole / "errors_by_split.csv"))
