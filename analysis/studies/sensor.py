@@ -144,9 +144,10 @@ def run(
     Y = targets(ds, target_names)
     _check(Y.shape[0], folds, draws, repeats, learner_names)
     groups = path_groups(ds)
-    setups = [Setup(*split(ds, test_fraction, seed + r),  # whole rolls (issue 45)
-                    tuple(learner_names), tuple(inputs), draws, folds, max_components,
-                    seed + r, groups, tuple(target_names)) for r in range(repeats)]
+    setups = [_trainable(Setup(*split(ds, test_fraction, seed + r),  # whole rolls
+                               tuple(learner_names), tuple(inputs), draws, folds,
+                               max_components, seed + r, groups, tuple(target_names)))
+              for r in range(repeats)]
     setup = setups[0]
     # the smaller training sets and the edges' split first: what cannot run fails here
     sized = [(f, r, fewer(one, f)) for f in sizes for r, one in enumerate(setups)]
@@ -211,7 +212,24 @@ def fewer(setup: Setup, fraction: float) -> Setup:
                              f"fewer than the {setup.folds} CV folds: give a larger fraction "
                              "or fewer --folds")
     chosen = np.random.default_rng([setup.seed, 46]).permutation(labels)[:keep]
-    return replace(setup, train=setup.train[np.isin(setup.groups[setup.train], chosen)])
+    return _trainable(replace(setup, train=setup.train[np.isin(setup.groups[setup.train],
+                                                               chosen)]))
+
+
+def _trainable(setup: Setup) -> Setup:
+    """``setup``, checked before any work: its training paths fill ``folds`` CV folds,
+    and each fold's model (the base sensor's out-of-fold residuals for its intervals)
+    keeps at least two paths for a CV of its own."""
+    groups = setup.groups[setup.train]
+    paths = np.unique(groups).size
+    fewest = min((np.unique(groups[tr]).size for tr, _ in path_folds(groups, setup.folds, None)),
+                 default=0) if paths >= setup.folds else 0
+    if fewest < 2:
+        raise ParameterError(
+            f"a split trains on {paths} load paths: {setup.folds} CV folds (each fold's "
+            "model choosing its own count on two paths or more) need more - give fewer "
+            "--folds or a smaller --test-fraction, or run more load cases")
+    return setup
 
 
 def _at_edges(setup: Setup, ds: xr.Dataset, varying: list[str], edges: float) -> Setup:
@@ -222,7 +240,7 @@ def _at_edges(setup: Setup, ds: xr.Dataset, varying: list[str], edges: float) ->
         raise ParameterError(f"the interior left by --edges {edges:g} holds {paths} load "
                              f"paths, fewer than the {setup.folds} CV folds: give a smaller "
                              "--edges or fewer --folds, or run more load cases")
-    return replace(setup, train=inner, test=outer)
+    return _trainable(replace(setup, train=inner, test=outer))
 
 
 def _reference(ds: xr.Dataset, surface: InnerSurface, U: np.ndarray, sensor: SensorSpec,

@@ -172,3 +172,22 @@ def test_noise_reports_clean_and_noisy_training_side_by_side(noise_report, thesi
     assert "Noise in training (issue 25)" in summary and "noisy/clean" in summary
     for name, r in zip(noise_report.tables["models"]["inputs"], ratio, strict=True):
         assert f"{name} {r:.2f}" in summary
+
+
+@pytest.mark.parametrize(("trees", "folds", "ok"), [(3, 2, False), (4, 2, True),
+                                                    (4, 5, False), (3, 3, True)])
+def test_a_sensor_split_too_small_for_its_intervals_fails_before_any_work(trees, folds, ok):
+    """A split of a few rolling trees (the answer's store while it fills): each CV fold's
+    model - the intervals' out-of-fold residuals - needs two paths for a CV of its own;
+    fewer is one error when the study is set up, not a failure in its first fit."""
+    from analysis.errors import ParameterError
+    from analysis.studies.sensor import Setup, _trainable
+
+    groups = np.repeat(np.arange(trees), 5)
+    setup = Setup(np.arange(groups.size), np.array([], int), ("plsr",), ("displacement",),
+                  2, folds, 5, 0, groups)
+    if ok:
+        assert _trainable(setup) is setup
+    else:
+        with pytest.raises(ParameterError, match=f"trains on {trees} load paths"):
+            _trainable(setup)

@@ -142,3 +142,4 @@ def test_the_study_writes_its_table_and_summary(tmp_path):
     text = (tmp_path / "summary.md").read_text()
     assert "1 of 2 trees measured" in text
     assert f"{RADIUS / 0.99 - RADIUS:+.2f} to {RADIUS / 0.99 - RADIUS:+.2f} mm" in text
+
