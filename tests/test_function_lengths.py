@@ -20,7 +20,7 @@ COMMAND_LONGEST = 40
 KNOWN_LONG = {
     "jobs/loops/secant.py:secant_least_squares": 85,
     "farm/mesh/layers.py:split_wall": 77,
-    "analysis/studies/sensor.py:run": 75,
+    "analysis/studies/sensor.py:run": 74,
     "analysis/combined.py:cross_validate": 73,
     "analysis/studies/noise.py:run": 70,
     "analysis/noise.py:monte_carlo_noisy_training": 70,

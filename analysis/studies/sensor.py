@@ -155,9 +155,7 @@ def run(
     if edges > 0:
         at_edges = _at_edges(setup, ds, varying, edges)
     surface = InnerSurface.from_dataset(ds)
-    # every sensor's layout first: a window that sees too few points fails before work
-    sensors = [(axis, VirtualSensor(spec, surface))
-               for axis, spec in variants(sensor, windows, noises, spacings, positions)]
+    sensors = _laid_out(surface, variants(sensor, windows, noises, spacings, positions))
     U = displacements(ds)
     report = Report(Path(out))
     cache = RowCache(out, fingerprint(ds, Y))  # a stopped study resumes from its units
@@ -172,6 +170,13 @@ def run(
     figures = _figures(report, errors, sensor)
     _summary(report, ds, sensor, errors, setup, varying, figures, repeats, edge, gap)
     return report
+
+
+def _laid_out(surface: InnerSurface, specs: list[tuple[str, SensorSpec]]
+              ) -> list[tuple[str, VirtualSensor]]:
+    """Every sensor laid out on ``surface`` first: a window that sees too few points
+    fails before any work."""
+    return [(axis, VirtualSensor(spec, surface)) for axis, spec in specs]
 
 
 def _all_sensors(sensors: list[tuple[str, VirtualSensor]], U: np.ndarray, Y: np.ndarray,
