@@ -88,6 +88,13 @@ class SweepState:
     done: int
     failed: int
     running: int
+    #: states already in the store whose tasks still run (a rolling tree writes its
+    #: trunk and each branch as they end, its task returns after the last: issue 46)
+    stored: int = 0
+
+
+#: how often a sweep reads the store for the states of its running tasks (seconds)
+STORED_EVERY_S = 30.0
 
 
 class _Plain:
@@ -183,6 +190,7 @@ class Sweep(Strategy[SweepReport]):
         self._before: set[str] = set()
         self._client: Any = None  # the session's dask client, from start()
         self._running, self._last = 0, 0.0
+        self._stored, self._stored_at = 0, 0.0
         self._prepared: tuple[str, list[tuple[Study, PathPlan]]] | None = None
 
     def made(self) -> bool:
@@ -299,13 +307,30 @@ class Sweep(Strategy[SweepReport]):
         if now - self._last > 1.0:  # the scheduler's view, once a second is plenty
             self._last = now
             self._running = sum(len(v) for v in self._client.processing().values())
+        if now - self._stored_at > STORED_EVERY_S:
+            self._stored_at, self._stored = now, self._in_store()
         if not self._pending:
-            self._running = 0
+            self._running = self._stored = 0
         return not self._pending
+
+    def _in_store(self) -> int:
+        """How many experiments of the tasks still running are done in the store."""
+        by_group: dict[tuple[Any, str], list[str]] = {}
+        for s, path in self._pending.values():
+            by_group.setdefault((s.store, s.group_name), []).extend(
+                e.id for e in path.experiments)
+        counted = set(self.report.done) | self._before
+        try:
+            return sum(1 for (store, group), ids in by_group.items()
+                       for i, status in storage.statuses(store, group, ids).items()
+                       if status == storage.DONE and i not in counted)
+        except storage.StoreError:  # a store that does not answer now: next time
+            return self._stored
 
     def state(self) -> SweepState:
         r = self.report
-        return SweepState(r.total, r.skipped, len(r.done), len(r.failed), self._running)
+        return SweepState(r.total, r.skipped, len(r.done), len(r.failed), self._running,
+                          self._stored)
 
     def cancel(self) -> None:
         if self._pending:  # no further attempts; the workers' checks kill their ccx

@@ -66,19 +66,19 @@ class RichProgress:
                            f"experiments: {state.total} ({state.skipped} already done)")
         self.bar = Progress(
             TextColumn("[bold]sweep"), BarColumn(), MofNCompleteColumn(),
-            TextColumn("done {task.fields[done]}  failed {task.fields[failed]}  "
-                       "running {task.fields[running]}"),
+            TextColumn("done {task.fields[done]}{task.fields[stored]}  failed "
+                       "{task.fields[failed]}  running {task.fields[running]}"),
             TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
             TextColumn("{task.fields[ccx]}"), console=self.console, transient=False)
         self.bar.start()
         self.task = self.bar.add_task("sweep", total=state.total, completed=state.skipped,
-                                      done=0, failed=0, running=0, ccx="")
+                                      done=0, failed=0, running=0, ccx="", stored="")
 
     def advanced(self, state) -> None:
         if self.bar is not None and self.task is not None:
             self.bar.update(self.task, completed=state.skipped + state.done + state.failed,
                             done=state.done, failed=state.failed, running=state.running,
-                            ccx=ccx_of(self.session))
+                            ccx=ccx_of(self.session), stored=_stored(state))
 
     def finished(self, report) -> None:
         if self.bar is not None:
@@ -90,7 +90,7 @@ class SweepLines:
 
     def __init__(self, name: str, lines: LogLines | None = None) -> None:
         self.name, self.lines = name, lines or LogLines()
-        self.seen: tuple[int, int] | None = None
+        self.seen: tuple[int, int, int] | None = None
         self.session: Any = None
         self.ccx = ""
 
@@ -101,7 +101,7 @@ class SweepLines:
                        f"{plural(state.total, 'experiment')} ({state.skipped} already done)")
 
     def advanced(self, state) -> None:
-        ended = (state.done, state.failed)
+        ended = (state.done, state.failed, getattr(state, "stored", 0))
         ccx = ccx_of(self.session)
         if ended != self.seen or ccx != self.ccx:  # ccx's own progress: issue 48
             self.seen, self.ccx = ended, ccx
@@ -112,7 +112,14 @@ class SweepLines:
 
     def _text(self, state) -> str:
         return (f"sweep {self.name}: {state.skipped + state.done + state.failed}/{state.total} "
-                f"done, {state.failed} failed")
+                f"done{_stored(state)}, {state.failed} failed")
+
+
+def _stored(state) -> str:
+    """`` (+N stored by running tasks)``: states a running task (a rolling tree) has
+    written already; '' when there are none."""
+    stored = getattr(state, "stored", 0)
+    return f" (+{stored} stored by running tasks)" if stored else ""
 
 
 def sweep_progress(name: str):

@@ -150,3 +150,34 @@ def _cli_code(argv) -> int:
         main(argv)
         raise SystemExit(0)
     return int(info.value.code or 0)
+
+
+def test_a_sweep_counts_the_states_its_running_tasks_have_stored(monkeypatch):
+    """Issue 46: a rolling tree writes each part as it ends and returns after its last;
+    the sweep's state counts what the store holds of its running tasks (each group read
+    once, ids the report or an earlier sweep already counted left out)."""
+    from types import SimpleNamespace as NS
+
+    import jobs.sweep as sweep
+
+    read = []
+
+    def statuses(store, group, ids):
+        read.append((store, group))
+        return {i: storage.DONE if i.endswith("d") else storage.PENDING for i in ids}
+
+    monkeypatch.setattr(storage, "statuses", statuses)
+    part = NS(store="s.zarr", group_name="g")
+    tree = NS(experiments=[NS(id=i) for i in ("1d", "2d", "3p", "4d")])
+    other = NS(experiments=[NS(id="5d"), NS(id="6p")])
+    run = object.__new__(sweep.Sweep)
+    run._pending = {"tree": (part, tree), "other": (part, other)}
+    run.report, run._before, run._stored = NS(done=["1d"]), {"4d"}, 7
+    assert run._in_store() == 2  # 2d and 5d; 1d is in the report, 4d was done before
+    assert read == [("s.zarr", "g")]
+
+    def gone(*a):
+        raise storage.StoreError("not now")
+
+    monkeypatch.setattr(storage, "statuses", gone)
+    assert run._in_store() == 7  # unanswered: the last count stands

@@ -218,3 +218,22 @@ def test_sweep_progress_off_a_terminal_is_lines_on_stderr(capsys):
                         r"workers, 30 experiments \(10 already done\)", lines[0])
     assert re.fullmatch(rf"{STAMP} sweep ch5: 12/30 done, 0 failed", lines[1])
     assert re.fullmatch(rf"{STAMP} sweep ch5: 30/30 done, 1 failed", lines[-1])
+
+
+def test_sweep_lines_count_the_states_running_trees_have_stored(capsys):
+    """A rolling tree's task returns after its last branch (an hour and more on `lean`),
+    but writes each part as it ends: the line says how many states are stored by tasks
+    still running, and a new line appears when that count moves (issue 46)."""
+    from types import SimpleNamespace as NS
+
+    from tyre_farm_cli.sweep import SweepLines
+
+    progress = SweepLines("t2cam")
+    progress.started(NS(dashboard="d", workers=2), NS(total=840, skipped=0))
+    progress.advanced(NS(total=840, skipped=0, done=62, failed=0, running=2, stored=0))
+    progress.advanced(NS(total=840, skipped=0, done=62, failed=0, running=2, stored=32))
+    progress.finished(None)
+    lines = capsys.readouterr().err.splitlines()
+    assert lines[1].endswith("sweep t2cam: 62/840 done, 0 failed")
+    assert lines[2].endswith("sweep t2cam: 62/840 done (+32 stored by running tasks), "
+                             "0 failed")
