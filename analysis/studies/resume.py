@@ -6,7 +6,8 @@ grouped splits: hours on one core, longer than a machine may stay up. Each unit 
 ends; the same command run again reads the units it finds and computes the rest. A
 unit's key digests everything its rows depend on - the sensor, the split's rows, the
 learners and their settings - and the data: the experiment ids and targets of the
-selection (a store that gained experiments gives new keys), and the package's version.
+selection (a store that gained experiments gives new keys), and the analysis package's
+source (rows made by other code are made again).
 A unit being written when the run stopped is not there (written whole, then renamed).
 """
 
@@ -39,17 +40,22 @@ def _plain(value):
     raise TypeError(f"{type(value).__name__} is not part of a study's key")
 
 
+def _code() -> str:
+    """A digest of the analysis package's source: rows made by other code are not reused."""
+    import analysis
+
+    digest = hashlib.blake2b(digest_size=16)
+    for path in sorted(Path(analysis.__file__).parent.rglob("*.py")):
+        digest.update(path.read_bytes())
+    return digest.hexdigest()
+
+
 def fingerprint(ds: xr.Dataset, Y: np.ndarray) -> str:
     """What identifies the data of a study: its experiment ids, its targets (K, T) and
-    the analysis code's version."""
-    from importlib.metadata import PackageNotFoundError, version
-
-    try:
-        code = version("tyre-farm")
-    except PackageNotFoundError:  # pragma: no cover - a source tree without metadata
-        code = "source"
+    the analysis code (:func:`_code`)."""
     ids = [str(i) for i in np.asarray(ds["experiment"].values)]
-    return json.dumps({"ids": ids, "Y": np.asarray(Y, float), "code": code}, default=_plain)
+    return json.dumps({"ids": ids, "Y": np.asarray(Y, float), "code": _code()},
+                      default=_plain)
 
 
 class RowCache:
