@@ -38,6 +38,12 @@ def run(ds: xr.Dataset, out: Path) -> Report:
                      f"{np.min(table['r_free_mm'] - table['radius_mm']):+.2f} to "
                      f"{np.max(table['r_free_mm'] - table['radius_mm']):+.2f} mm from the "
                      "radius rolled.")
+        span = float(np.ptp(np.asarray(ds["slip_ratio"].values, float)))
+        if span > 0:
+            worst = 100.0 * float(np.max(np.abs(kappa0[measured]))) / span
+            lines.append(f"The largest offset is {worst:.1f} % of the commanded slip ratio's "
+                         "range: what the `slip_ratio` labels are off by where "
+                         "`free_slip_ratio` is not used.")
     path = markdown.write(report.out / "summary.md", "Free rolling of each rolling tree",
                           [("Method", _METHOD), ("Result", " ".join(lines)),
                            ("Trees", table)])

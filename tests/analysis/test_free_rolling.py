@@ -143,3 +143,12 @@ def test_the_study_writes_its_table_and_summary(tmp_path):
     assert "1 of 2 trees measured" in text
     assert f"{RADIUS / 0.99 - RADIUS:+.2f} to {RADIUS / 0.99 - RADIUS:+.2f} mm" in text
 
+
+
+def test_the_summary_says_how_far_the_commanded_labels_are_off(tmp_path):
+    """The largest offset in % of the commanded slip ratio's range (SLIPS span 0.17)."""
+    from analysis.studies import free_rolling as study
+
+    study.run(_dataset(_tree(-0.0085, 60e3, 300.0)), tmp_path)
+    text = (tmp_path / "summary.md").read_text()
+    assert f"{100 * 0.0085 / 0.17:.1f} % of the commanded slip ratio's range" in text
