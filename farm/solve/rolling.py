@@ -610,7 +610,8 @@ def free_rolling_radius(spec: ModelSpec, mesh: TyreMesh, deflection: float, pres
 #: rolls (``farm roll --distance 20`` searched with the roll's own length until
 #: 2026-11-30), 394.7 mm against 403.5 mm inflated on ``patch`` at 200 kPa and 15 mm;
 #: measured from rolling trees' own states (:mod:`analysis.free_rolling`) the drop is
-#: 0.71-0.75 there and 0.40-0.54 on ``lean`` at 80-92 kPa (docs/rolling.md). The answer's
+#: 0.71-0.75 there and 0.38-0.54 on ``lean`` at 80-102 kPa - in millimetres nearly
+#: constant, 8.9-10.9 mm over 15-28 mm of deflection (docs/rolling.md). The answer's
 #: study (issue 46) keeps 0.59 and measures each tree's offset.
 FREE_RADIUS_DROP = 0.59
 
