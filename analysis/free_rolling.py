@@ -149,10 +149,11 @@ def free_rolling(ds: xr.Dataset) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def free_slip_ratio(ds: xr.Dataset) -> np.ndarray:
+def free_slip_ratio(ds: xr.Dataset, table: pd.DataFrame | None = None) -> np.ndarray:
     """(K,) each state's slip ratio measured from its tree's free rolling,
-    ``(1 + kappa) / (1 + kappa0) - 1``; NaN for a tree whose offset is unmeasured."""
-    table = free_rolling(ds).set_index("tree")
+    ``(1 + kappa) / (1 + kappa0) - 1``; NaN for a tree whose offset is unmeasured.
+    ``table``: :func:`free_rolling` of ``ds`` where the caller has it already."""
+    table = (free_rolling(ds) if table is None else table).set_index("tree")
     kappa0 = table["kappa0"].reindex(path_groups(ds)).to_numpy(float)
     kappa = np.asarray(ds["slip_ratio"].values, float)
     return (1.0 + kappa) / (1.0 + kappa0) - 1.0

@@ -29,13 +29,10 @@ from analysis import moments  # noqa: E402
 from analysis.camera.learners import PLSCV  # noqa: E402
 
 
-def _best(fn, repeats: int) -> float:
-    out = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        fn()
-        out.append(time.perf_counter() - start)
-    return min(out)
+def _seconds(fn) -> float:
+    start = time.perf_counter()
+    fn()
+    return time.perf_counter() - start
 
 
 def _products(A: np.ndarray, gram_rows: int) -> np.ndarray:
@@ -56,9 +53,9 @@ def one_size(rows: int, features: int, repeats: int) -> dict[str, float]:
         for _ in range(repeats):  # alternating, so that load drifts hit both
             for route, limit in (("svd", rows + 1), ("gram", 1)):
                 moments.GRAM_ROWS = limit
-                times[route].append(_best(lambda: moments._reduce(A), 1))
-                times[f"pls_{route}"].append(_best(
-                    lambda: PLSCV(folds=5).fit(X, Y, groups=groups), 1))
+                times[route].append(_seconds(lambda: moments._reduce(A)))
+                times[f"pls_{route}"].append(_seconds(
+                    lambda: PLSCV(folds=5).fit(X, Y, groups=groups)))
         diff = np.abs(_products(A, rows + 1) - _products(A, 1)).max()
         scale = np.abs(A.T @ A).max()
     finally:

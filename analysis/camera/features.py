@@ -98,9 +98,9 @@ def _parameter(ds: xr.Dataset, name: str) -> np.ndarray:
 
 
 def _free_slip(ds: xr.Dataset) -> np.ndarray:
-    slip = free_slip_ratio(ds)
+    table = free_rolling(ds)  # one fit a tree, for the slips and for the error
+    slip = free_slip_ratio(ds, table)
     if np.isnan(slip).any():
-        table = free_rolling(ds)
         lost = table[table["kappa0"].isna()]
         where = ", ".join(f"{p:.0f} kPa and {d:.1f} mm" for p, d in
                           zip(lost["pressure_kPa"], lost["deflection_mm"], strict=True))
@@ -111,27 +111,19 @@ def _free_slip(ds: xr.Dataset) -> np.ndarray:
     return slip
 
 
-def _measurable(ds: xr.Dataset, name: str) -> bool:
-    """Whether ``ds`` holds target ``name``: a total always, a parameter where stored,
-    the free slip where every tree's free rolling is measured."""
-    if name in TOTALS:
-        return True
-    if name == FREE_SLIP:
-        try:
-            return bool(np.isfinite(_free_slip(ds)).all())
-        except MissingVariableError:
-            return False
-    return name in ds.variables
-
-
 def varying_targets(ds: xr.Dataset) -> tuple[str, ...]:
     """The :data:`ALL_TARGETS` a group holds and that vary over its experiments (what
-    ``--targets all`` asks a study to predict)."""
+    ``--targets all`` asks a study to predict): every total, each parameter the group
+    stores, the free slip where every tree's free rolling is measured."""
     out = []
     for name in ALL_TARGETS:
-        if not _measurable(ds, name):
+        try:
+            values = targets(ds, (name,))
+        except MissingVariableError:
+            if name in TOTALS:
+                raise  # a group without fields or forces: not a target missing
             continue
-        if np.ptp(targets(ds, (name,))) > 0:
+        if np.ptp(values) > 0:
             out.append(name)
     return tuple(out)
 

@@ -206,46 +206,43 @@ def _all_sensors(sensors: list[tuple[str, VirtualSensor]], U: np.ndarray, Y: np.
 
 
 def fewer(setup: Setup, fraction: float) -> Setup:
-    """``setup`` trained on ``fraction`` of its training groups (at least its CV's
-    folds; seeded by the split), tested on the same held-out ones."""
+    """``setup`` trained on ``fraction`` of its training groups (enough for its CV;
+    seeded by the split), tested on the same held-out ones."""
     if not 0.0 < fraction < 1.0:
         raise ParameterError(f"a training-set fraction must be in (0, 1), got {fraction!r}")
     labels = np.unique(setup.groups[setup.train])
     keep = round(fraction * labels.size)
-    if keep < setup.folds:
-        raise ParameterError(f"{fraction:g} of the {labels.size} training paths is {keep}, "
-                             f"fewer than the {setup.folds} CV folds: give a larger fraction "
-                             "or fewer --folds")
     chosen = np.random.default_rng([setup.seed, 46]).permutation(labels)[:keep]
-    return _trainable(replace(setup, train=setup.train[np.isin(setup.groups[setup.train],
-                                                               chosen)]))
+    train = setup.train[np.isin(setup.groups[setup.train], chosen)]
+    return _trainable(replace(setup, train=train), f"--sizes {fraction:g} of the "
+                      f"{labels.size} training paths trains on",
+                      "give a larger fraction or fewer --folds")
 
 
-def _trainable(setup: Setup) -> Setup:
+def _trainable(setup: Setup, what: str = "a split trains on",
+               fix: str = "give fewer --folds or a smaller --test-fraction") -> Setup:
     """``setup``, checked before any work: its training paths fill ``folds`` CV folds,
     and each fold's model (the base sensor's out-of-fold residuals for its intervals)
-    keeps at least two paths for a CV of its own."""
+    keeps at least two paths for a CV of its own; else one error, ``what`` and ``fix``
+    saying where the paths went and what to change."""
     groups = setup.groups[setup.train]
     paths = np.unique(groups).size
-    fewest = min((np.unique(groups[tr]).size for tr, _ in path_folds(groups, setup.folds, None)),
-                 default=0) if paths >= setup.folds else 0
-    if fewest < 2:
+    if paths < setup.folds:
+        raise ParameterError(f"{what} {paths} load paths, fewer than the {setup.folds} CV "
+                             f"folds: {fix}, or run more load cases")
+    if min(np.unique(groups[tr]).size for tr, _ in path_folds(groups, setup.folds, None)) < 2:
         raise ParameterError(
-            f"a split trains on {paths} load paths: {setup.folds} CV folds (each fold's "
-            "model choosing its own count on two paths or more) need more - give fewer "
-            "--folds or a smaller --test-fraction, or run more load cases")
+            f"{what} {paths} load paths: {setup.folds} CV folds (each fold's model choosing "
+            f"its own count on two paths or more) need more - {fix}, or run more load cases")
     return setup
 
 
 def _at_edges(setup: Setup, ds: xr.Dataset, varying: list[str], edges: float) -> Setup:
     """The base setup trained on the design's interior and tested at its edges."""
     inner, outer = edge_split(ds, varying, edges)
-    paths = np.unique(setup.groups[inner]).size
-    if paths < setup.folds:
-        raise ParameterError(f"the interior left by --edges {edges:g} holds {paths} load "
-                             f"paths, fewer than the {setup.folds} CV folds: give a smaller "
-                             "--edges or fewer --folds, or run more load cases")
-    return _trainable(replace(setup, train=inner, test=outer))
+    return _trainable(replace(setup, train=inner, test=outer),
+                      f"the interior left by --edges {edges:g} trains on",
+                      "give a smaller --edges or fewer --folds")
 
 
 def _reference(ds: xr.Dataset, surface: InnerSurface, U: np.ndarray, sensor: SensorSpec,
