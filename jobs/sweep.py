@@ -315,13 +315,14 @@ class Sweep(Strategy[SweepReport]):
 
     def _in_store(self) -> int:
         """How many experiments of the tasks still running are done in the store."""
-        by_group: dict[tuple[Any, str], list[str]] = {}
+        # keyed by the store's identity: an S3 store (FsspecStore) is not hashable
+        by_group: dict[tuple[int, str], tuple[Any, list[str]]] = {}
         for s, path in self._pending.values():
-            by_group.setdefault((s.store, s.group_name), []).extend(
+            by_group.setdefault((id(s.store), s.group_name), (s.store, []))[1].extend(
                 e.id for e in path.experiments)
         counted = set(self.report.done) | self._before
         try:
-            return sum(1 for (store, group), ids in by_group.items()
+            return sum(1 for (_, group), (store, ids) in by_group.items()
                        for i, status in storage.statuses(store, group, ids).items()
                        if status == storage.DONE and i not in counted)
         except storage.StoreError:  # a store that does not answer now: next time
