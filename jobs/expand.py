@@ -105,9 +105,7 @@ def cases(study: Study) -> list[tuple[float, float, RoadMotion | None]]:
             motion: dict[str, Any] = {
                 n: round(_value(case, n), 9) + 0.0 for n in CASE_PARAMETERS if n in case}
             if study.rolling is not None:  # every case of a rolling study rolls
-                motion |= {"roll": study.rolling.distance,
-                           "rolling_radius": study.rolling.rolling_radius,
-                           "radius_estimate": study.rolling.radius_estimate}
+                motion |= study.rolling.motion_fields
             m = RoadMotion(**motion, rise=study.rise) if motion else None
             out.append((round(_value(case, "deflection"), 9), round(_value(case, "pressure"), 12),
                         None if m is None or m.is_identity else m))
@@ -252,7 +250,8 @@ def roll_tree_plan(study: Study, solver: str) -> list[RollTreePlan]:
     trees: dict[tuple, list[RoadMotion]] = {}
     for d, p, m in cases(study):
         assert m is not None and m.rolls
-        key = (p, d, m.friction, m.tilt, m.rolling_radius, m.radius_estimate, m.stick_slope)
+        key = (p, d, m.friction, m.tilt, m.rolling_radius, m.radius_estimate, m.stick_slope,
+               m.friction_from)
         if m not in trees.setdefault(key, []):
             trees[key].append(m)
 

@@ -236,7 +236,8 @@ def _branch(task: RollTreeTask, mesh: TyreMesh, trunk: RollingTrunk, b: RollBran
     branch that stops stores the states it reached (as a roll from rest does)."""
     roll = trunk.roll
     branch = Roll(friction=roll.friction, slip_ratio=b.slip_ratio, slip_angle=b.slip_angle,
-                  tilt=roll.tilt, distance=trunk.branch_mm, rolling_radius=roll.rolling_radius)
+                  tilt=roll.tilt, distance=trunk.branch_mm, rolling_radius=roll.rolling_radius,
+                  friction_from=roll.friction_from)
     todo = [e for e in b.experiments if e.id not in done]
     keep = {e.id for e in todo}
 

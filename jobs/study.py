@@ -42,6 +42,7 @@ A study names a store, a model and its load cases::
     # rolling_radius_mm = "free"      # or mm, or "estimate" (no search: R - 0.59 d)
     # states = 1                      # states kept along each roll (issue 45)
     # branch_from_mm = 0              # > 0: rolling trees (straight trunk, then branches)
+    # friction_from = "touch"         # or "roll": rise without friction (group "...-rise")
     # [loads.roll.branches]           # optional: slips sampled per trunk, not listed
     # n = 20                          #   branches of every trunk (each case of [loads])
     # slip_ratio = [-0.1, 0.1]        #   ranges; method = "lhs" | "sobol", seed
@@ -88,6 +89,7 @@ import storage
 from farm.errors import SpecError
 from farm.specs import (
     FRICTION,
+    FRICTION_FROM,
     MAX_BRANCH_MM,
     MAX_PRESSURE_MPA,
     RISES,
@@ -138,7 +140,7 @@ LOAD_KEYS = {"pressure_kpa", "deflection_mm", "sample", "tree", "rise", "roll", 
 #: rolling_radius_mm's words: a search per case, or the estimate from the inflated radius
 RADIUS_WORDS = ("free", "estimate")
 ROLL_DEFAULTS = {"distance_mm": 150.0, "rolling_radius_mm": "free", "states": 1,
-                 "branch_from_mm": 0.0}
+                 "branch_from_mm": 0.0, "friction_from": "touch"}
 #: The most states one roll may keep (a 2000 mm roll's are then 10 mm apart)
 MAX_ROLL_STATES = 200
 
@@ -178,6 +180,13 @@ class Rolling:
     branch_from: float = 0.0
     branches: RollBranches | None = None  # [loads.roll.branches]: slips per trunk
     radius_estimate: bool = False  # rolling_radius_mm = "estimate" (issue 46)
+    friction_from: str = "touch"  # "roll": a frictionless rise (RoadMotion.friction_from)
+
+    @property
+    def motion_fields(self) -> dict[str, Any]:
+        """What every case's :class:`~farm.specs.RoadMotion` takes of the roll."""
+        return {"roll": self.distance, "rolling_radius": self.rolling_radius,
+                "radius_estimate": self.radius_estimate, "friction_from": self.friction_from}
 
     @property
     def travels(self) -> tuple[float, ...]:
@@ -255,8 +264,12 @@ class Study:
         """The group the study writes to: given, else one per model (kind + spec hash).
 
         A study with ``[models]`` writes one group per model of its design
-        (:func:`jobs.design.model_design`); this is then its base model's group."""
-        return self.group or f"{self.model.kind}-{self.model_hash()[:10]}"
+        (:func:`jobs.design.model_design`); this is then its base model's group. Rolls
+        risen without friction (``[loads.roll] friction_from = "roll"``) are a load
+        history the store's parameters do not show: a group of their own (``-rise``)."""
+        rise = self.rolling is not None and self.rolling.friction_from == "roll"
+        return self.group or (f"{self.model.kind}-{self.model_hash()[:10]}"
+                              + ("-rise" if rise else ""))
 
     def model_hash(self) -> str:
         return model_hash(self.model)
@@ -374,8 +387,11 @@ def _rolling(data: Any, given: set[str], model: ModelSpec,
     branch_from = _branch_from(t, distance)
     branches = (_branches(t["branches"], branch_from, given, sampled) if "branches" in t
                 else None)
+    friction_from = scalars.choice(t.get("friction_from", "touch"),
+                                   "loads.roll.friction_from", FRICTION_FROM)
     return Rolling(float(distance), None if radius in RADIUS_WORDS else float(radius),
-                   states, branch_from, branches, radius_estimate=radius == "estimate")
+                   states, branch_from, branches, radius_estimate=radius == "estimate",
+                   friction_from=friction_from)
 
 
 def _branches(data: Any, branch_from: float, given: set[str],
@@ -546,6 +562,10 @@ def _check_loads(study: Study) -> None:
 def _check_models(study: Study) -> None:
     """Make every model of the design (each checked by ``override_model``) and check the
     loads against each: a thinner tread or a lower section takes less deflection."""
+    if study.rolling is not None and study.rolling.friction_from == "roll":
+        raise fail("loads.roll.friction_from", "a study with [models] writes one group per "
+                   "model, which would mix rolls risen without friction with others: give "
+                   "it a study of its own without [models]")
     own = study.models is not None and study.models.loads == "own"
     if own and study.tree is None and study.sampling is None:
         raise fail("models.loads", "'own' gives each model its slice of a sampled load "

@@ -103,7 +103,8 @@ RIM_PIECE_RAD = 0.04
 
 
 def rim_lines(mesh: TyreMesh, spin: float, start: float,
-              duration: float = 1.0) -> tuple[list[str], list[str]]:
+              duration: float = 1.0, split: D.Split | None = None,
+              ) -> tuple[list[str], list[str]]:
     """The bead seat turned by ``spin`` radians about +y over step time [start, start +
     ``duration``] and held before: (amplitude lines, boundary lines).
 
@@ -125,7 +126,7 @@ def rim_lines(mesh: TyreMesh, spin: float, start: float,
         for dof in (1, 3):
             name = f"RIM_{n}_{dof}"
             amplitudes += D.amplitude_lines(
-                name, [(0.0, 0.0), *zip(times, u[k, :, dof - 1], strict=True)])
+                name, [(0.0, 0.0), *zip(times, u[k, :, dof - 1], strict=True)], split)
             boundary += [f"*BOUNDARY, AMPLITUDE={name}", f"{n}, {dof}, {dof}, 1"]
     return amplitudes, boundary
 
@@ -149,29 +150,64 @@ def roll_deck(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: floa
                        half_width=0.6 * spec.geometry.section_width, divisions=(16, 4))
     # camber as a rig gives it: the road pushed along its own normal (no side slide)
     duration = roll_time(roll)
+    split = roll_split(roll)
     amplitudes, boundary = D.road_motion_lines(road, travel, roll.travel, roll.tilt, 1.0,
                                                TILT_TIME if roll.tilt else 0.0, "normal",
-                                               move_time=duration)
-    amplitudes += D.inflate_amplitude_lines()
-    rim_amplitudes, rim = rim_lines(mesh, roll.spin, 2.0, duration)
+                                               split, move_time=duration)
+    amplitudes += D.inflate_amplitude_lines(split)
+    rim_amplitudes, rim = rim_lines(mesh, roll.spin, 2.0, duration, split)
     if not fractions or any(not 0.0 <= f <= 1.0 for f in fractions) or any(
             b <= a for a, b in itertools.pairwise(fractions)):
         raise SpecError(f"roll fractions must increase within [0, 1] (0: the standing "
                         f"tyre before the roll), got {list(fractions)}")
     times = [2.0 + f * duration for f in fractions]
+    lam = D.stick_slope(spec.contact)
+    capped = _capped(settings, roll)
+    controls = D.friction_controls_lines(settings.grow_after) if roll.friction > 0 else []
+    outputs = D.output_lines(time_points=True, contact=True)
+    rise_mu = roll.friction if split is None else RISE_FRICTION
     deck = D.assemble(
         D.mesh_lines(mesh), D.material_lines(spec.materials), D.cord_lines(spec, mesh),
         road.lines,
-        D.contact_lines(mesh, spec.contact, (roll.friction, D.stick_slope(spec.contact))
-                        if roll.friction > 0 else None),
-        amplitudes, rim_amplitudes, D.time_points_lines(sorted({1.0, 2.0, *times})),
+        D.contact_lines(mesh, spec.contact, (rise_mu, lam) if roll.friction > 0 else None),
+        amplitudes, rim_amplitudes, D.time_points_lines(sorted({1.0, 2.0, *times}), split),
         D.measured_set_lines((*D.written_sets(mesh), "ROAD")), model,
-        D.static_step_lines(2.0 + duration, _capped(settings, roll)),
-        D.friction_controls_lines(settings.grow_after) if roll.friction > 0 else [],
-        rim, boundary, D.cavity_pressure_lines(mesh, pressure, "INFLATE"),
-        D.output_lines(time_points=True, contact=True), ["*END STEP"],
+        D.static_step_lines(2.0 + duration if split is None else split.at, capped),
+        controls, rim, boundary, D.cavity_pressure_lines(mesh, pressure, "INFLATE"),
+        outputs, ["*END STEP"],
+        [] if split is None else _friction_step(roll, split, capped, lam, controls + outputs),
     )
-    return deck, times, road, z_start
+    return deck, [split.time(t) for t in times] if split else times, road, z_start
+
+
+def _friction_step(roll: Roll, split: D.Split, settings: SolverSettings, stick: float,
+                   cards: list[str]) -> list[str]:
+    """The roll's own step after a frictionless rise (:func:`roll_split`): held for its
+    first increment, the roll's friction switched on (``*CHANGE FRICTION``), ``cards``
+    (controls and outputs); loads, boundaries and amplitudes carry over."""
+    return [*D.static_step_lines(roll_time(roll) + split.hold, settings, first=split.hold),
+            "*CHANGE FRICTION, INTERACTION=ROAD_CONTACT", "*FRICTION",
+            f"{D.fnum(roll.friction)}, {D.fnum(stick)}", *cards, "*END STEP"]
+
+
+#: mu of a frictionless rise (``friction_from = "roll"``): ccx refuses mu = 0 and changes
+#: only a friction it has (``*CHANGE FRICTION``, as its test ``changefric.inp`` goes from
+#: 1e-4 to 0.2); 1e-4 of the contact pressure is a shear of at most 1e-4 MPa.
+RISE_FRICTION = 1e-4
+
+
+def roll_split(roll: Roll) -> D.Split | None:
+    """Where a roll's deck is cut in two: at the roll's start (step time 2), for a roll
+    whose friction begins there (``roll.friction_from == "roll"``); None otherwise.
+
+    Why (issue 45, docs/rolling.md "A frictionless rise"): on the 16-element polygon a
+    node stands for some 7,800 mm2 of tread, and its tangential penalty swings its shear
+    past its margin to slip in one Newton correction: rolls stopped in a frictional rise
+    (a tilted road presses the shoulder nodes first) and at the roll's first increment
+    (shoulder nodes left sticking at 95 % of mu by the rise). Rising without friction
+    leaves no node sticking when the friction comes on, at rest, in the new step's hold.
+    """
+    return D.Split(2.0) if roll.friction_from == "roll" and roll.friction > 0 else None
 
 
 #: The most road travel one increment may take, mm. Measured (coarse full model, 16 and
@@ -371,7 +407,7 @@ def _roll_run(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: floa
     if error is None:
         return run, states(list(zip(times, fractions, strict=True)))
     if error.reached is not None:
-        error = error.located(_stage(error.reached, deflection, roll))
+        error = error.located(_stage(layout_time(roll, error.reached), deflection, roll))
     raise error.with_partial(tuple(_reached(states, times, fractions, frd, error)) or None)
 
 
@@ -494,7 +530,8 @@ def cached_free_radius(spec: ModelSpec, mesh: TyreMesh, deflection: float, press
     key = {"model": spec.to_dict(), "mesh": mesh.mesh_key, "pressure": pressure,
            "deflection": deflection, "solver": ccx_version(),
            "roll": {k: v for k, v in dataclasses.asdict(roll).items()
-                    if k not in ("slip_ratio", "rolling_radius")}}
+                    if k not in ("slip_ratio", "rolling_radius")
+                    and (k, v) != ("friction_from", "touch")}}  # entries from before it
     if spec.mesh.windowed:  # searched with the window ahead (start_spin) since issue 30
         key["start"] = "window ahead"
     entry = read_entry("free-radius", key)
@@ -504,6 +541,14 @@ def cached_free_radius(spec: ModelSpec, mesh: TyreMesh, deflection: float, press
                                         should_stop=should_stop)
     write_entry("free-radius", key, {"radius_mm": radius})
     return radius, tried
+
+
+def layout_time(roll: Roll, total: float) -> float:
+    """The one-step layout's time (inflation [0, 1], rise [1, 2], roll after) of the
+    roll's deck's total time ``total`` (:func:`roll_split`'s hold maps to the roll's
+    start)."""
+    split = roll_split(roll)
+    return total if split is None else split.layout(total)
 
 
 def _stage(time: float, deflection: float, roll: Roll) -> str:

@@ -50,6 +50,7 @@ from farm.solve.rolling import (
     RIM_PIECES,
     RolledState,
     roll_deck,
+    roll_split,
     rolled_at,
     travel_cap,
     turned,
@@ -218,9 +219,10 @@ def _run_trunk(blank: RollingTrunk, deck: str, at: list[tuple[float, float]],
                                 ).with_partial(kept or None)
         frd = read_frd(run.file("frd"))
         blocks = split_restart((workdir / "trunk.rout").read_bytes())
-    if len(blocks) != 1:
-        raise ResultsError(f"the rolling trunk wrote {len(blocks)} restart blocks, not 1")
-    trunk = _filled(blank, frd, run, zlib.compress(blocks[0], 1))
+    steps = 1 if roll_split(blank.roll) is None else 2  # a frictionless rise: its own step
+    if len(blocks) != steps:
+        raise ResultsError(f"the rolling trunk wrote {len(blocks)} restart blocks, not {steps}")
+    trunk = _filled(blank, frd, run, zlib.compress(blocks[-1], 1))
     return dataclasses.replace(trunk, states=trunk.read_all(frd, at, run.seconds_to))
 
 
@@ -257,7 +259,7 @@ def rim_step_lines(mesh: TyreMesh, before: float, after: float) -> list[str]:
 def check_branch(trunk: RollingTrunk, branch: Roll) -> None:
     """Refuse a branch that is not a continuation of ``trunk``'s roll (one line)."""
     roll = trunk.roll
-    for name in ("friction", "tilt", "rolling_radius"):
+    for name in ("friction", "tilt", "rolling_radius", "friction_from"):
         if getattr(branch, name) != getattr(roll, name):
             raise SpecError(f"a branch keeps its trunk's {name} ({getattr(roll, name)!r}), "
                             f"got {getattr(branch, name)!r}: give it its own trunk")

@@ -24,6 +24,7 @@ from __future__ import annotations
 from farm.specs.bounds import STICK_SLOPE
 from farm.specs.loads import (
     FRICTION,
+    FRICTION_FROM,
     MAX_BRANCH_MM,
     MAX_PRESSURE_MPA,
     MIN_DEFLECTION_MM,
@@ -66,7 +67,8 @@ from farm.specs.solver import (
 )
 
 __all__ = [
-    "CLEARANCE_MM", "CONTACT_PRESSURE_MPA", "FRICTION", "GEOMETRY_MM", "MAX_BRANCH_MM",
+    "CLEARANCE_MM", "CONTACT_PRESSURE_MPA", "FRICTION", "FRICTION_FROM", "GEOMETRY_MM",
+    "MAX_BRANCH_MM",
     "MAX_INCREMENTS", "MAX_ITERATIONS", "MAX_PRESSURE_MPA", "MAX_THROUGH",
     "MESH_NODES", "MIN_DEFLECTION_MM", "MIN_INCREMENT", "MODULUS_MPA", "RISES", "ROLLING_RADIUS_MM",
     "ROLL_MM", "SHIFT_MM", "SLIP_ANGLE_DEG", "SLIP_RATIO", "STICK_SLOPE", "THREADS",

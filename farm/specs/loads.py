@@ -30,6 +30,8 @@ SHIFT_MM = (-50.0, 50.0)  # road translation: the default slab reaches 168 mm be
 # wheel plane and the contact patch ~100 mm, so 50 mm keeps the patch on the road
 TILT_DEG = (-10.0, 10.0)  # road rotation about x: camber of a road-going tyre is < 10 deg
 RISES = ("vertical", "normal")  # RoadMotion.rise: how a tilted road is pushed up
+#: RoadMotion.friction_from / Roll.friction_from: where a roll's friction begins
+FRICTION_FROM = ("touch", "roll")
 
 
 @dataclass(frozen=True)
@@ -80,6 +82,12 @@ class RoadMotion:
         (:func:`farm.solve.rolling.estimated_radius`) instead of searching for it (issue
         46: a search costs about three rolls per pressure, deflection, friction and
         camber); the slip ratio is then relative to that radius.
+    friction_from : where a roll's friction begins: ``"touch"`` (the tread meets the
+        road with friction, as everything before 2026-11-30 did) or ``"roll"`` (the rise
+        frictionless, the friction switched on as the roll starts, ccx's ``*CHANGE
+        FRICTION``: no tread node is left sticking on the edge of slip when the roll
+        starts, which stopped rolls of the 16-element polygon; docs/rolling.md, "A
+        frictionless rise"). Rolls only; stored as ``"touch"`` without friction.
 
     All at their defaults the motion is no motion at all: :class:`LoadPath` then holds
     None, so decks, results and ids are those of a vertical experiment.
@@ -99,6 +107,7 @@ class RoadMotion:
     rolling_radius: float | None = None
     roll_from: float = 0.0
     radius_estimate: bool = False
+    friction_from: str = "touch"
 
     def __post_init__(self) -> None:
         self._check_roll()
@@ -112,7 +121,7 @@ class RoadMotion:
             raise SpecError(f"motion.rise = {self.rise!r}: give one of {', '.join(RISES)}")
         for f in dataclasses.fields(self):  # canonical floats: 1 and 1.0 hash alike
             v = getattr(self, f.name)
-            if v is not None and f.name not in ("rise", "radius_estimate"):
+            if v is not None and f.name not in ("rise", "radius_estimate", "friction_from"):
                 object.__setattr__(self, f.name, float(v) + 0.0)
         if self.tilt == 0.0:  # an untilted road rises along its normal either way
             object.__setattr__(self, "rise", "vertical")
@@ -120,13 +129,19 @@ class RoadMotion:
             object.__setattr__(self, "rise", "normal")
 
     def _check_roll(self) -> None:
+        if self.friction_from not in FRICTION_FROM:
+            raise SpecError(f"motion.friction_from = {shown(self.friction_from)}: give one of "
+                            f"{', '.join(FRICTION_FROM)}")
         if self.roll == 0.0:
             if (self.slip_ratio or self.slip_angle or self.rolling_radius is not None
-                    or self.roll_from or self.radius_estimate):
-                raise SpecError("motion.slip_ratio, slip_angle, rolling_radius, roll_from "
-                                "and radius_estimate belong to a roll: give motion.roll, the "
-                                "road travel in mm")
+                    or self.roll_from or self.radius_estimate
+                    or self.friction_from != "touch"):
+                raise SpecError("motion.slip_ratio, slip_angle, rolling_radius, roll_from, "
+                                "radius_estimate and friction_from belong to a roll: give "
+                                "motion.roll, the road travel in mm")
             return
+        if not self.friction:  # nothing to switch on: the one frictionless roll
+            object.__setattr__(self, "friction_from", "touch")
         if self.radius_estimate and self.rolling_radius is not None:
             raise SpecError(f"motion.radius_estimate estimates a radius, and rolling_radius "
                             f"= {self.rolling_radius!r} gives one: drop one of them")
@@ -162,7 +177,7 @@ class RoadMotion:
                             "([loads.roll] branch_from_mm, farm.solve.rolling_tree)")
         return Roll(friction=self.friction, slip_ratio=self.slip_ratio,
                     slip_angle=self.slip_angle, tilt=self.tilt, distance=self.roll,
-                    rolling_radius=radius)
+                    rolling_radius=radius, friction_from=self.friction_from)
 
     @property
     def searches_radius(self) -> bool:
@@ -199,7 +214,7 @@ class RoadMotion:
             del data["rise"]
         if not self.rolls:  # ids of slides and standing tyres as before rolling existed
             for name in ("roll", "slip_ratio", "slip_angle", "rolling_radius", "roll_from",
-                         "radius_estimate"):
+                         "radius_estimate", "friction_from"):
                 del data[name]
             return data
         if not self.radius_estimate:  # ids of rolls as before the estimate existed
@@ -208,6 +223,8 @@ class RoadMotion:
             del data["rolling_radius"]
         if not self.roll_from:  # rolls from rest keep the ids they had before trees
             del data["roll_from"]
+        if self.friction_from == "touch":  # rolls keep the ids they had before it existed
+            del data["friction_from"]
         return data
 
     @classmethod
@@ -237,6 +254,8 @@ class Roll:
     tilt : road tilt about +x, degrees (camber; :class:`farm.specs.RoadMotion`).
     distance : road travel of the roll, mm (long enough for a steady patch).
     rolling_radius : the free-rolling radius r_e, mm, that turns distance into spin.
+    friction_from : ``"touch"`` or ``"roll"``: where the friction begins
+        (:attr:`RoadMotion.friction_from`).
     """
 
     friction: float
@@ -245,8 +264,14 @@ class Roll:
     tilt: float = 0.0
     distance: float = 150.0
     rolling_radius: float = 390.0
+    friction_from: str = "touch"
 
     def __post_init__(self) -> None:
+        if self.friction_from not in FRICTION_FROM:
+            raise SpecError(f"roll.friction_from = {shown(self.friction_from)}: give one of "
+                            f"{', '.join(FRICTION_FROM)}")
+        if not self.friction:
+            object.__setattr__(self, "friction_from", "touch")
         within("roll.friction", self.friction, FRICTION, "(Coulomb coefficient)")
         within("roll.slip_ratio", self.slip_ratio, SLIP_RATIO, "")
         within("roll.slip_angle", self.slip_angle, SLIP_ANGLE_DEG, "degrees")

@@ -93,6 +93,33 @@ def test_a_frictionless_branch_is_the_roll_done_in_one_run(coarse):
                                atol=1e-3 * scale)
 
 
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
+def test_a_branch_of_a_trunk_risen_without_friction_is_the_roll_done_in_one_run(coarse):
+    """friction_from = "roll" (issue 45): the trunk's deck has two steps (the rise, the
+    roll that switches the friction on), so its restart file two blocks; the branch rolls
+    on from the last, with the roll's mu (a restart that kept the rise's 1e-4 would carry
+    no Fx). Straight branch against the 70 mm roll from rest, same history: measured
+    2026-11-30 within 0.004 % of |F| and 0.06 % of the camera field's RMS."""
+    spec, mesh = coarse
+    trunk = solve_rolling_trunk(spec, mesh, DEFLECTION, PRESSURE,
+                                Roll(friction=MU, distance=TRUNK, rolling_radius=R_E,
+                                     friction_from="roll"),
+                                SolverSettings(), branch_mm=BRANCH, branch_fractions=(0.5, 1.0))
+    branch = _branch(trunk, friction_from="roll")
+    one = solve_roll(spec, mesh, DEFLECTION, PRESSURE,
+                     Roll(friction=MU, distance=TRUNK + BRANCH, rolling_radius=R_E,
+                          friction_from="roll"), SolverSettings(),
+                     fractions=((TRUNK + BRANCH / 2) / (TRUNK + BRANCH), 1.0))
+    for b, r in zip(branch, one, strict=True):
+        assert b.travelled == pytest.approx(r.travelled)
+        assert np.linalg.norm(b.force - r.force) <= 5e-3 * np.linalg.norm(r.force)
+        rms = np.sqrt(np.mean(r.camera ** 2))
+        assert np.sqrt(np.mean((b.camera - r.camera) ** 2)) <= 1e-2 * rms
+    assert branch[0].force[0] > 50.0  # the friction is on in the branch
+    with pytest.raises(SpecError, match="friction_from"):
+        _branch(trunk)  # a branch keeps its trunk's history
+
+
 def test_branches_at_mirrored_slip_angles_mirror_fy_and_mz(gripping):
     left, right = (_branch(gripping, slip_angle=a)[-1] for a in (3.0, -3.0))
     mirror = np.array([1.0, -1.0, 1.0])

@@ -255,6 +255,34 @@ def test_an_estimated_radius_rolls_the_trunk_without_a_search(tmp_path, monkeypa
         parse_study(_study(tmp_path, "friction = [0.6]\n", roll + 'rolling_radius_mm = "guess"'))
 
 
+@pytest.mark.parametrize("branch_from", ["", "branch_from_mm = 30\n"],
+                         ids=["from rest", "trees"])
+def test_friction_from_the_roll_is_every_case_s_and_a_load_history_of_its_own(
+        tmp_path, branch_from):
+    """``[loads.roll] friction_from = "roll"`` (issue 45, a frictionless rise): every roll
+    of the study (trunks and branches, or rolls from rest) carries it; its ids are not
+    the friction-from-touch study's, whose ids are as before the key existed; a bad word
+    is one error naming the key and the words."""
+    loads = "friction = [0.6]\nslip_angle_deg = [0, 2]\n"
+    roll = "distance_mm = 60\nstates = 2\nrolling_radius_mm = 403.8\n" + branch_from
+    rise, touch, default = (experiments(plan(parse_study(_study(tmp_path, loads, roll + extra)),
+                                             SOLVER))
+                            for extra in ('friction_from = "roll"\n', 'friction_from = "touch"\n',
+                                          ""))
+    assert {e.motion.friction_from for e in rise} == {"roll"}
+    studies = [parse_study(_study(tmp_path, loads, roll + extra))
+               for extra in ('friction_from = "roll"\n', "")]
+    assert studies[0].group_name == studies[1].group_name + "-rise"  # never mixed
+    assert {e.id for e in touch} == {e.id for e in default}
+    assert not {e.id for e in rise} & {e.id for e in touch}
+    with pytest.raises(StudyError, match=r"loads\.roll\.friction_from.*touch.*roll"):
+        parse_study(_study(tmp_path, loads, roll + 'friction_from = "rise"\n'))
+    models = ('[models]\nmethod = "lhs"\nn = 2\n[models.parameters]\n'
+              '"materials.tread.youngs_modulus" = [5.0, 10.0]\n')
+    with pytest.raises(StudyError, match=r"loads\.roll\.friction_from: .*\[models\]"):
+        parse_study(_study(tmp_path, loads, roll + 'friction_from = "roll"\n') + models)
+
+
 @pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 @pytest.mark.ccx
 def test_a_tree_lost_in_a_branch_rolls_on_from_its_saved_trunk(tmp_path, counting_ccx,
