@@ -20,23 +20,22 @@ import argparse
 from collections import defaultdict
 
 import numpy as np
-import zarr
+import xarray as xr
+
+from analysis.data import open_group, resolve_group
 
 KEYS = ("friction", "slip_ratio", "slip_angle", "tilt", "travel")
 DONE, FAILED = 1, 2
 
 
-def _group(path: str, name: str | None) -> zarr.Group:
-    root = zarr.open_group(path, mode="r")
-    names = [name] if name else sorted(root.group_keys())
-    if len(names) != 1:
-        raise SystemExit(f"{path} holds groups {names}: name one with --group-a/--group-b")
-    return root[names[0]]
+def _group(path: str, name: str | None) -> xr.Dataset:
+    """The store's one group (or ``name``), through the analyses' reader."""
+    return open_group(path, resolve_group(path, name))
 
 
-def _index(g: zarr.Group) -> dict[tuple[float, ...], int]:
+def _index(g: xr.Dataset) -> dict[tuple[float, ...], int]:
     """(friction, slip ratio, slip angle, tilt, travel) -> row."""
-    keys = np.round(np.stack([g[k][:] for k in KEYS], axis=1), 6)
+    keys = np.round(np.stack([g[k].values for k in KEYS], axis=1), 6)
     return {tuple(map(float, k)): i for i, k in enumerate(keys)}
 
 
@@ -44,25 +43,25 @@ def _rms(x: np.ndarray) -> float:
     return float(np.sqrt(np.nanmean(np.square(x))))
 
 
-def differences(a: zarr.Group, b: zarr.Group) -> dict[float, list[tuple[float, float]]]:
+def differences(a: xr.Dataset, b: xr.Dataset) -> dict[float, list[tuple[float, float]]]:
     """Per travel, (force %, field %) of each state done in both."""
-    sa, sb = a["status"][:], b["status"][:]
+    sa, sb = a["status"].values, b["status"].values
     ib = _index(b)
     out: dict[float, list[tuple[float, float]]] = defaultdict(list)
     for key, i in _index(a).items():
         j = ib.get(key)
         if j is None or sa[i] != DONE or sb[j] != DONE:
             continue
-        fa, fb = a["road_reaction"][i], b["road_reaction"][j]
-        da, db = a["displacement"][i], b["displacement"][j]
+        fa, fb = (g["road_reaction"][k].values for g, k in ((a, i), (b, j)))
+        da, db = (g["displacement"][k].values for g, k in ((a, i), (b, j)))
         out[key[-1]].append((100 * float(np.abs(fb - fa).max() / np.linalg.norm(fa)),
                              100 * _rms(db - da) / _rms(da)))
     return out
 
 
-def rolls(g: zarr.Group) -> tuple[int, int, int, int]:
+def rolls(g: xr.Dataset) -> tuple[int, int, int, int]:
     """(rolls, whole, lost, lost keeping nothing) of a store's group."""
-    status = g["status"][:]
+    status = g["status"].values
     per: dict[tuple[float, ...], list[int]] = defaultdict(list)
     for key, i in _index(g).items():
         per[key[:-1]].append(int(status[i]))

@@ -129,9 +129,7 @@ class RoadMotion:
             object.__setattr__(self, "rise", "normal")
 
     def _check_roll(self) -> None:
-        if self.friction_from not in FRICTION_FROM:
-            raise SpecError(f"motion.friction_from = {shown(self.friction_from)}: give one of "
-                            f"{', '.join(FRICTION_FROM)}")
+        _friction_from(self, "motion")
         if self.roll == 0.0:
             if (self.slip_ratio or self.slip_angle or self.rolling_radius is not None
                     or self.roll_from or self.radius_estimate
@@ -140,8 +138,6 @@ class RoadMotion:
                                 "radius_estimate and friction_from belong to a roll: give "
                                 "motion.roll, the road travel in mm")
             return
-        if not self.friction:  # nothing to switch on: the one frictionless roll
-            object.__setattr__(self, "friction_from", "touch")
         if self.radius_estimate and self.rolling_radius is not None:
             raise SpecError(f"motion.radius_estimate estimates a radius, and rolling_radius "
                             f"= {self.rolling_radius!r} gives one: drop one of them")
@@ -232,6 +228,16 @@ class RoadMotion:
         return spec_from_dict(cls, data, "motion")
 
 
+def _friction_from(spec: RoadMotion | Roll, where: str) -> None:
+    """Check ``spec.friction_from`` (one of :data:`FRICTION_FROM`), stored as "touch"
+    without friction: there is nothing to switch on (one id for the frictionless roll)."""
+    if spec.friction_from not in FRICTION_FROM:
+        raise SpecError(f"{where}.friction_from = {shown(spec.friction_from)}: give one of "
+                        f"{', '.join(FRICTION_FROM)}")
+    if not spec.friction:
+        object.__setattr__(spec, "friction_from", "touch")
+
+
 # Rolling (issue 30, farm.solve.rolling): bounds of a roll
 SLIP_RATIO = (-1.0, 1.0)  # kappa: full lock to twice the free-rolling spin
 SLIP_ANGLE_DEG = (-20.0, 20.0)
@@ -267,11 +273,7 @@ class Roll:
     friction_from: str = "touch"
 
     def __post_init__(self) -> None:
-        if self.friction_from not in FRICTION_FROM:
-            raise SpecError(f"roll.friction_from = {shown(self.friction_from)}: give one of "
-                            f"{', '.join(FRICTION_FROM)}")
-        if not self.friction:
-            object.__setattr__(self, "friction_from", "touch")
+        _friction_from(self, "roll")
         within("roll.friction", self.friction, FRICTION, "(Coulomb coefficient)")
         within("roll.slip_ratio", self.slip_ratio, SLIP_RATIO, "")
         within("roll.slip_angle", self.slip_angle, SLIP_ANGLE_DEG, "degrees")
