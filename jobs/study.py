@@ -43,6 +43,7 @@ A study names a store, a model and its load cases::
     # states = 1                      # states kept along each roll (issue 45)
     # branch_from_mm = 0              # > 0: rolling trees (straight trunk, then branches)
     # friction_from = "touch"         # or "roll": rise without friction (group "...-rise")
+    # lead_sigma_mm = 0               # > 0: each roll led by -sigma tan(alpha) (group "...-lead")
     # [loads.roll.branches]           # optional: slips sampled per trunk, not listed
     # n = 20                          #   branches of every trunk (each case of [loads])
     # slip_ratio = [-0.1, 0.1]        #   ranges; method = "lhs" | "sobol", seed
@@ -79,6 +80,7 @@ checked (fields, mesh size, the loads it must take) when the study is loaded.
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Set as AbstractSet
 from dataclasses import dataclass, field, replace
@@ -90,6 +92,7 @@ from farm.errors import SpecError
 from farm.specs import (
     FRICTION,
     FRICTION_FROM,
+    LEAD_RAMP_MM,
     MAX_BRANCH_MM,
     MAX_PRESSURE_MPA,
     RISES,
@@ -140,7 +143,10 @@ LOAD_KEYS = {"pressure_kpa", "deflection_mm", "sample", "tree", "rise", "roll", 
 #: rolling_radius_mm's words: a search per case, or the estimate from the inflated radius
 RADIUS_WORDS = ("free", "estimate")
 ROLL_DEFAULTS = {"distance_mm": 150.0, "rolling_radius_mm": "free", "states": 1,
-                 "branch_from_mm": 0.0, "friction_from": "touch"}
+                 "branch_from_mm": 0.0, "friction_from": "touch", "lead_sigma_mm": 0.0}
+#: The largest relaxation length a lead is taken from, mm (measured: 0.58-0.73 m on the
+#: thesis wall, docs/rolling.md "A steady roll"; a revolution is about 2.5 m)
+MAX_LEAD_SIGMA_MM = 5000.0
 #: The most states one roll may keep (a 2000 mm roll's are then 10 mm apart)
 MAX_ROLL_STATES = 200
 
@@ -181,6 +187,14 @@ class Rolling:
     branches: RollBranches | None = None  # [loads.roll.branches]: slips per trunk
     radius_estimate: bool = False  # rolling_radius_mm = "estimate" (issue 46)
     friction_from: str = "touch"  # "roll": a frictionless rise (RoadMotion.friction_from)
+    #: mm, > 0: every roll led by -lead_sigma tan(alpha) (RoadMotion.lead, a steady roll)
+    lead_sigma: float = 0.0
+
+    def lead(self, slip_angle: float) -> float:
+        """The lead (mm) of a roll at ``slip_angle`` degrees: the stretched string's steady
+        deflection of the carcass, -sigma tan(alpha) (docs/rolling.md, "A steady roll");
+        0 without ``lead_sigma``."""
+        return round(-self.lead_sigma * math.tan(math.radians(slip_angle)), 6) + 0.0
 
     @property
     def motion_fields(self) -> dict[str, Any]:
@@ -266,10 +280,12 @@ class Study:
         A study with ``[models]`` writes one group per model of its design
         (:func:`jobs.design.model_design`); this is then its base model's group. Rolls
         risen without friction (``[loads.roll] friction_from = "roll"``) are a load
-        history the store's parameters do not show: a group of their own (``-rise``)."""
+        history the store's parameters do not show: a group of their own (``-rise``), as
+        are rolls led to their steady deflection (``lead_sigma_mm``: ``-lead``)."""
         rise = self.rolling is not None and self.rolling.friction_from == "roll"
+        lead = self.rolling is not None and self.rolling.lead_sigma > 0
         return self.group or (f"{self.model.kind}-{self.model_hash()[:10]}"
-                              + ("-rise" if rise else ""))
+                              + ("-rise" if rise else "") + ("-lead" if lead else ""))
 
     def model_hash(self) -> str:
         return model_hash(self.model)
@@ -391,7 +407,22 @@ def _rolling(data: Any, given: set[str], model: ModelSpec,
                                    "loads.roll.friction_from", FRICTION_FROM)
     return Rolling(float(distance), None if radius in RADIUS_WORDS else float(radius),
                    states, branch_from, branches, radius_estimate=radius == "estimate",
-                   friction_from=friction_from)
+                   friction_from=friction_from,
+                   lead_sigma=_lead_sigma(t, distance, branch_from))
+
+
+def _lead_sigma(t: dict, distance: float, branch_from: float) -> float:
+    """``[loads.roll] lead_sigma_mm``: the relaxation length the rolls' leads take."""
+    where = "loads.roll.lead_sigma_mm"
+    sigma = float(scalars.number(t.get("lead_sigma_mm", 0.0), where, low=0.0,
+                                 high=MAX_LEAD_SIGMA_MM))
+    if sigma and branch_from:
+        raise fail(where, "leads rolls from rest, and branch_from_mm makes rolling trees "
+                   "whose branches roll on from their trunk: drop one")
+    if sigma and distance <= LEAD_RAMP_MM:
+        raise fail(where, f"a lead is eased in over a roll's first {LEAD_RAMP_MM:g} mm and "
+                   f"distance_mm = {distance:g}: roll further")
+    return sigma
 
 
 def _branches(data: Any, branch_from: float, given: set[str],
@@ -566,6 +597,10 @@ def _check_models(study: Study) -> None:
         raise fail("loads.roll.friction_from", "a study with [models] writes one group per "
                    "model, which would mix rolls risen without friction with others: give "
                    "it a study of its own without [models]")
+    if study.rolling is not None and study.rolling.lead_sigma:
+        raise fail("loads.roll.lead_sigma_mm", "a study with [models] writes one group per "
+                   "model, which would mix led rolls with others: give it a study of its "
+                   "own without [models]")
     own = study.models is not None and study.models.loads == "own"
     if own and study.tree is None and study.sampling is None:
         raise fail("models.loads", "'own' gives each model its slice of a sampled load "

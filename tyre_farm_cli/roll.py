@@ -47,6 +47,9 @@ SLIP_RATIO = typer.Option(0.0, "--slip-ratio", help="Longitudinal slip kappa (SA
 SLIP_ANGLE = typer.Option(0.0, "--slip-angle", help="Slip angle, degrees, -20 to 20.")
 TILT = typer.Option(0.0, "--tilt", help="Road tilt about x (camber), degrees.")
 DISTANCE = typer.Option(150.0, "--distance", help="Road travel of the roll, mm.")
+LEAD = typer.Option(0.0, "--lead", help="The road's lateral offset, mm, eased in over the "
+                    "roll's first 96 mm: about -sigma tan(alpha) starts a slip angle's roll "
+                    "at its steady lateral force (docs/rolling.md, 'A steady roll').")
 ROLLING_RADIUS = typer.Option(
     "free", "--rolling-radius", help="Free-rolling radius r_e in mm that turns travel into "
     "spin, or 'free' to find it first (rolls until Fx = 0 at kappa = 0).")
@@ -60,7 +63,7 @@ JSON_OPTION = typer.Option(False, "--json", help="Print one JSON document.")
 def roll(
     pressure: float = PRESSURE, deflection: float = DEFLECTION, friction: float = FRICTION,
     slip_ratio: float = SLIP_RATIO, slip_angle: float = SLIP_ANGLE, tilt: float = TILT,
-    distance: float = DISTANCE, rolling_radius: str = ROLLING_RADIUS,
+    distance: float = DISTANCE, lead: float = LEAD, rolling_radius: str = ROLLING_RADIUS,
     samples: int = SAMPLES, materials: str = MATERIALS_OPTION, mesh: str = MESH_OPTION,
     overrides: list[str] = OVERRIDES, threads: int = THREADS_OPTION,
     timeout: float = TIMEOUT, as_json: bool = JSON_OPTION,
@@ -72,7 +75,8 @@ def roll(
                                    rolling_radius)
         # every bound of the roll checked now (a placeholder radius when it is found later)
         motion = Roll(friction=friction, slip_ratio=slip_ratio, slip_angle=slip_angle,
-                      tilt=tilt, distance=distance, rolling_radius=fixed or 400.0)
+                      tilt=tilt, distance=distance, rolling_radius=fixed or 400.0,
+                      lead=lead)
     find_ccx()
     lines = LogLines(every=10.0)
     lines.log(f"roll: {describe_model(spec)}")
@@ -147,7 +151,8 @@ def _print(kpa, deflection, done: RollOnce) -> None:
     motion, radius0 = done.motion, done.inflated_radius
     title = (f"roll of {motion.distance:g} mm at {kpa:g} kPa, {deflection:g} mm: mu "
              f"{motion.friction:g}, kappa {motion.slip_ratio:g}, slip angle "
-             f"{motion.slip_angle:g} deg, tilt {motion.tilt:g} deg")
+             f"{motion.slip_angle:g} deg, tilt {motion.tilt:g} deg"
+             + (f", lead {motion.lead:g} mm" if motion.lead else ""))
     table = Table(title=title)
     # a tilted road: the road's axes (TYDEX, ISO 8855) beside the wheel's
     road = ("Fy road N", "Fz road N", "Mz road N m") if motion.tilt else ()

@@ -179,8 +179,9 @@ def stick_slope(law: ContactLaw) -> float:
 
 def road_motion_lines(road: Road, travel: float, shift: tuple[float, float], tilt: float,
                       t0: float, tilt_time: float, rise: str = "vertical",
-                      split: Split | None = None,
-                      move_time: float = 1.0) -> tuple[list[str], list[str]]:
+                      split: Split | None = None, move_time: float = 1.0,
+                      lead: tuple[float, float] = (0.0, 0.0),
+                      ) -> tuple[list[str], list[str]]:
     """Road boundary conditions of a combined load: tilt, rise, then shift.
 
     Every road node is prescribed (the slab stays rigid and its reactions sum to the
@@ -196,7 +197,9 @@ def road_motion_lines(road: Road, travel: float, shift: tuple[float, float], til
 
     ``split``: the deck is cut into two steps (:class:`Split`), every amplitude in total
     time with the hold inserted. ``move_time``: the shift's ramp lasts this long instead
-    of one unit (a long roll, :func:`farm.solve.rolling.roll_time`).
+    of one unit (a long roll, :func:`farm.solve.rolling.roll_time`). ``lead`` = (mm,
+    step time): a further lateral offset along the tilted lateral axis, eased in over
+    that much of the shift's ramp (a roll's lead, :func:`lead_points`).
 
     Returns the amplitude lines (model definition) and the boundary lines (the step).
     """
@@ -211,14 +214,37 @@ def road_motion_lines(road: Road, travel: float, shift: tuple[float, float], til
     t1 = t0 + tilt_time
     sy, sz = shift[1] * math.cos(angle), shift[1] * math.sin(angle)  # in the road plane
     ry, rz = _rise(travel, tilt, rise)
+    ly, lz = lead[0] * math.cos(angle), lead[0] * math.sin(angle)
     for k, (uy, uz) in enumerate(groups):
-        for dof, points in ((2, [(t1, uy), (t0 + 1, uy + ry), (end, uy + ry + sy)]),
-                            (3, [(t1, uz), (t0 + 1, uz + rz), (end, uz + rz + sz)])):
+        for dof, points in ((2, [(t1, uy), *lead_points(t0 + 1, end, uy + ry, sy, ly, lead[1])]),
+                            (3, [(t1, uz), *lead_points(t0 + 1, end, uz + rz, sz, lz, lead[1])])):
             name = f"ROAD_{k + 1}_{dof}"
             lines += amplitude_lines(name, [(0.0, 0.0), (t0, 0.0), *points], split)
             bcs.append(f"*BOUNDARY, AMPLITUDE={name}")
             bcs += [f"{i}, {dof}, {dof}, 1" for i in ids[index == k]]
     return lines, bcs
+
+
+#: Points of a lead's ease-in (:func:`lead_points`)
+LEAD_POINTS = 12
+
+
+def lead_points(start: float, end: float, base: float, shift: float, lead: float,
+                lead_time: float) -> list[tuple[float, float]]:
+    """(time, value) of one road dof over the shift's ramp [``start``, ``end``]: linear
+    from ``base`` to ``base + shift``, plus ``lead`` eased in over [start, start +
+    ``lead_time``] by a smoothstep (3u^2 - 2u^3) and held after.
+
+    Why eased: the lead is a burst of lateral slip on top of the roll's; it must end with
+    the lateral speed of the roll itself. A lead taken in one 6.4 mm ramp (a kink in the
+    road's lateral speed) stopped the roll where it ended, eased over 96 mm it rolled
+    through (docs/rolling.md, "A steady roll")."""
+    if not lead or lead_time <= 0.0:
+        return [(start, base), (end, base + shift)]
+    rate = shift / (end - start)
+    eased = [(start + u * lead_time, base + u * lead_time * rate + lead * (3 - 2 * u) * u * u)
+             for u in np.linspace(0.0, 1.0, LEAD_POINTS + 1)]
+    return [*eased, (end, base + shift + lead)]
 
 
 def _rise(travel: float, tilt: float, rise: str) -> tuple[float, float]:

@@ -49,7 +49,7 @@ from farm.solve.contact import (
 from farm.solve.entries import read_entry, write_entry
 from farm.solve.states import SolvedState
 from farm.spacing import column_angles
-from farm.specs import LoadPath, ModelSpec, RoadMotion, Roll, SolverSettings
+from farm.specs import LEAD_RAMP_MM, LoadPath, ModelSpec, RoadMotion, Roll, SolverSettings
 
 
 @dataclass(frozen=True, eq=False)
@@ -153,7 +153,8 @@ def roll_deck(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: floa
     split = roll_split(roll)
     amplitudes, boundary = D.road_motion_lines(road, travel, roll.travel, roll.tilt, 1.0,
                                                TILT_TIME if roll.tilt else 0.0, "normal",
-                                               split, move_time=duration)
+                                               split, move_time=duration,
+                                               lead=(roll.lead, lead_time(roll)))
     amplitudes += D.inflate_amplitude_lines(split)
     rim_amplitudes, rim = rim_lines(mesh, roll.spin, 2.0, duration, split)
     if not fractions or any(not 0.0 <= f <= 1.0 for f in fractions) or any(
@@ -228,6 +229,22 @@ ROLL_UNIT_MM = 320.0
 def roll_time(roll: Roll) -> float:
     """Step time the roll lasts (:data:`ROLL_UNIT_MM`): 1 up to that distance."""
     return max(1.0, roll.distance / ROLL_UNIT_MM)
+
+
+def lead_time(roll: Roll) -> float:
+    """Step time over which the roll's lead is eased in: its first
+    :data:`~farm.specs.LEAD_RAMP_MM` of travel (0 without a lead).
+
+    Why a lead (docs/rolling.md, "A steady roll"): a slip angle's lateral force relaxes
+    over about 0.7 m of travel (a first-order lag whose length is sigma), more than a
+    windowed mesh can roll with the patch in its window. In the stretched-string model
+    (Pacejka, *Tyre and Vehicle Dynamics*, ch. 7) the carcass's lateral deflection at the
+    patch's leading edge is sigma tan(alpha) in steady rolling; a roll whose road is
+    offset by that much at its start begins there, and only the patch itself, which the
+    roll renews within its length, has to settle."""
+    if not roll.lead:
+        return 0.0
+    return LEAD_RAMP_MM / roll.distance * roll_time(roll)
 
 
 def travel_cap(settings: SolverSettings) -> float:
@@ -530,8 +547,8 @@ def cached_free_radius(spec: ModelSpec, mesh: TyreMesh, deflection: float, press
     key = {"model": spec.to_dict(), "mesh": mesh.mesh_key, "pressure": pressure,
            "deflection": deflection, "solver": ccx_version(),
            "roll": {k: v for k, v in dataclasses.asdict(roll).items()
-                    if k not in ("slip_ratio", "rolling_radius")
-                    and (k, v) != ("friction_from", "touch")}}  # entries from before it
+                    if k not in ("slip_ratio", "rolling_radius")  # entries from before:
+                    and (k, v) not in (("friction_from", "touch"), ("lead", 0.0))}}
     if spec.mesh.windowed:  # searched with the window ahead (start_spin) since issue 30
         key["start"] = "window ahead"
     entry = read_entry("free-radius", key)

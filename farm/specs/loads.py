@@ -32,6 +32,12 @@ TILT_DEG = (-10.0, 10.0)  # road rotation about x: camber of a road-going tyre i
 RISES = ("vertical", "normal")  # RoadMotion.rise: how a tilted road is pushed up
 #: RoadMotion.friction_from / Roll.friction_from: where a roll's friction begins
 FRICTION_FROM = ("touch", "roll")
+#: Roll.lead / RoadMotion.lead: the road travel (mm) over which a roll's lateral lead is
+#: eased in (farm.ccx.deck.road_motion_lines). Measured on the thesis wall at 32 round
+#: (docs/rolling.md, "A steady roll"): a lead eased in over 96 mm left Fy flat within
+#: 0.24 % from the first pitch after it; a lead taken in 6.4 mm stopped the roll where
+#: the lateral slide ended, and one taken with the rise stopped the rise at first touch.
+LEAD_RAMP_MM = 96.0
 
 
 @dataclass(frozen=True)
@@ -88,6 +94,11 @@ class RoadMotion:
         FRICTION``: no tread node is left sticking on the edge of slip when the roll
         starts, which stopped rolls of the 16-element polygon; docs/rolling.md, "A
         frictionless rise"). Rolls only; stored as ``"touch"`` without friction.
+    lead : the road's lateral offset (mm, along its lateral axis as ``shift_y``) that a
+        roll takes on top of its slip angle's travel, eased in over its first
+        :data:`LEAD_RAMP_MM` (:class:`Roll`): a roll that starts near its steady lateral
+        deflection, for steady Fy and Mz within the refined window (docs/rolling.md, "A
+        steady roll"). Rolls from rest only; stored as 0 without friction.
 
     All at their defaults the motion is no motion at all: :class:`LoadPath` then holds
     None, so decks, results and ids are those of a vertical experiment.
@@ -108,6 +119,7 @@ class RoadMotion:
     roll_from: float = 0.0
     radius_estimate: bool = False
     friction_from: str = "touch"
+    lead: float = 0.0
 
     def __post_init__(self) -> None:
         self._check_roll()
@@ -133,11 +145,15 @@ class RoadMotion:
         if self.roll == 0.0:
             if (self.slip_ratio or self.slip_angle or self.rolling_radius is not None
                     or self.roll_from or self.radius_estimate
-                    or self.friction_from != "touch"):
+                    or self.friction_from != "touch" or self.lead):
                 raise SpecError("motion.slip_ratio, slip_angle, rolling_radius, roll_from, "
-                                "radius_estimate and friction_from belong to a roll: give "
-                                "motion.roll, the road travel in mm")
+                                "radius_estimate, friction_from and lead belong to a roll: "
+                                "give motion.roll, the road travel in mm")
             return
+        if self.lead and self.roll_from:
+            raise SpecError(f"motion.lead = {self.lead!r} with roll_from = "
+                            f"{self.roll_from!r}: a branch rolls on from its trunk's state; "
+                            "a lead belongs to a roll from rest (drop one of them)")
         if self.radius_estimate and self.rolling_radius is not None:
             raise SpecError(f"motion.radius_estimate estimates a radius, and rolling_radius "
                             f"= {self.rolling_radius!r} gives one: drop one of them")
@@ -147,6 +163,7 @@ class RoadMotion:
         if not (self.slip_ratio or self.slip_angle):  # the same roll, straight throughout
             object.__setattr__(self, "roll_from", 0.0)
         within("motion.roll", self.roll, ROLL_MM, "mm")
+        _lead(self, "motion")
         within("motion.slip_ratio", self.slip_ratio, SLIP_RATIO, "")
         within("motion.slip_angle", self.slip_angle, SLIP_ANGLE_DEG, "degrees")
         if self.rolling_radius is not None:
@@ -173,7 +190,7 @@ class RoadMotion:
                             "([loads.roll] branch_from_mm, farm.solve.rolling_tree)")
         return Roll(friction=self.friction, slip_ratio=self.slip_ratio,
                     slip_angle=self.slip_angle, tilt=self.tilt, distance=self.roll,
-                    rolling_radius=radius, friction_from=self.friction_from)
+                    rolling_radius=radius, friction_from=self.friction_from, lead=self.lead)
 
     @property
     def searches_radius(self) -> bool:
@@ -210,7 +227,7 @@ class RoadMotion:
             del data["rise"]
         if not self.rolls:  # ids of slides and standing tyres as before rolling existed
             for name in ("roll", "slip_ratio", "slip_angle", "rolling_radius", "roll_from",
-                         "radius_estimate", "friction_from"):
+                         "radius_estimate", "friction_from", "lead"):
                 del data[name]
             return data
         if not self.radius_estimate:  # ids of rolls as before the estimate existed
@@ -221,6 +238,8 @@ class RoadMotion:
             del data["roll_from"]
         if self.friction_from == "touch":  # rolls keep the ids they had before it existed
             del data["friction_from"]
+        if not self.lead:  # rolls keep the ids they had before leads
+            del data["lead"]
         return data
 
     @classmethod
@@ -236,6 +255,20 @@ def _friction_from(spec: RoadMotion | Roll, where: str) -> None:
                         f"{', '.join(FRICTION_FROM)}")
     if not spec.friction:
         object.__setattr__(spec, "friction_from", "touch")
+
+
+def _lead(spec: RoadMotion | Roll, where: str) -> None:
+    """Check a roll's ``spec.lead`` (mm): within :data:`SHIFT_MM`, on a roll longer than
+    its ramp (:data:`LEAD_RAMP_MM`); stored as 0 without friction (a frictionless road
+    carries no lateral force: one id for the same roll)."""
+    within(f"{where}.lead", spec.lead, SHIFT_MM, "mm")
+    distance = spec.roll if isinstance(spec, RoadMotion) else spec.distance
+    if spec.lead and distance <= LEAD_RAMP_MM:
+        raise SpecError(f"{where}.lead = {spec.lead!r} on a roll of {distance!r} mm: the "
+                        f"lead is eased in over the first {LEAD_RAMP_MM:g} mm, so roll "
+                        "further (or drop the lead)")
+    if not spec.friction:
+        object.__setattr__(spec, "lead", 0.0)
 
 
 # Rolling (issue 30, farm.solve.rolling): bounds of a roll
@@ -262,6 +295,8 @@ class Roll:
     rolling_radius : the free-rolling radius r_e, mm, that turns distance into spin.
     friction_from : ``"touch"`` or ``"roll"``: where the friction begins
         (:attr:`RoadMotion.friction_from`).
+    lead : the road's lateral offset, mm, eased in over the roll's first
+        :data:`LEAD_RAMP_MM` on top of ``travel`` (:attr:`RoadMotion.lead`).
     """
 
     friction: float
@@ -271,6 +306,7 @@ class Roll:
     distance: float = 150.0
     rolling_radius: float = 390.0
     friction_from: str = "touch"
+    lead: float = 0.0
 
     def __post_init__(self) -> None:
         _friction_from(self, "roll")
@@ -280,6 +316,7 @@ class Roll:
         within("roll.tilt", self.tilt, TILT_DEG, "degrees")
         within("roll.distance", self.distance, ROLL_MM, "mm")
         within("roll.rolling_radius", self.rolling_radius, ROLLING_RADIUS_MM, "mm")
+        _lead(self, "roll")
 
     @property
     def travel(self) -> tuple[float, float]:

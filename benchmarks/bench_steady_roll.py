@@ -1,0 +1,153 @@
+"""A steady lateral force within a short roll: rolls at a slip angle started with a
+lateral lead, side by side with the roll from rest (issue 45: "steady state on the
+converged mesh"; docs/rolling.md, "A steady roll").
+
+    .venv/bin/python benchmarks/bench_steady_roll.py [--mesh PRESET | --wall T,S,B
+        --circumferential N] [--materials NAME] [--pressure KPA] [--deflection MM]
+        [--friction MU] [--radius MM] [--alphas DEG,..] [--sigmas MM,..]
+        [--distance MM] [--windows N] [--from-rest]
+
+Fy relaxes over about 0.7 m (a first-order lag of length sigma): a roll from rest would
+need 3 m to come within 1 % of its steady value, more than a windowed mesh can roll
+with the patch in its window. In the stretched-string model the steady carcass
+deflection at the patch's leading edge is sigma tan(alpha); a roll whose road leads by
+that much (``Roll.lead`` = -sigma tan(alpha), eased in over its first 96 mm) starts
+there. For each slip angle and each ``--sigmas`` value (the lead it gives), and with
+``--from-rest`` also without a lead: one roll of ``--distance`` mm; printed, the pitch
+means of Fy, Mz and the trail over ``--windows`` element pitches spread from the ramp's
+end to the roll's end, the drift of Fy between the first and the last of them (% of
+the last, and N per 100 mm); then, over the led rolls of a slip angle, the steady Fy and
+the relaxation length of the first-order lag through their ends (F = F_ss - sigma dF/ds:
+two rolls fix both). Leads on both sides of the right one bracket the steady value:
+their drifts have opposite signs. Nothing is asserted (noisy machines);
+each solve's wall seconds are printed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import math
+import time
+
+import numpy as np
+
+from farm.mesh import mesh_for
+from farm.presets import default_model
+from farm.solve.contact import touch_height
+from farm.solve.rolling import element_pitch, estimated_radius, solve_roll
+from farm.solve.trail import pitch_mean
+from farm.specs import LEAD_RAMP_MM, MeshDensity, Roll, SolverSettings
+
+PER_PITCH = 8
+
+
+def _args() -> argparse.Namespace:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--mesh", default="", help="a mesh preset (e.g. lean); else --wall")
+    p.add_argument("--wall", default="8,5,2", help="tread, sidewall, bead elements")
+    p.add_argument("--circumferential", type=int, default=32)
+    p.add_argument("--materials", default="table-3.1")
+    p.add_argument("--pressure", type=float, default=200.0, help="kPa")
+    p.add_argument("--deflection", type=float, default=15.0, help="mm")
+    p.add_argument("--friction", type=float, default=0.6)
+    p.add_argument("--radius", default="404.86", help="rolling radius, mm, or 'estimate' "
+                   "(R - 0.59 d, farm.solve.rolling.estimated_radius)")
+    p.add_argument("--alphas", default="0.5", help="slip angles, degrees")
+    p.add_argument("--sigmas", default="671", help="relaxation lengths (mm) whose leads "
+                   "-sigma tan(alpha) are rolled")
+    p.add_argument("--distance", type=float, default=320.0, help="each roll, mm")
+    p.add_argument("--windows", type=int, default=3, help="pitch means along the roll")
+    p.add_argument("--from-rest", action="store_true", help="also each roll without lead")
+    p.add_argument("--timeout", type=float, default=10800.0, help="seconds a roll may take")
+    p.add_argument("--grow-after", type=int, default=4, help="ccx's IG (solver.grow_after; "
+                   "the answer's study rolls `lean` with 10)")
+    return p.parse_args()
+
+
+def _model(a: argparse.Namespace):
+    if a.mesh:
+        return default_model("full", mesh=a.mesh, materials=a.materials)
+    tread, sidewall, bead = (int(n) for n in a.wall.split(","))
+    return default_model("full", materials=a.materials, mesh=MeshDensity(
+        tread=tread, sidewall=sidewall, bead=bead, circumferential=a.circumferential))
+
+
+def windows(spec, roll: Roll, n: int) -> list[list[float]]:
+    """Fractions of ``n`` element pitches of ``PER_PITCH`` states each, the last ending at
+    the roll's end, the first starting where a lead's ramp ends (or at a pitch)."""
+    pitch = element_pitch(spec, roll)
+    first_end = max(LEAD_RAMP_MM, pitch) + pitch
+    ends = np.linspace(first_end, roll.distance, n) if n > 1 else [roll.distance]
+    if ends[0] > roll.distance:
+        raise SystemExit(f"--distance {roll.distance:g} mm is too short for a pitch of "
+                         f"{pitch:.1f} mm after the {LEAD_RAMP_MM:g} mm ramp")
+    return [[(end - pitch + k * pitch / PER_PITCH) / roll.distance
+             for k in range(1, PER_PITCH + 1)] for end in ends]
+
+
+def one(spec, mesh, a, roll: Roll, sigma: float | None) -> tuple[float, float]:
+    """Roll once; print its pitch means and drift; return (last Fy, its slope N/mm)."""
+    parts = windows(spec, roll, a.windows)
+    fractions = sorted({round(f, 9) for part in parts for f in part})
+    t0 = time.perf_counter()
+    states = solve_roll(spec, mesh, a.deflection, a.pressure / 1000.0, roll,
+                        SolverSettings(timeout=a.timeout, grow_after=a.grow_after), fractions)
+    wall = time.perf_counter() - t0
+    at = {round(f, 9): s for f, s in zip(fractions, states, strict=True)}
+    label = "from rest" if sigma is None else f"lead {roll.lead:.2f} mm (sigma {sigma:g})"
+    print(f"alpha {roll.slip_angle:g} deg, {label}: {wall:.0f} s", flush=True)
+    means, travel = [], []
+    for part in parts:
+        chunk = [at[round(f, 9)] for f in part]
+        m = pitch_mean(chunk, mesh)
+        means.append(m)
+        travel.append(chunk[-1].travelled)
+        print(f"  {chunk[0].travelled:6.1f}-{chunk[-1].travelled:6.1f} mm  Fy {m.fy:9.1f} N  "
+              f"Mz {m.mz / 1e3:7.2f} N m  trail {m.trail:6.1f} mm  "
+              f"Fz {np.mean([s.force[2] for s in chunk]):7.1f} N")
+    first, last = means[0].fy, means[-1].fy
+    slope = (last - first) / (travel[-1] - travel[0])
+    print(f"  drift {100.0 * (last - first) / abs(last):+.2f} % ({100 * slope:+.2f} N per "
+          f"100 mm); Fy / alpha {abs(last) / abs(roll.slip_angle):.0f} N/deg", flush=True)
+    return last, slope
+
+
+def secant(ends: list[tuple[float, float]]) -> tuple[float, float]:
+    """The steady Fy and the relaxation length sigma of a first-order lag, dF/ds = (F_ss
+    - F) / sigma, from rolls that end at (F, dF/ds): least squares of F = F_ss - sigma
+    dF/ds (two rolls: exact)."""
+    f, s = np.array(ends).T
+    (steady, sigma), *_ = np.linalg.lstsq(np.column_stack([np.ones_like(s), -s]), f,
+                                          rcond=None)
+    return float(steady), float(sigma)
+
+
+def main() -> None:
+    a = _args()
+    spec = _model(a)
+    mesh = mesh_for(spec)
+    touch_height(spec, mesh, a.pressure / 1000.0, SolverSettings())  # cached first
+    a.radius = (estimated_radius(spec, mesh, a.deflection, a.pressure / 1000.0,
+                                 SolverSettings()) if a.radius == "estimate" else float(a.radius))
+    print(f"{mesh.n_nodes} nodes; {a.pressure:g} kPa, {a.deflection:g} mm, mu "
+          f"{a.friction:g}, r_e {a.radius:.2f} mm, {a.distance:g} mm rolls", flush=True)
+    for alpha in (float(x) for x in a.alphas.split(",")):
+        roll = Roll(friction=a.friction, slip_angle=alpha, distance=a.distance,
+                    rolling_radius=a.radius)
+        ends = []
+        for sigma in (float(x) for x in a.sigmas.split(",") if x.strip()):
+            lead = -sigma * math.tan(math.radians(alpha))
+            ends.append(one(spec, mesh, a, dataclasses.replace(roll, lead=round(lead, 3)),
+                            sigma))
+        if len(ends) > 1:
+            steady, sigma = secant(ends)
+            print(f"alpha {alpha:g} deg: steady Fy {steady:.1f} N, sigma {sigma:.0f} mm "
+                  f"(first-order secant over the {len(ends)} led rolls); cornering "
+                  f"stiffness {abs(steady / alpha):.0f} N/deg", flush=True)
+        if a.from_rest:
+            one(spec, mesh, a, roll, None)
+
+
+if __name__ == "__main__":
+    main()
