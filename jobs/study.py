@@ -144,8 +144,9 @@ LOAD_KEYS = {"pressure_kpa", "deflection_mm", "sample", "tree", "rise", "roll", 
 RADIUS_WORDS = ("free", "estimate")
 ROLL_DEFAULTS = {"distance_mm": 150.0, "rolling_radius_mm": "free", "states": 1,
                  "branch_from_mm": 0.0, "friction_from": "touch", "lead_sigma_mm": 0.0}
-#: The largest relaxation length a lead is taken from, mm (measured: 0.58-0.73 m on the
-#: thesis wall, docs/rolling.md "A steady roll"; a revolution is about 2.5 m)
+#: The largest sigma a lead is taken from, mm (measured: the flat lead's 0.67 m on the
+#: thesis wall and about 0.55 m on `lean`, docs/rolling.md "A steady roll"; a
+#: revolution is about 2.5 m)
 MAX_LEAD_SIGMA_MM = 5000.0
 #: The most states one roll may keep (a 2000 mm roll's are then 10 mm apart)
 MAX_ROLL_STATES = 200
@@ -191,9 +192,10 @@ class Rolling:
     lead_sigma: float = 0.0
 
     def lead(self, slip_angle: float) -> float:
-        """The lead (mm) of a roll at ``slip_angle`` degrees: the stretched string's steady
-        deflection of the carcass, -sigma tan(alpha) (docs/rolling.md, "A steady roll");
-        0 without ``lead_sigma``."""
+        """The lead (mm) of a roll at ``slip_angle`` degrees, -sigma tan(alpha): about the
+        carcass's steady deflection in the stretched-string model; the sigma that starts a
+        roll at its steady force is the tyre's own, found by two bracketing leads
+        (docs/rolling.md, "A steady roll"). 0 without ``lead_sigma``."""
         return round(-self.lead_sigma * math.tan(math.radians(slip_angle)), 6) + 0.0
 
     @property
@@ -593,14 +595,17 @@ def _check_loads(study: Study) -> None:
 def _check_models(study: Study) -> None:
     """Make every model of the design (each checked by ``override_model``) and check the
     loads against each: a thinner tread or a lower section takes less deflection."""
-    if study.rolling is not None and study.rolling.friction_from == "roll":
-        raise fail("loads.roll.friction_from", "a study with [models] writes one group per "
-                   "model, which would mix rolls risen without friction with others: give "
-                   "it a study of its own without [models]")
-    if study.rolling is not None and study.rolling.lead_sigma:
-        raise fail("loads.roll.lead_sigma_mm", "a study with [models] writes one group per "
-                   "model, which would mix led rolls with others: give it a study of its "
-                   "own without [models]")
+    # load histories the store's parameters do not show have groups of their own
+    # (Study.group_name), and [models] writes one group per model, which would mix them
+    rolling = study.rolling
+    for key, what, given in (("friction_from", "rolls risen without friction",
+                              rolling is not None and rolling.friction_from == "roll"),
+                             ("lead_sigma_mm", "led rolls",
+                              rolling is not None and rolling.lead_sigma > 0)):
+        if given:
+            raise fail(f"loads.roll.{key}", f"a study with [models] writes one group per "
+                       f"model, which would mix {what} with others: give it a study of its "
+                       "own without [models]")
     own = study.models is not None and study.models.loads == "own"
     if own and study.tree is None and study.sampling is None:
         raise fail("models.loads", "'own' gives each model its slice of a sampled load "
