@@ -1,26 +1,30 @@
 """A steady lateral force within a short roll: rolls at a slip angle started with a
 lateral lead, side by side with the roll from rest (issue 45: "steady state on the
-converged mesh"; docs/rolling.md, "A steady roll").
+converged mesh"; docs/rolling.md, "A steady roll"); and the slip-ratio and camber rolls
+of the same tyre.
 
     .venv/bin/python benchmarks/bench_steady_roll.py [--mesh PRESET | --wall T,S,B
         --circumferential N] [--materials NAME] [--pressure KPA] [--deflection MM]
-        [--friction MU] [--radius MM] [--alphas DEG,..] [--sigmas MM,..]
-        [--distance MM] [--windows N] [--from-rest]
+        [--friction MU] [--radius MM] [--alphas DEG,..] [--sigmas MM,..] [--leads MM,..]
+        [--kappas K,..] [--tilts DEG,..] [--distance MM] [--windows N] [--from-rest]
 
 Fy relaxes over about 0.7 m (a first-order lag of length sigma): a roll from rest would
 need 3 m to come within 1 % of its steady value, more than a windowed mesh can roll
 with the patch in its window. In the stretched-string model the steady carcass
 deflection at the patch's leading edge is sigma tan(alpha); a roll whose road leads by
 that much (``Roll.lead`` = -sigma tan(alpha), eased in over its first 96 mm) starts
-there. For each slip angle and each ``--sigmas`` value (the lead it gives), and with
-``--from-rest`` also without a lead: one roll of ``--distance`` mm; printed, the pitch
-means of Fy, Mz and the trail over ``--windows`` element pitches spread from the ramp's
-end to the roll's end, the drift of Fy between the first and the last of them (% of
-the last, and N per 100 mm); then, over the led rolls of a slip angle, the steady Fy and
-the relaxation length of the first-order lag through their ends (F = F_ss - sigma dF/ds:
-two rolls fix both). Leads on both sides of the right one bracket the steady value:
-their drifts have opposite signs. Nothing is asserted (noisy machines);
-each solve's wall seconds are printed.
+there. For each slip angle and each ``--sigmas`` value (the lead it gives) or
+``--leads`` value (mm, as given), and with ``--from-rest`` also without a lead: one roll
+of ``--distance`` mm; printed, the pitch means of Fx, Fy, Mz (the road's axes) and the
+trail over ``--windows`` element pitches spread from the ramp's end to the roll's end,
+the drift of the force between the first and the last of them (% of the last, and N per
+100 mm); then, over the led rolls of a slip angle, the steady Fy and the relaxation
+length of the first-order lag through their ends (F = F_ss - sigma dF/ds: two rolls fix
+both). Leads on both sides of the right one bracket the steady value: their drifts have
+opposite signs. ``--kappas``: rolls from rest at those slip ratios (Fx, and the slip
+stiffness through them); ``--tilts``: rolls at those cambers (the camber force Fy in
+the road's axes, led by ``--leads`` where given, else from rest). Nothing is asserted
+(noisy machines); each solve's wall seconds are printed.
 """
 
 from __future__ import annotations
@@ -32,6 +36,7 @@ import time
 
 import numpy as np
 
+from farm.measure.axes import in_road_axes
 from farm.mesh import mesh_for
 from farm.presets import default_model
 from farm.solve.contact import touch_height
@@ -53,11 +58,15 @@ def _args() -> argparse.Namespace:
     p.add_argument("--friction", type=float, default=0.6)
     p.add_argument("--radius", default="404.86", help="rolling radius, mm, or 'estimate' "
                    "(R - 0.59 d, farm.solve.rolling.estimated_radius)")
-    p.add_argument("--alphas", default="0.5", help="slip angles, degrees")
+    p.add_argument("--alphas", default="0.5", help="slip angles, degrees ('' for none)")
     p.add_argument("--sigmas", default="671", help="relaxation lengths (mm) whose leads "
                    "-sigma tan(alpha) are rolled")
     p.add_argument("--distance", type=float, default=320.0, help="each roll, mm")
     p.add_argument("--windows", type=int, default=3, help="pitch means along the roll")
+    p.add_argument("--leads", default="", help="leads (mm, the road's lateral axis) "
+                   "rolled at every slip angle and camber")
+    p.add_argument("--kappas", default="", help="slip ratios rolled from rest (Fx)")
+    p.add_argument("--tilts", default="", help="cambers, degrees (road tilt about +x)")
     p.add_argument("--from-rest", action="store_true", help="also each roll without lead")
     p.add_argument("--timeout", type=float, default=10800.0, help="seconds a roll may take")
     p.add_argument("--grow-after", type=int, default=4, help="ccx's IG (solver.grow_after; "
@@ -86,8 +95,9 @@ def windows(spec, roll: Roll, n: int) -> list[list[float]]:
              for k in range(1, PER_PITCH + 1)] for end in ends]
 
 
-def one(spec, mesh, a, roll: Roll, sigma: float | None) -> tuple[float, float]:
-    """Roll once; print its pitch means and drift; return (last Fy, its slope N/mm)."""
+def one(spec, mesh, a, roll: Roll, label: str, axis: int = 1) -> tuple[float, float]:
+    """Roll once; print its pitch means (forces and Mz in the road's axes) and the drift
+    of force component ``axis`` (0 Fx, 1 Fy); return (its last mean, its slope N/mm)."""
     parts = windows(spec, roll, a.windows)
     fractions = sorted({round(f, 9) for part in parts for f in part})
     t0 = time.perf_counter()
@@ -95,21 +105,24 @@ def one(spec, mesh, a, roll: Roll, sigma: float | None) -> tuple[float, float]:
                         SolverSettings(timeout=a.timeout, grow_after=a.grow_after), fractions)
     wall = time.perf_counter() - t0
     at = {round(f, 9): s for f, s in zip(fractions, states, strict=True)}
-    label = "from rest" if sigma is None else f"lead {roll.lead:.2f} mm (sigma {sigma:g})"
-    print(f"alpha {roll.slip_angle:g} deg, {label}: {wall:.0f} s", flush=True)
+    print(f"alpha {roll.slip_angle:g} deg, kappa {roll.slip_ratio:g}, camber "
+          f"{roll.tilt:g} deg, {label}: {wall:.0f} s", flush=True)
     means, travel = [], []
     for part in parts:
         chunk = [at[round(f, 9)] for f in part]
-        m = pitch_mean(chunk, mesh)
-        means.append(m)
+        force = in_road_axes(np.array([s.force for s in chunk]), roll.tilt).mean(axis=0)
+        mz = in_road_axes(np.array([s.moment for s in chunk]), roll.tilt)[:, 2].mean()
+        means.append(force[axis])
         travel.append(chunk[-1].travelled)
-        print(f"  {chunk[0].travelled:6.1f}-{chunk[-1].travelled:6.1f} mm  Fy {m.fy:9.1f} N  "
-              f"Mz {m.mz / 1e3:7.2f} N m  trail {m.trail:6.1f} mm  "
-              f"Fz {np.mean([s.force[2] for s in chunk]):7.1f} N")
-    first, last = means[0].fy, means[-1].fy
+        # the trail -Mz/Fy means nothing without a lateral force
+        trail = pitch_mean(chunk, mesh).trail if abs(force[1]) > 0.01 * force[2] else math.nan
+        print(f"  {chunk[0].travelled:6.1f}-{chunk[-1].travelled:6.1f} mm  Fx {force[0]:8.1f} N"
+              f"  Fy {force[1]:9.1f} N  Mz {mz / 1e3:7.2f} N m  trail {trail:6.1f} mm  "
+              f"Fz {force[2]:7.1f} N")
+    first, last = means[0], means[-1]
     slope = (last - first) / (travel[-1] - travel[0])
-    print(f"  drift {100.0 * (last - first) / abs(last):+.2f} % ({100 * slope:+.2f} N per "
-          f"100 mm); Fy / alpha {abs(last) / abs(roll.slip_angle):.0f} N/deg", flush=True)
+    print(f"  drift of F{'xy'[axis]} {100.0 * (last - first) / abs(last):+.2f} % "
+          f"({100 * slope:+.2f} N per 100 mm)", flush=True)
     return last, slope
 
 
@@ -123,6 +136,24 @@ def secant(ends: list[tuple[float, float]]) -> tuple[float, float]:
     return float(steady), float(sigma)
 
 
+def _lateral(spec, mesh, a, roll: Roll, leads: list[tuple[float, str]]) -> None:
+    """The led rolls of one slip angle or camber, their secant, and the roll from rest."""
+    ends = [one(spec, mesh, a, dataclasses.replace(roll, lead=round(lead, 3)), label)
+            for lead, label in leads]
+    if len(ends) > 1:
+        steady, sigma = secant(ends)
+        per = roll.slip_angle or roll.tilt
+        print(f"alpha {roll.slip_angle:g} deg, camber {roll.tilt:g} deg: steady Fy "
+              f"{steady:.1f} N, sigma {sigma:.0f} mm (first-order secant over the "
+              f"{len(ends)} led rolls); {abs(steady / per):.0f} N/deg", flush=True)
+    if a.from_rest or not leads:
+        one(spec, mesh, a, roll, "from rest")
+
+
+def _floats(text: str) -> list[float]:
+    return [float(x) for x in text.split(",") if x.strip()]
+
+
 def main() -> None:
     a = _args()
     spec = _model(a)
@@ -132,21 +163,20 @@ def main() -> None:
                                  SolverSettings()) if a.radius == "estimate" else float(a.radius))
     print(f"{mesh.n_nodes} nodes; {a.pressure:g} kPa, {a.deflection:g} mm, mu "
           f"{a.friction:g}, r_e {a.radius:.2f} mm, {a.distance:g} mm rolls", flush=True)
-    for alpha in (float(x) for x in a.alphas.split(",")):
-        roll = Roll(friction=a.friction, slip_angle=alpha, distance=a.distance,
-                    rolling_radius=a.radius)
-        ends = []
-        for sigma in (float(x) for x in a.sigmas.split(",") if x.strip()):
-            lead = -sigma * math.tan(math.radians(alpha))
-            ends.append(one(spec, mesh, a, dataclasses.replace(roll, lead=round(lead, 3)),
-                            sigma))
-        if len(ends) > 1:
-            steady, sigma = secant(ends)
-            print(f"alpha {alpha:g} deg: steady Fy {steady:.1f} N, sigma {sigma:.0f} mm "
-                  f"(first-order secant over the {len(ends)} led rolls); cornering "
-                  f"stiffness {abs(steady / alpha):.0f} N/deg", flush=True)
-        if a.from_rest:
-            one(spec, mesh, a, roll, None)
+    roll = Roll(friction=a.friction, distance=a.distance, rolling_radius=a.radius)
+    given = [(lead, f"lead {lead:.2f} mm") for lead in _floats(a.leads)]
+    for alpha in _floats(a.alphas):
+        leads = [(-s * math.tan(math.radians(alpha)), s) for s in _floats(a.sigmas)]
+        _lateral(spec, mesh, a, dataclasses.replace(roll, slip_angle=alpha),
+                 [(lead, f"lead {lead:.2f} mm (sigma {s:g})") for lead, s in leads] + given)
+    for tilt in _floats(a.tilts):
+        _lateral(spec, mesh, a, dataclasses.replace(roll, tilt=tilt), given)
+    ends = {k: one(spec, mesh, a, dataclasses.replace(roll, slip_ratio=k), "from rest", 0)[0]
+            for k in _floats(a.kappas)}
+    if len(ends) > 1:
+        stiffness, offset = np.polyfit(list(ends), list(ends.values()), 1)
+        print(f"slip stiffness {stiffness / 1e3:.1f} kN per unit slip, Fx(0) {offset:.1f} N "
+              f"(least squares over kappa {min(ends):g}..{max(ends):g})", flush=True)
 
 
 if __name__ == "__main__":
