@@ -21,8 +21,9 @@ the drift of the force between the first and the last of them (% of the last, an
 100 mm); then, over the led rolls of a slip angle, the steady Fy and the relaxation
 length of the first-order lag through their ends (F = F_ss - sigma dF/ds: two rolls fix
 both). Leads on both sides of the right one bracket the steady value: their drifts have
-opposite signs. ``--kappas``: rolls from rest at those slip ratios (Fx, and the slip
-stiffness through them); ``--tilts``: rolls at those cambers (the camber force Fy in
+opposite signs. ``--kappas``: rolls from rest at those slip ratios (Fx, and its slope
+in kappa at the roll's end: a slip stiffness where Fx has settled, which on ``lean`` it
+has not within 200 mm); ``--tilts``: rolls at those cambers (the camber force Fy in
 the road's axes, led by ``--leads`` where given, else from rest). Nothing is asserted
 (noisy machines); each solve's wall seconds are printed.
 """
@@ -41,7 +42,6 @@ from farm.mesh import mesh_for
 from farm.presets import default_model
 from farm.solve.contact import touch_height
 from farm.solve.rolling import element_pitch, estimated_radius, solve_roll
-from farm.solve.trail import pitch_mean
 from farm.specs import LEAD_RAMP_MM, MeshDensity, Roll, SolverSettings
 
 PER_PITCH = 8
@@ -114,8 +114,10 @@ def one(spec, mesh, a, roll: Roll, label: str, axis: int = 1) -> tuple[float, fl
         mz = in_road_axes(np.array([s.moment for s in chunk]), roll.tilt)[:, 2].mean()
         means.append(force[axis])
         travel.append(chunk[-1].travelled)
-        # the trail -Mz/Fy means nothing without a lateral force
-        trail = pitch_mean(chunk, mesh).trail if abs(force[1]) > 0.01 * force[2] else math.nan
+        # the trail -Mz/Fy (road axes) means nothing without a lateral force, nor under
+        # camber, whose Mz is not that of a force behind the contact centre
+        lateral = abs(force[1]) > 0.01 * force[2] and not roll.tilt
+        trail = -mz / force[1] if lateral else math.nan
         print(f"  {chunk[0].travelled:6.1f}-{chunk[-1].travelled:6.1f} mm  Fx {force[0]:8.1f} N"
               f"  Fy {force[1]:9.1f} N  Mz {mz / 1e3:7.2f} N m  trail {trail:6.1f} mm  "
               f"Fz {force[2]:7.1f} N")
@@ -175,8 +177,9 @@ def main() -> None:
             for k in _floats(a.kappas)}
     if len(ends) > 1:
         stiffness, offset = np.polyfit(list(ends), list(ends.values()), 1)
-        print(f"slip stiffness {stiffness / 1e3:.1f} kN per unit slip, Fx(0) {offset:.1f} N "
-              f"(least squares over kappa {min(ends):g}..{max(ends):g})", flush=True)
+        print(f"Fx in the last window: {stiffness / 1e3:.1f} kN per unit slip, Fx(0) "
+              f"{offset:.1f} N (least squares over kappa {min(ends):g}..{max(ends):g}; a "
+              "slip stiffness only where the drifts above are small)", flush=True)
 
 
 if __name__ == "__main__":

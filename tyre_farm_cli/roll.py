@@ -48,8 +48,9 @@ SLIP_ANGLE = typer.Option(0.0, "--slip-angle", help="Slip angle, degrees, -20 to
 TILT = typer.Option(0.0, "--tilt", help="Road tilt about x (camber), degrees.")
 DISTANCE = typer.Option(150.0, "--distance", help="Road travel of the roll, mm.")
 LEAD = typer.Option(0.0, "--lead", help="The road's lateral offset, mm, eased in over the "
-                    "roll's first 96 mm: about -sigma tan(alpha) starts a slip angle's roll "
-                    "at its steady lateral force (docs/rolling.md, 'A steady roll').")
+                    "roll's first 96 mm: about the steady Fy over the carcass's lateral "
+                    "stiffness (on lean -Fy/190 N/mm) starts a slip angle's roll at its "
+                    "steady lateral force (docs/rolling.md, 'A steady roll').")
 ROLLING_RADIUS = typer.Option(
     "free", "--rolling-radius", help="Free-rolling radius r_e in mm that turns travel into "
     "spin, or 'free' to find it first (rolls until Fx = 0 at kappa = 0).")

@@ -242,9 +242,9 @@ def lead_time(roll: Roll) -> float:
     patch's leading edge is sigma tan(alpha) in steady rolling; a roll whose road is
     offset by about that much at its start begins near there, and only the patch itself,
     which the roll renews within its length, has to settle. The lead that starts exactly
-    at the steady force is the tyre's own (a uniform shift is not the string's steady
-    shape; on `lean` about 1.4 x the relaxation length times tan(alpha)): two leads that
-    bracket it give the steady value (``benchmarks/bench_steady_roll.py``)."""
+    at the steady force is the steady force over the carcass's lateral stiffness (on
+    `lean` about 190 N/mm, 0.5-2 degrees; sigma tan(alpha) only while Fy is linear): two
+    leads that bracket it give the steady value (``benchmarks/bench_steady_roll.py``)."""
     if not roll.lead:
         return 0.0
     return LEAD_RAMP_MM / roll.distance * roll_time(roll)
