@@ -6,7 +6,8 @@ of the same tyre.
     .venv/bin/python benchmarks/bench_steady_roll.py [--mesh PRESET | --wall T,S,B
         --circumferential N] [--materials NAME] [--pressure KPA] [--deflection MM]
         [--friction MU] [--radius MM] [--alphas DEG,..] [--sigmas MM,..] [--leads MM,..]
-        [--kappas K,..] [--tilts DEG,..] [--distance MM] [--windows N] [--from-rest]
+        [--kappas K,..] [--leads-x MM,..] [--tilts DEG,..] [--distance MM] [--windows N]
+        [--from-rest]
 
 Fy relaxes over about 0.7 m (a first-order lag of length sigma): a roll from rest would
 need 3 m to come within 1 % of its steady value, more than a windowed mesh can roll
@@ -21,9 +22,10 @@ the drift of the force between the first and the last of them (% of the last, an
 100 mm); then, over the led rolls of a slip angle, the steady Fy and the relaxation
 length of the first-order lag through their ends (F = F_ss - sigma dF/ds: two rolls fix
 both). Leads on both sides of the right one bracket the steady value: their drifts have
-opposite signs. ``--kappas``: rolls from rest at those slip ratios (Fx, and its slope
-in kappa at the roll's end: a slip stiffness where Fx has settled, which on ``lean`` it
-has not within 200 mm); ``--tilts``: rolls at those cambers (the camber force Fy in
+opposite signs. ``--kappas``: rolls at those slip ratios, led along x by each of
+``--leads-x`` (``Roll.lead_x``, the longitudinal lead: Fx bracketed as Fy is) or from
+rest (Fx on ``lean`` has not settled within 200 mm from rest), and the slope of Fx in
+kappa: the slip stiffness; ``--tilts``: rolls at those cambers (the camber force Fy in
 the road's axes, led by ``--leads`` where given, else from rest). Nothing is asserted
 (noisy machines); each solve's wall seconds are printed.
 """
@@ -65,7 +67,10 @@ def _args() -> argparse.Namespace:
     p.add_argument("--windows", type=int, default=3, help="pitch means along the roll")
     p.add_argument("--leads", default="", help="leads (mm, the road's lateral axis) "
                    "rolled at every slip angle and camber")
-    p.add_argument("--kappas", default="", help="slip ratios rolled from rest (Fx)")
+    p.add_argument("--kappas", default="", help="slip ratios rolled (Fx), led by "
+                   "--leads-x where given, else from rest")
+    p.add_argument("--leads-x", default="", help="longitudinal leads (mm, the road's x; > 0 "
+                   "with a driving slip) rolled at every slip ratio")
     p.add_argument("--tilts", default="", help="cambers, degrees (road tilt about +x)")
     p.add_argument("--from-rest", action="store_true", help="also each roll without lead")
     p.add_argument("--timeout", type=float, default=10800.0, help="seconds a roll may take")
@@ -138,18 +143,26 @@ def secant(ends: list[tuple[float, float]]) -> tuple[float, float]:
     return float(steady), float(sigma)
 
 
-def _lateral(spec, mesh, a, roll: Roll, leads: list[tuple[float, str]]) -> None:
-    """The led rolls of one slip angle or camber, their secant, and the roll from rest."""
-    ends = [one(spec, mesh, a, dataclasses.replace(roll, lead=round(lead, 3)), label)
-            for lead, label in leads]
+def _led(spec, mesh, a, roll: Roll, leads: list[tuple[float, str]], axis: int = 1
+         ) -> float:
+    """The led rolls of one slip angle or camber (``axis`` 1: lateral leads, Fy) or slip
+    ratio (0: longitudinal leads, Fx), their secant, and the roll from rest; returns the
+    secant's steady force (with one lead, that roll's last mean; none: the roll from
+    rest's)."""
+    name = ("lead_x", "lead")[axis]
+    ends = [one(spec, mesh, a, dataclasses.replace(roll, **{name: round(lead, 3)}), label,
+                axis) for lead, label in leads]
+    steady = ends[0][0] if ends else math.nan
     if len(ends) > 1:
         steady, sigma = secant(ends)
-        per = roll.slip_angle or roll.tilt
-        print(f"alpha {roll.slip_angle:g} deg, camber {roll.tilt:g} deg: steady Fy "
-              f"{steady:.1f} N, sigma {sigma:.0f} mm (first-order secant over the "
-              f"{len(ends)} led rolls); {abs(steady / per):.0f} N/deg", flush=True)
+        print(f"alpha {roll.slip_angle:g} deg, kappa {roll.slip_ratio:g}, camber "
+              f"{roll.tilt:g} deg: steady F{'xy'[axis]} {steady:.1f} N, sigma {sigma:.0f} mm "
+              f"(first-order secant over the {len(ends)} led rolls; leads whose drifts "
+              "have opposite signs bracket the steady force)", flush=True)
     if a.from_rest or not leads:
-        one(spec, mesh, a, roll, "from rest")
+        rest = one(spec, mesh, a, roll, "from rest", axis)[0]
+        steady = rest if not leads else steady
+    return steady
 
 
 def _floats(text: str) -> list[float]:
@@ -169,17 +182,25 @@ def main() -> None:
     given = [(lead, f"lead {lead:.2f} mm") for lead in _floats(a.leads)]
     for alpha in _floats(a.alphas):
         leads = [(-s * math.tan(math.radians(alpha)), s) for s in _floats(a.sigmas)]
-        _lateral(spec, mesh, a, dataclasses.replace(roll, slip_angle=alpha),
-                 [(lead, f"lead {lead:.2f} mm (sigma {s:g})") for lead, s in leads] + given)
+        _led(spec, mesh, a, dataclasses.replace(roll, slip_angle=alpha),
+             [(lead, f"lead {lead:.2f} mm (sigma {s:g})") for lead, s in leads] + given)
     for tilt in _floats(a.tilts):
-        _lateral(spec, mesh, a, dataclasses.replace(roll, tilt=tilt), given)
-    ends = {k: one(spec, mesh, a, dataclasses.replace(roll, slip_ratio=k), "from rest", 0)[0]
+        _led(spec, mesh, a, dataclasses.replace(roll, tilt=tilt), given)
+    _slip_ratios(spec, mesh, a, roll)
+
+
+def _slip_ratios(spec, mesh, a, roll: Roll) -> None:
+    """Fx at each of ``--kappas`` (led by ``--leads-x``, else from rest) and the slip
+    stiffness through them."""
+    leads = [(lead, f"lead along x {lead:.2f} mm") for lead in _floats(a.leads_x)]
+    ends = {k: _led(spec, mesh, a, dataclasses.replace(roll, slip_ratio=k), leads, 0)
             for k in _floats(a.kappas)}
     if len(ends) > 1:
         stiffness, offset = np.polyfit(list(ends), list(ends.values()), 1)
-        print(f"Fx in the last window: {stiffness / 1e3:.1f} kN per unit slip, Fx(0) "
-              f"{offset:.1f} N (least squares over kappa {min(ends):g}..{max(ends):g}; a "
-              "slip stiffness only where the drifts above are small)", flush=True)
+        of = "the secants" if len(leads) > 1 else "the last windows"
+        print(f"Fx: {stiffness / 1e3:.1f} kN per unit slip, Fx(0) {offset:.1f} N (least "
+              f"squares over kappa {min(ends):g}..{max(ends):g} of {of}; a slip stiffness "
+              "only where the drifts above bracket or are small)", flush=True)
 
 
 if __name__ == "__main__":

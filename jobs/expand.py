@@ -105,9 +105,7 @@ def cases(study: Study) -> list[tuple[float, float, RoadMotion | None]]:
             motion: dict[str, Any] = {
                 n: round(_value(case, n), 9) + 0.0 for n in CASE_PARAMETERS if n in case}
             if study.rolling is not None:  # every case of a rolling study rolls
-                motion |= study.rolling.motion_fields
-                if study.rolling.lead_sigma:  # a steady roll (RoadMotion.lead)
-                    motion["lead"] = study.rolling.lead(motion.get("slip_angle", 0.0))
+                motion |= study.rolling.case_fields(motion)
             m = RoadMotion(**motion, rise=study.rise) if motion else None
             out.append((round(_value(case, "deflection"), 9), round(_value(case, "pressure"), 12),
                         None if m is None or m.is_identity else m))

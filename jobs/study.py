@@ -44,6 +44,7 @@ A study names a store, a model and its load cases::
     # branch_from_mm = 0              # > 0: rolling trees (straight trunk, then branches)
     # friction_from = "touch"         # or "roll": rise without friction (group "...-rise")
     # lead_sigma_mm = 0               # > 0: each roll led by -sigma tan(alpha) (group "...-lead")
+    # lead_sigma_x_mm = 0             # > 0: each roll led along x by sigma kappa (the same)
     # [loads.roll.branches]           # optional: slips sampled per trunk, not listed
     # n = 20                          #   branches of every trunk (each case of [loads])
     # slip_ratio = [-0.1, 0.1]        #   ranges; method = "lhs" | "sobol", seed
@@ -82,6 +83,7 @@ from __future__ import annotations
 
 import math
 import os
+from collections.abc import Mapping
 from collections.abc import Set as AbstractSet
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -143,7 +145,8 @@ LOAD_KEYS = {"pressure_kpa", "deflection_mm", "sample", "tree", "rise", "roll", 
 #: rolling_radius_mm's words: a search per case, or the estimate from the inflated radius
 RADIUS_WORDS = ("free", "estimate")
 ROLL_DEFAULTS = {"distance_mm": 150.0, "rolling_radius_mm": "free", "states": 1,
-                 "branch_from_mm": 0.0, "friction_from": "touch", "lead_sigma_mm": 0.0}
+                 "branch_from_mm": 0.0, "friction_from": "touch", "lead_sigma_mm": 0.0,
+                 "lead_sigma_x_mm": 0.0}
 #: The largest sigma a lead is taken from, mm (measured: the flat lead's 0.67 m on the
 #: thesis wall and about 0.55 m on `lean`, docs/rolling.md "A steady roll"; a
 #: revolution is about 2.5 m)
@@ -190,6 +193,20 @@ class Rolling:
     friction_from: str = "touch"  # "roll": a frictionless rise (RoadMotion.friction_from)
     #: mm, > 0: every roll led by -lead_sigma tan(alpha) (RoadMotion.lead, a steady roll)
     lead_sigma: float = 0.0
+    #: mm, > 0: every roll led along x by lead_sigma_x kappa (RoadMotion.lead_x)
+    lead_sigma_x: float = 0.0
+
+    @property
+    def leads(self) -> bool:
+        """Whether the rolls are led (a lateral or a longitudinal lead)."""
+        return self.lead_sigma > 0 or self.lead_sigma_x > 0
+
+    def lead_x(self, slip_ratio: float) -> float:
+        """The longitudinal lead (mm) of a roll at ``slip_ratio``, sigma_x kappa: the
+        carcass's steady longitudinal deflection in the stretched-string model, whose
+        length sigma_x is the tyre's own (on ``lean`` the flat lead at kappa 0.005 is
+        near 3 mm: docs/rolling.md, "A longitudinal lead"). 0 without ``lead_sigma_x``."""
+        return round(self.lead_sigma_x * slip_ratio, 6) + 0.0
 
     def lead(self, slip_angle: float) -> float:
         """The lead (mm) of a roll at ``slip_angle`` degrees, -sigma tan(alpha): about the
@@ -200,6 +217,16 @@ class Rolling:
         mm at 0.5, 1 and 2 degrees), so it saturates with the force. 0 without
         ``lead_sigma``."""
         return round(-self.lead_sigma * math.tan(math.radians(slip_angle)), 6) + 0.0
+
+    def case_fields(self, slips: Mapping[str, Any]) -> dict[str, Any]:
+        """What a case with ``slips`` (its ``slip_angle`` and ``slip_ratio``, 0 where
+        absent) takes of the roll: :attr:`motion_fields` and its leads, where set."""
+        fields = dict(self.motion_fields)
+        if self.lead_sigma:  # a steady roll (RoadMotion.lead)
+            fields["lead"] = self.lead(slips.get("slip_angle", 0.0))
+        if self.lead_sigma_x:  # RoadMotion.lead_x
+            fields["lead_x"] = self.lead_x(slips.get("slip_ratio", 0.0))
+        return fields
 
     @property
     def motion_fields(self) -> dict[str, Any]:
@@ -286,9 +313,10 @@ class Study:
         (:func:`jobs.design.model_design`); this is then its base model's group. Rolls
         risen without friction (``[loads.roll] friction_from = "roll"``) are a load
         history the store's parameters do not show: a group of their own (``-rise``), as
-        are rolls led to their steady deflection (``lead_sigma_mm``: ``-lead``)."""
+        are rolls led to their steady deflection (``lead_sigma_mm``, ``lead_sigma_x_mm``:
+        ``-lead``)."""
         rise = self.rolling is not None and self.rolling.friction_from == "roll"
-        lead = self.rolling is not None and self.rolling.lead_sigma > 0
+        lead = self.rolling is not None and self.rolling.leads
         return self.group or (f"{self.model.kind}-{self.model_hash()[:10]}"
                               + ("-rise" if rise else "") + ("-lead" if lead else ""))
 
@@ -413,14 +441,15 @@ def _rolling(data: Any, given: set[str], model: ModelSpec,
     return Rolling(float(distance), None if radius in RADIUS_WORDS else float(radius),
                    states, branch_from, branches, radius_estimate=radius == "estimate",
                    friction_from=friction_from,
-                   lead_sigma=_lead_sigma(t, distance, branch_from))
+                   lead_sigma=_lead_sigma(t, distance, branch_from, "lead_sigma_mm"),
+                   lead_sigma_x=_lead_sigma(t, distance, branch_from, "lead_sigma_x_mm"))
 
 
-def _lead_sigma(t: dict, distance: float, branch_from: float) -> float:
-    """``[loads.roll] lead_sigma_mm``: the relaxation length the rolls' leads take."""
-    where = "loads.roll.lead_sigma_mm"
-    sigma = float(scalars.number(t.get("lead_sigma_mm", 0.0), where, low=0.0,
-                                 high=MAX_LEAD_SIGMA_MM))
+def _lead_sigma(t: dict, distance: float, branch_from: float, key: str) -> float:
+    """``[loads.roll] lead_sigma_mm`` or ``lead_sigma_x_mm``: the relaxation length the
+    rolls' lateral or longitudinal leads take."""
+    where = f"loads.roll.{key}"
+    sigma = float(scalars.number(t.get(key, 0.0), where, low=0.0, high=MAX_LEAD_SIGMA_MM))
     if sigma and branch_from:
         raise fail(where, "leads rolls from rest, and branch_from_mm makes rolling trees "
                    "whose branches roll on from their trunk: drop one")
@@ -604,7 +633,9 @@ def _check_models(study: Study) -> None:
     for key, what, given in (("friction_from", "rolls risen without friction",
                               rolling is not None and rolling.friction_from == "roll"),
                              ("lead_sigma_mm", "led rolls",
-                              rolling is not None and rolling.lead_sigma > 0)):
+                              rolling is not None and rolling.lead_sigma > 0),
+                             ("lead_sigma_x_mm", "led rolls",
+                              rolling is not None and rolling.lead_sigma_x > 0)):
         if given:
             raise fail(f"loads.roll.{key}", f"a study with [models] writes one group per "
                        f"model, which would mix {what} with others: give it a study of its "

@@ -51,6 +51,11 @@ LEAD = typer.Option(0.0, "--lead", help="The road's lateral offset, mm, eased in
                     "roll's first 96 mm: about the steady Fy over the carcass's lateral "
                     "stiffness (on lean -Fy/190 N/mm) starts a slip angle's roll at its "
                     "steady lateral force (docs/rolling.md, 'A steady roll').")
+LEAD_X = typer.Option(0.0, "--lead-x", help="The road's offset along x, mm, eased in as "
+                      "--lead is: about the steady Fx over the carcass's longitudinal "
+                      "stiffness (on lean Fx/520 N/mm; > 0 with a driving slip) starts a "
+                      "slip ratio's roll at its steady Fx (docs/rolling.md, 'A "
+                      "longitudinal lead').")
 ROLLING_RADIUS = typer.Option(
     "free", "--rolling-radius", help="Free-rolling radius r_e in mm that turns travel into "
     "spin, or 'free' to find it first (rolls until Fx = 0 at kappa = 0).")
@@ -64,7 +69,8 @@ JSON_OPTION = typer.Option(False, "--json", help="Print one JSON document.")
 def roll(
     pressure: float = PRESSURE, deflection: float = DEFLECTION, friction: float = FRICTION,
     slip_ratio: float = SLIP_RATIO, slip_angle: float = SLIP_ANGLE, tilt: float = TILT,
-    distance: float = DISTANCE, lead: float = LEAD, rolling_radius: str = ROLLING_RADIUS,
+    distance: float = DISTANCE, lead: float = LEAD, lead_x: float = LEAD_X,
+    rolling_radius: str = ROLLING_RADIUS,
     samples: int = SAMPLES, materials: str = MATERIALS_OPTION, mesh: str = MESH_OPTION,
     overrides: list[str] = OVERRIDES, threads: int = THREADS_OPTION,
     timeout: float = TIMEOUT, as_json: bool = JSON_OPTION,
@@ -77,7 +83,7 @@ def roll(
         # every bound of the roll checked now (a placeholder radius when it is found later)
         motion = Roll(friction=friction, slip_ratio=slip_ratio, slip_angle=slip_angle,
                       tilt=tilt, distance=distance, rolling_radius=fixed or 400.0,
-                      lead=lead)
+                      lead=lead, lead_x=lead_x)
     find_ccx()
     lines = LogLines(every=10.0)
     lines.log(f"roll: {describe_model(spec)}")
@@ -153,7 +159,8 @@ def _print(kpa, deflection, done: RollOnce) -> None:
     title = (f"roll of {motion.distance:g} mm at {kpa:g} kPa, {deflection:g} mm: mu "
              f"{motion.friction:g}, kappa {motion.slip_ratio:g}, slip angle "
              f"{motion.slip_angle:g} deg, tilt {motion.tilt:g} deg"
-             + (f", lead {motion.lead:g} mm" if motion.lead else ""))
+             + (f", lead {motion.lead:g} mm" if motion.lead else "")
+             + (f", lead along x {motion.lead_x:g} mm" if motion.lead_x else ""))
     table = Table(title=title)
     # a tilted road: the road's axes (TYDEX, ISO 8855) beside the wheel's
     road = ("Fy road N", "Fz road N", "Mz road N m") if motion.tilt else ()

@@ -180,7 +180,7 @@ def stick_slope(law: ContactLaw) -> float:
 def road_motion_lines(road: Road, travel: float, shift: tuple[float, float], tilt: float,
                       t0: float, tilt_time: float, rise: str = "vertical",
                       split: Split | None = None, move_time: float = 1.0,
-                      lead: tuple[float, float] = (0.0, 0.0),
+                      lead: tuple[float, float] = (0.0, 0.0), lead_x: float = 0.0,
                       ) -> tuple[list[str], list[str]]:
     """Road boundary conditions of a combined load: tilt, rise, then shift.
 
@@ -199,7 +199,9 @@ def road_motion_lines(road: Road, travel: float, shift: tuple[float, float], til
     time with the hold inserted. ``move_time``: the shift's ramp lasts this long instead
     of one unit (a long roll, :func:`farm.solve.rolling.roll_time`). ``lead`` = (mm,
     step time): a further lateral offset along the tilted lateral axis, eased in over
-    that much of the shift's ramp (a roll's lead, :func:`lead_points`).
+    that much of the shift's ramp (a roll's lead, :func:`lead_points`); ``lead_x``: one
+    along x (mm), eased in over the same time. Without it dof 1 keeps its relative
+    amplitude (decks as before leads); with it the amplitude holds the x values in mm.
 
     Returns the amplitude lines (model definition) and the boundary lines (the step).
     """
@@ -209,8 +211,7 @@ def road_motion_lines(road: Road, travel: float, shift: tuple[float, float], til
     groups, index = np.unique(rot, axis=0, return_inverse=True)
     index = np.ravel(index)
     end = t0 + 1 + move_time
-    lines = amplitude_lines("ROAD_MOVE", [(0.0, 0.0), (t0 + 1, 0.0), (end, 1.0)], split)
-    bcs = ["*BOUNDARY, AMPLITUDE=ROAD_MOVE", f"ROAD, 1, 1, {fnum(shift[0])}"]
+    lines, bcs = _road_x_lines(shift[0], t0, end, split, (lead_x, lead[1]))
     t1 = t0 + tilt_time
     sy, sz = shift[1] * math.cos(angle), shift[1] * math.sin(angle)  # in the road plane
     ry, rz = _rise(travel, tilt, rise)
@@ -223,6 +224,19 @@ def road_motion_lines(road: Road, travel: float, shift: tuple[float, float], til
             bcs.append(f"*BOUNDARY, AMPLITUDE={name}")
             bcs += [f"{i}, {dof}, {dof}, 1" for i in ids[index == k]]
     return lines, bcs
+
+
+def _road_x_lines(shift: float, t0: float, end: float, split: Split | None,
+                  lead_x: tuple[float, float]) -> tuple[list[str], list[str]]:
+    """Amplitude and boundary lines of every road node's dof 1 (x) over the shift's ramp
+    [t0 + 1, ``end``]: ``shift`` mm, plus a longitudinal lead (mm, step time) eased in by
+    :func:`lead_points`."""
+    if not lead_x[0]:  # a relative ramp scaled by the shift: decks as before leads
+        lines = amplitude_lines("ROAD_MOVE", [(0.0, 0.0), (t0 + 1, 0.0), (end, 1.0)], split)
+        return lines, ["*BOUNDARY, AMPLITUDE=ROAD_MOVE", f"ROAD, 1, 1, {fnum(shift)}"]
+    points = lead_points(t0 + 1, end, 0.0, shift, lead_x[0], lead_x[1])
+    lines = amplitude_lines("ROAD_MOVE", [(0.0, 0.0), *points], split)
+    return lines, ["*BOUNDARY, AMPLITUDE=ROAD_MOVE", "ROAD, 1, 1, 1"]
 
 
 #: Points of a lead's ease-in (:func:`lead_points`)

@@ -154,7 +154,8 @@ def roll_deck(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: floa
     amplitudes, boundary = D.road_motion_lines(road, travel, roll.travel, roll.tilt, 1.0,
                                                TILT_TIME if roll.tilt else 0.0, "normal",
                                                split, move_time=duration,
-                                               lead=(roll.lead, lead_time(roll)))
+                                               lead=(roll.lead, lead_time(roll)),
+                                               lead_x=roll.lead_x)
     amplitudes += D.inflate_amplitude_lines(split)
     rim_amplitudes, rim = rim_lines(mesh, roll.spin, 2.0, duration, split)
     if not fractions or any(not 0.0 <= f <= 1.0 for f in fractions) or any(
@@ -244,8 +245,11 @@ def lead_time(roll: Roll) -> float:
     which the roll renews within its length, has to settle. The lead that starts exactly
     at the steady force is the steady force over the carcass's lateral stiffness (on
     `lean` about 190 N/mm, 0.5-2 degrees; sigma tan(alpha) only while Fy is linear): two
-    leads that bracket it give the steady value (``benchmarks/bench_steady_roll.py``)."""
-    if not roll.lead:
+    leads that bracket it give the steady value (``benchmarks/bench_steady_roll.py``).
+    The longitudinal lead (``roll.lead_x``) does the same for Fx, whose relaxation on
+    `lean` is about half a metre too: its flat lead is Fx over about 520 N/mm (positive
+    with a driving slip; docs/rolling.md, "A longitudinal lead")."""
+    if not (roll.lead or roll.lead_x):
         return 0.0
     return LEAD_RAMP_MM / roll.distance * roll_time(roll)
 
@@ -551,7 +555,8 @@ def cached_free_radius(spec: ModelSpec, mesh: TyreMesh, deflection: float, press
            "deflection": deflection, "solver": ccx_version(),
            "roll": {k: v for k, v in dataclasses.asdict(roll).items()
                     if k not in ("slip_ratio", "rolling_radius")  # entries from before:
-                    and (k, v) not in (("friction_from", "touch"), ("lead", 0.0))}}
+                    and (k, v) not in (("friction_from", "touch"), ("lead", 0.0),
+                                       ("lead_x", 0.0))}}
     if spec.mesh.windowed:  # searched with the window ahead (start_spin) since issue 30
         key["start"] = "window ahead"
     entry = read_entry("free-radius", key)

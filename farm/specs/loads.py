@@ -99,6 +99,9 @@ class RoadMotion:
         :data:`LEAD_RAMP_MM` (:class:`Roll`): a roll that starts near its steady lateral
         deflection, for steady Fy and Mz within the refined window (docs/rolling.md, "A
         steady roll"). Rolls from rest only; stored as 0 without friction.
+    lead_x : the same along the road's x (mm; > 0 with a driving slip): a roll that starts
+        near its steady longitudinal deflection, for a steady Fx within a short roll
+        (docs/rolling.md, "A longitudinal lead"). Rolls from rest only; 0 without friction.
 
     All at their defaults the motion is no motion at all: :class:`LoadPath` then holds
     None, so decks, results and ids are those of a vertical experiment.
@@ -120,6 +123,7 @@ class RoadMotion:
     radius_estimate: bool = False
     friction_from: str = "touch"
     lead: float = 0.0
+    lead_x: float = 0.0
 
     def __post_init__(self) -> None:
         self._check_roll()
@@ -145,15 +149,16 @@ class RoadMotion:
         if self.roll == 0.0:
             if (self.slip_ratio or self.slip_angle or self.rolling_radius is not None
                     or self.roll_from or self.radius_estimate
-                    or self.friction_from != "touch" or self.lead):
+                    or self.friction_from != "touch" or self.lead or self.lead_x):
                 raise SpecError("motion.slip_ratio, slip_angle, rolling_radius, roll_from, "
-                                "radius_estimate, friction_from and lead belong to a roll: "
-                                "give motion.roll, the road travel in mm")
+                                "radius_estimate, friction_from, lead and lead_x belong to a "
+                                "roll: give motion.roll, the road travel in mm")
             return
-        if self.lead and self.roll_from:
-            raise SpecError(f"motion.lead = {self.lead!r} with roll_from = "
-                            f"{self.roll_from!r}: a branch rolls on from its trunk's state; "
-                            "a lead belongs to a roll from rest (drop one of them)")
+        for name in ("lead", "lead_x"):
+            if getattr(self, name) and self.roll_from:
+                raise SpecError(f"motion.{name} = {getattr(self, name)!r} with roll_from = "
+                                f"{self.roll_from!r}: a branch rolls on from its trunk's "
+                                "state; a lead belongs to a roll from rest (drop one of them)")
         if self.radius_estimate and self.rolling_radius is not None:
             raise SpecError(f"motion.radius_estimate estimates a radius, and rolling_radius "
                             f"= {self.rolling_radius!r} gives one: drop one of them")
@@ -190,7 +195,8 @@ class RoadMotion:
                             "([loads.roll] branch_from_mm, farm.solve.rolling_tree)")
         return Roll(friction=self.friction, slip_ratio=self.slip_ratio,
                     slip_angle=self.slip_angle, tilt=self.tilt, distance=self.roll,
-                    rolling_radius=radius, friction_from=self.friction_from, lead=self.lead)
+                    rolling_radius=radius, friction_from=self.friction_from, lead=self.lead,
+                    lead_x=self.lead_x)
 
     @property
     def searches_radius(self) -> bool:
@@ -227,7 +233,7 @@ class RoadMotion:
             del data["rise"]
         if not self.rolls:  # ids of slides and standing tyres as before rolling existed
             for name in ("roll", "slip_ratio", "slip_angle", "rolling_radius", "roll_from",
-                         "radius_estimate", "friction_from", "lead"):
+                         "radius_estimate", "friction_from", "lead", "lead_x"):
                 del data[name]
             return data
         if not self.radius_estimate:  # ids of rolls as before the estimate existed
@@ -238,8 +244,9 @@ class RoadMotion:
             del data["roll_from"]
         if self.friction_from == "touch":  # rolls keep the ids they had before it existed
             del data["friction_from"]
-        if not self.lead:  # rolls keep the ids they had before leads
-            del data["lead"]
+        for name in ("lead", "lead_x"):  # rolls keep the ids they had before leads
+            if not data[name]:
+                del data[name]
         return data
 
     @classmethod
@@ -258,17 +265,19 @@ def _friction_from(spec: RoadMotion | Roll, where: str) -> None:
 
 
 def _lead(spec: RoadMotion | Roll, where: str) -> None:
-    """Check a roll's ``spec.lead`` (mm): within :data:`SHIFT_MM`, on a roll longer than
-    its ramp (:data:`LEAD_RAMP_MM`); stored as 0 without friction (a frictionless road
-    carries no lateral force: one id for the same roll)."""
-    within(f"{where}.lead", spec.lead, SHIFT_MM, "mm")
+    """Check a roll's ``spec.lead`` and ``spec.lead_x`` (mm): within :data:`SHIFT_MM`, on a
+    roll longer than their ramp (:data:`LEAD_RAMP_MM`); stored as 0 without friction (a
+    frictionless road carries no shear: one id for the same roll)."""
     distance = spec.roll if isinstance(spec, RoadMotion) else spec.distance
-    if spec.lead and distance <= LEAD_RAMP_MM:
-        raise SpecError(f"{where}.lead = {spec.lead!r} on a roll of {distance!r} mm: the "
-                        f"lead is eased in over the first {LEAD_RAMP_MM:g} mm, so roll "
-                        "further (or drop the lead)")
-    if not spec.friction:
-        object.__setattr__(spec, "lead", 0.0)
+    for name in ("lead", "lead_x"):
+        value = getattr(spec, name)
+        within(f"{where}.{name}", value, SHIFT_MM, "mm")
+        if value and distance <= LEAD_RAMP_MM:
+            raise SpecError(f"{where}.{name} = {value!r} on a roll of {distance!r} mm: the "
+                            f"lead is eased in over the first {LEAD_RAMP_MM:g} mm, so roll "
+                            "further (or drop the lead)")
+        if not spec.friction:
+            object.__setattr__(spec, name, 0.0)
 
 
 # Rolling (issue 30, farm.solve.rolling): bounds of a roll
@@ -297,6 +306,7 @@ class Roll:
         (:attr:`RoadMotion.friction_from`).
     lead : the road's lateral offset, mm, eased in over the roll's first
         :data:`LEAD_RAMP_MM` on top of ``travel`` (:attr:`RoadMotion.lead`).
+    lead_x : the same along the road's x, mm (:attr:`RoadMotion.lead_x`).
     """
 
     friction: float
@@ -307,6 +317,7 @@ class Roll:
     rolling_radius: float = 390.0
     friction_from: str = "touch"
     lead: float = 0.0
+    lead_x: float = 0.0
 
     def __post_init__(self) -> None:
         _friction_from(self, "roll")

@@ -467,7 +467,7 @@ def test_a_rolling_motion_is_a_roll_and_keeps_other_ids():
     estimate = RoadMotion(friction=0.5, roll=80.0, radius_estimate=True)
     assert estimate.to_dict()["radius_estimate"] is True
     assert RoadMotion.from_dict(estimate.to_dict()) == estimate
-    with pytest.raises(SpecError, match="radius_estimate, friction_from and lead belong to a roll"):
+    with pytest.raises(SpecError, match="friction_from, lead and lead_x belong to a roll"):
         RoadMotion(friction=0.5, radius_estimate=True)
     with pytest.raises(SpecError, match="drop one"):
         RoadMotion(friction=0.5, roll=80.0, rolling_radius=400.0, radius_estimate=True)
@@ -485,7 +485,7 @@ def test_friction_from_the_roll_is_a_roll_s_and_keeps_other_ids():
     assert rise.as_roll().friction_from == "roll" and touch.as_roll().friction_from == "touch"
     assert RoadMotion(roll=80.0, friction_from="roll").friction_from == "touch"
     assert Roll(friction=0.0, friction_from="roll").friction_from == "touch"
-    with pytest.raises(SpecError, match="friction_from and lead belong to a roll"):
+    with pytest.raises(SpecError, match="friction_from, lead and lead_x belong to a roll"):
         RoadMotion(friction=0.5, friction_from="roll")
     for bad in ({"friction": 0.5, "roll": 80.0, "friction_from": "rise"},):
         with pytest.raises(SpecError, match=r"motion\.friction_from = 'rise': give one of "
@@ -495,23 +495,28 @@ def test_friction_from_the_roll_is_a_roll_s_and_keeps_other_ids():
         Roll(friction=0.5, friction_from="never")
 
 
-def test_a_lead_is_a_roll_s_and_keeps_other_ids():
-    """``lead`` (issue 45, a steady roll): a roll's, from rest, longer than its ramp;
-    another id where set, none moved where not; nothing to lead without friction."""
+@pytest.mark.parametrize("name", ["lead", "lead_x"])
+def test_a_lead_is_a_roll_s_and_keeps_other_ids(name):
+    """``lead`` and ``lead_x`` (issue 45, a steady roll): a roll's, from rest, longer than
+    its ramp; another id where set, none moved where not; nothing to lead without
+    friction."""
     plain = RoadMotion(friction=0.5, roll=200.0, slip_angle=1.0, rolling_radius=R_E)
-    led = dataclasses.replace(plain, lead=-11.7)
-    assert "lead" not in plain.to_dict() and led.to_dict()["lead"] == -11.7
-    assert RoadMotion.from_dict(led.to_dict()) == led and led.as_roll().lead == -11.7
-    assert RoadMotion(roll=200.0, lead=3.0).lead == 0.0 == Roll(friction=0.0, lead=3.0).lead
-    with pytest.raises(SpecError, match="friction_from and lead belong to a roll"):
-        RoadMotion(friction=0.5, lead=3.0)
-    with pytest.raises(SpecError, match=r"motion\.lead = 3\.0 with roll_from = 100\.0"):
-        RoadMotion(friction=0.5, roll=200.0, slip_angle=1.0, roll_from=100.0, lead=3.0)
-    with pytest.raises(SpecError, match=r"roll\.lead = 3\.0 on a roll of 60\.0 mm: the "
+    led = dataclasses.replace(plain, **{name: -11.7})
+    assert name not in plain.to_dict() and led.to_dict()[name] == -11.7
+    assert RoadMotion.from_dict(led.to_dict()) == led
+    assert getattr(led.as_roll(), name) == -11.7
+    assert led.to_dict().keys() - plain.to_dict().keys() == {name}
+    assert (getattr(RoadMotion(roll=200.0, **{name: 3.0}), name) == 0.0
+            == getattr(Roll(friction=0.0, **{name: 3.0}), name))
+    with pytest.raises(SpecError, match="lead and lead_x belong to a roll"):
+        RoadMotion(friction=0.5, **{name: 3.0})
+    with pytest.raises(SpecError, match=rf"motion\.{name} = 3\.0 with roll_from = 100\.0"):
+        RoadMotion(friction=0.5, roll=200.0, slip_angle=1.0, roll_from=100.0, **{name: 3.0})
+    with pytest.raises(SpecError, match=rf"roll\.{name} = 3\.0 on a roll of 60\.0 mm: the "
                                         "lead is eased in over the first 96 mm"):
-        Roll(friction=0.5, distance=60.0, lead=3.0)
-    with pytest.raises(SpecError, match=r"motion\.lead"):
-        RoadMotion(friction=0.5, roll=200.0, lead=80.0)
+        Roll(friction=0.5, distance=60.0, **{name: 3.0})
+    with pytest.raises(SpecError, match=rf"motion\.{name} must be a number"):
+        RoadMotion(friction=0.5, roll=200.0, **{name: 80.0})
 
 
 @pytest.mark.parametrize("tilt", [0.0, 2.0])
@@ -551,6 +556,61 @@ def test_a_lead_eases_the_road_sideways_over_its_ramp(coarse, tilt):
         share = axis(np.radians(tilt))  # of the lead along this dof: none up when untilted
         assert len(b) == len(a) + (rolling.D.LEAD_POINTS if share else 0)
         assert b[-1, 1] - a[-1, 1] == pytest.approx(-2.8 * axis(np.radians(tilt)), abs=1e-9)
+
+
+def _amplitude(text: str, name: str) -> np.ndarray:
+    """(time, value) rows of the deck's amplitude ``name``."""
+    lines = text.split(f"*AMPLITUDE, NAME={name}")[1].split("\n*")[0].split("\n")[1:]
+    return np.array([float(x) for line in lines for x in line.split(",")]).reshape(-1, 2)
+
+
+@pytest.mark.parametrize("friction_from", ["touch", "roll"])
+def test_a_longitudinal_lead_eases_the_road_along_x_over_its_ramp(coarse, friction_from):
+    """``lead_x`` (issue 45): the road's x path is the roll's travel plus the lead, eased
+    in over the same ramp as the lateral one (in mm: the boundary's factor is 1), held
+    after it; the lateral dofs, the rim and the output times as without it; a deck
+    without it is the deck of before (a relative ramp scaled by the travel)."""
+    spec, mesh = coarse
+    roll = Roll(friction=MU, distance=160.0, rolling_radius=R_E, slip_ratio=0.005,
+                friction_from=friction_from)
+    (plain, times, _, _), (led, led_times, _, _) = (
+        roll_deck(spec, mesh, DEFLECTION, PRESSURE, dataclasses.replace(roll, lead_x=lead),
+                  SolverSettings(), -400.0, (0.5, 1.0)) for lead in (0.0, 3.0))
+    assert times == led_times
+    assert "ROAD, 1, 1, -160\n" in plain and "ROAD, 1, 1, 1\n" in led
+    x = _amplitude(led, "ROAD_MOVE")
+    start = x[np.argmax(x[:, 1] != 0.0) - 1, 0]  # the roll's start (after any hold)
+    assert len(x) == len(_amplitude(plain, "ROAD_MOVE")) + rolling.D.LEAD_POINTS
+    ramp = x[(x[:, 0] >= start)]
+    travel = -160.0 * (ramp[:, 0] - start) / (ramp[-1, 0] - start)
+    lead = ramp[:, 1] - travel
+    assert lead[0] == 0.0 and lead[-2] == pytest.approx(3.0) and lead[-1] == pytest.approx(3.0)
+    assert np.all(np.diff(lead[:-1]) > 0)
+    assert ramp[-2, 0] - start == pytest.approx(rolling.lead_time(
+        dataclasses.replace(roll, lead_x=3.0)) * (ramp[-1, 0] - start))
+    assert _without_road_x(plain) == _without_road_x(led)
+
+
+@pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
+@pytest.mark.ccx
+def test_a_longitudinal_lead_drives_or_brakes_a_free_roll_by_its_sign(coarse):
+    """A road led along +x by the rim turns faster than the road moves under it: a
+    burst of driving slip, so at free rolling (kappa 0 at the coarse model's r_e) a lead
+    of +2 mm ends its ramp with Fx forward and one of -2 mm with Fx back, about
+    antisymmetric, as a stretched carcass is (Pacejka ch. 7: Fx = c_x u). 110 mm rolls,
+    the ramp 96 mm; measured +452 and -522 N (-22 N without a lead)."""
+    fx = {lead: _roll(coarse, fractions=(1.0,), distance=110.0, lead_x=lead)[-1].force[0]
+          for lead in (2.0, -2.0)}
+    assert fx[2.0] > 0.0 > fx[-2.0]
+    assert abs(fx[2.0] + fx[-2.0]) < 0.15 * (fx[2.0] - fx[-2.0])
+
+
+def _without_road_x(deck: str) -> str:
+    """The deck without the road's x amplitude and its boundary line."""
+    head, tail = deck.split("*AMPLITUDE, NAME=ROAD_MOVE", 1)
+    tail = tail[tail.index("\n*"):]
+    return "\n".join(line for line in (head + tail).splitlines()
+                     if not line.startswith("ROAD, 1, 1, "))
 
 
 @pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set

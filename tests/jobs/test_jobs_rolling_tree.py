@@ -283,34 +283,45 @@ def test_friction_from_the_roll_is_every_case_s_and_a_load_history_of_its_own(
         parse_study(_study(tmp_path, loads, roll + 'friction_from = "roll"\n') + models)
 
 
-def test_a_lead_sigma_leads_each_roll_by_its_slip_angle_in_a_group_of_its_own(tmp_path):
-    """``[loads.roll] lead_sigma_mm`` (issue 45, a steady roll): each roll from rest is
-    led by -sigma tan(alpha) (RoadMotion.lead); a straight roll has no lead and keeps
-    its id, the others get ids of their own, and the study writes a group of its own;
-    trees, short rolls, bad values and [models] are one error each."""
-    loads = "friction = [0.6]\nslip_angle_deg = [-2, 0, 1]\n"
+LEADS = [  # (key, the slip it leads by, RoadMotion's field, the lead at each slip)
+    ("lead_sigma_mm", "slip_angle_deg = [-2, 0, 1]", "slip_angle", "lead",
+     lambda alpha: -600 * np.tan(np.radians(alpha))),
+    ("lead_sigma_x_mm", "slip_ratio = [-0.01, 0, 0.005]", "slip_ratio", "lead_x",
+     lambda kappa: 600 * kappa),
+]
+
+
+@pytest.mark.parametrize(("key", "slips", "slip", "field", "rule"), LEADS)
+def test_a_lead_sigma_leads_each_roll_by_its_slip_in_a_group_of_its_own(
+        tmp_path, key, slips, slip, field, rule):
+    """``[loads.roll] lead_sigma_mm`` and ``lead_sigma_x_mm`` (issue 45, a steady roll):
+    each roll from rest is led by -sigma tan(alpha) (RoadMotion.lead) or along x by sigma
+    kappa (RoadMotion.lead_x); a straight roll has no lead and keeps its id, the others
+    get ids of their own, and the study writes a group of its own; trees, short rolls,
+    bad values and [models] are one error each."""
+    loads = f"friction = [0.6]\n{slips}\n"
     roll = "distance_mm = 200\nstates = 2\nrolling_radius_mm = 403.8\n"
     led_study, plain_study = (parse_study(_study(tmp_path, loads, roll + extra))
-                              for extra in ("lead_sigma_mm = 600\n", ""))
+                              for extra in (f"{key} = 600\n", ""))
     led, plain = (experiments(plan(s, SOLVER)) for s in (led_study, plain_study))
-    leads = {e.motion.slip_angle: e.motion.lead for e in led}
-    assert leads == pytest.approx({-2.0: 600 * np.tan(np.radians(2.0)), 0.0: 0.0,
-                                   1.0: -600 * np.tan(np.radians(1.0))})
+    leads = {getattr(e.motion, slip): getattr(e.motion, field) for e in led}
+    assert leads == pytest.approx({k: rule(k) for k in leads}) and len(leads) == 3
+    assert all(not e.motion.lead for e in led) or all(not e.motion.lead_x for e in led)
     assert led_study.group_name == plain_study.group_name + "-lead"
-    straight = {e.id for e in led if not e.motion.slip_angle}
+    straight = {e.id for e in led if not getattr(e.motion, slip)}
     assert len(straight) == 2 and straight <= {e.id for e in plain}
     assert len({e.id for e in led} & {e.id for e in plain}) == 2
-    for extra, needle in (("lead_sigma_mm = 600\nbranch_from_mm = 30\n", "from rest"),
-                          ("lead_sigma_mm = -1\n", r"in \[0, 5000\], got -1"),
-                          ("lead_sigma_mm = \"long\"\n", "long")):
-        with pytest.raises(StudyError, match=rf"loads\.roll\.lead_sigma_mm.*{needle}"):
+    for extra, needle in ((f"{key} = 600\nbranch_from_mm = 30\n", "from rest"),
+                          (f"{key} = -1\n", r"in \[0, 5000\], got -1"),
+                          (f"{key} = \"long\"\n", "long")):
+        with pytest.raises(StudyError, match=rf"loads\.roll\.{key}.*{needle}"):
             parse_study(_study(tmp_path, loads, roll + extra))
-    with pytest.raises(StudyError, match=r"loads\.roll\.lead_sigma_mm: .*first 96 mm"):
-        parse_study(_study(tmp_path, loads, "distance_mm = 60\nlead_sigma_mm = 600\n"))
+    with pytest.raises(StudyError, match=rf"loads\.roll\.{key}: .*first 96 mm"):
+        parse_study(_study(tmp_path, loads, f"distance_mm = 60\n{key} = 600\n"))
     models = ('[models]\nmethod = "lhs"\nn = 2\n[models.parameters]\n'
               '"materials.tread.youngs_modulus" = [5.0, 10.0]\n')
-    with pytest.raises(StudyError, match=r"loads\.roll\.lead_sigma_mm: .*\[models\]"):
-        parse_study(_study(tmp_path, loads, roll + "lead_sigma_mm = 600\n") + models)
+    with pytest.raises(StudyError, match=rf"loads\.roll\.{key}: .*\[models\]"):
+        parse_study(_study(tmp_path, loads, roll + f"{key} = 600\n") + models)
 
 
 @pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set

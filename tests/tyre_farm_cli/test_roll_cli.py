@@ -22,6 +22,8 @@ COARSE = ["--set", "mesh.tread=4", "--set", "mesh.sidewall=2", "--set", "mesh.be
     (["--lead", "80"], "roll.lead must be a number in [-50, 50]"),
     (["--lead", "3", "--distance", "60"], "roll.lead = 3.0 on a roll of 60.0 mm: the lead "
                                           "is eased in over the first 96 mm"),
+    (["--lead-x", "-51"], "roll.lead_x must be a number in [-50, 50]"),
+    (["--lead-x", "3", "--distance", "90"], "roll.lead_x = 3.0 on a roll of 90.0 mm"),
 ])
 def test_bad_arguments_give_one_line_and_nonzero_exit(argv, needle, capsys, monkeypatch):
     monkeypatch.setenv("FARM_CCX", "no-such-ccx")  # nothing may reach the solver
