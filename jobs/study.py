@@ -44,7 +44,7 @@ A study names a store, a model and its load cases::
     # branch_from_mm = 0              # > 0: rolling trees (straight trunk, then branches)
     # friction_from = "touch"         # or "roll": rise without friction (group "...-rise")
     # lead_sigma_mm = 0               # > 0: each roll led by -sigma tan(alpha) (group "...-lead")
-    # lead_sigma_x_mm = 0             # > 0: each roll led along x by sigma kappa (the same)
+    # lead_sigma_x_mm = 0             # > 0: each roll led along x by sigma kappa (group "...-lead")
     # [loads.roll.branches]           # optional: slips sampled per trunk, not listed
     # n = 20                          #   branches of every trunk (each case of [loads])
     # slip_ratio = [-0.1, 0.1]        #   ranges; method = "lhs" | "sobol", seed
@@ -204,8 +204,11 @@ class Rolling:
     def lead_x(self, slip_ratio: float) -> float:
         """The longitudinal lead (mm) of a roll at ``slip_ratio``, sigma_x kappa: the
         carcass's steady longitudinal deflection in the stretched-string model, whose
-        length sigma_x is the tyre's own (on ``lean`` the flat lead at kappa 0.005 is
-        near 3 mm: docs/rolling.md, "A longitudinal lead"). 0 without ``lead_sigma_x``."""
+        length sigma_x = C_kappa / c_x is the tyre's own (about 540 mm on ``lean`` at 200
+        kPa, 15 mm). The linear part only: the flat lead is the steady Fx over about 520
+        N/mm, so it saturates with the force, and kappa counts from the rolled radius, so
+        an estimated radius's own offset from free rolling is not led (docs/rolling.md,
+        "A longitudinal lead"). 0 without ``lead_sigma_x``."""
         return round(self.lead_sigma_x * slip_ratio, 6) + 0.0
 
     def lead(self, slip_angle: float) -> float:
