@@ -143,6 +143,13 @@ def secant(ends: list[tuple[float, float]]) -> tuple[float, float]:
     return float(steady), float(sigma)
 
 
+def flat_lead(leads: list[float], slopes: list[float]) -> float:
+    """The lead (mm) whose force would not drift: the zero of the straight line through
+    (lead, dF/ds) by least squares (two rolls: exact)."""
+    gain, offset = np.polyfit(leads, slopes, 1)
+    return float(-offset / gain)
+
+
 def _led(spec, mesh, a, roll: Roll, leads: list[tuple[float, str]], axis: int = 1
          ) -> float:
     """The led rolls of one slip angle or camber (``axis`` 1: lateral leads, Fy) or slip
@@ -155,10 +162,13 @@ def _led(spec, mesh, a, roll: Roll, leads: list[tuple[float, str]], axis: int = 
     steady = ends[0][0] if ends else math.nan
     if len(ends) > 1:
         steady, sigma = secant(ends)
+        flat = flat_lead([lead for lead, _ in leads], [slope for _, slope in ends])
         print(f"alpha {roll.slip_angle:g} deg, kappa {roll.slip_ratio:g}, camber "
               f"{roll.tilt:g} deg: steady F{'xy'[axis]} {steady:.1f} N, sigma {sigma:.0f} mm "
               f"(first-order secant over the {len(ends)} led rolls; leads whose drifts "
-              "have opposite signs bracket the steady force)", flush=True)
+              f"have opposite signs bracket the steady force); flat lead {flat:.2f} mm "
+              f"(the drifts interpolated), the carcass's stiffness {abs(steady / flat):.0f} "
+              "N/mm", flush=True)
     if a.from_rest or not leads:
         rest = one(spec, mesh, a, roll, "from rest", axis)[0]
         steady = rest if not leads else steady
