@@ -519,6 +519,12 @@ def test_a_lead_is_a_roll_s_and_keeps_other_ids(name):
         RoadMotion(friction=0.5, roll=200.0, **{name: 80.0})
 
 
+def _amplitude(text: str, name: str) -> np.ndarray:
+    """(time, value) rows of the deck's amplitude ``name``."""
+    lines = text.split(f"*AMPLITUDE, NAME={name}")[1].split("\n*")[0].split("\n")[1:]
+    return np.array([float(x) for line in lines for x in line.split(",")]).reshape(-1, 2)
+
+
 @pytest.mark.parametrize("tilt", [0.0, 2.0])
 def test_a_lead_eases_the_road_sideways_over_its_ramp(coarse, tilt):
     """The road's lateral path of a roll with a lead: the slip angle's travel plus the
@@ -544,24 +550,12 @@ def test_a_lead_eases_the_road_sideways_over_its_ramp(coarse, tilt):
     assert rolling.lead_time(dataclasses.replace(roll, lead=1.0)) == pytest.approx(0.6)
     (plain, times, _, _), (led, led_times, _, _) = decks
     assert times == led_times
-
-    def amplitude(text, name):
-        lines = text.split(f"*AMPLITUDE, NAME={name}\n")[1].split("\n*")[0].split("\n")
-        values = [float(x) for line in lines for x in line.split(",")]
-        return np.array(values).reshape(-1, 2)
-
-    assert np.array_equal(amplitude(plain, "ROAD_MOVE"), amplitude(led, "ROAD_MOVE"))
+    assert np.array_equal(_amplitude(plain, "ROAD_MOVE"), _amplitude(led, "ROAD_MOVE"))
     for dof, axis in ((2, np.cos), (3, np.sin)):
-        a, b = amplitude(plain, f"ROAD_1_{dof}"), amplitude(led, f"ROAD_1_{dof}")
+        a, b = _amplitude(plain, f"ROAD_1_{dof}"), _amplitude(led, f"ROAD_1_{dof}")
         share = axis(np.radians(tilt))  # of the lead along this dof: none up when untilted
         assert len(b) == len(a) + (rolling.D.LEAD_POINTS if share else 0)
         assert b[-1, 1] - a[-1, 1] == pytest.approx(-2.8 * axis(np.radians(tilt)), abs=1e-9)
-
-
-def _amplitude(text: str, name: str) -> np.ndarray:
-    """(time, value) rows of the deck's amplitude ``name``."""
-    lines = text.split(f"*AMPLITUDE, NAME={name}")[1].split("\n*")[0].split("\n")[1:]
-    return np.array([float(x) for line in lines for x in line.split(",")]).reshape(-1, 2)
 
 
 @pytest.mark.parametrize("friction_from", ["touch", "roll"])
