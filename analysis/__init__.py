@@ -7,7 +7,9 @@ question each answers (``docs/architecture.md``, "The rooms of analysis/"):
   :mod:`.selection` (component counts by CV), :mod:`.noise` (Monte Carlo noise sweeps),
   :mod:`.combined` (combined loads: block scaling, latent counts), with :mod:`.splits`
   (held-out sets that keep a load path whole), :mod:`.axes` (forces in the road's axes),
-  :mod:`.cluster` (a Dask cluster for the reductions) and :mod:`.errors`.
+  :mod:`.free_rolling` (each rolling tree's offset from free rolling), :mod:`.relaxation`
+  (a slip's steady force from led rolls), :mod:`.cluster` (a Dask cluster for the
+  reductions) and :mod:`.errors`.
 - *Which model choices matter, and what would an experiment give without running it?*
   :mod:`.sensitivity` and :mod:`.sensitivity_data` (Sobol' indices, Morris screening over
   a model design); :mod:`.surrogate` (a Gaussian-process surrogate of the experiments),

@@ -39,6 +39,7 @@ import time
 
 import numpy as np
 
+from analysis.relaxation import flat_lead, secant
 from farm.measure.axes import in_road_axes
 from farm.mesh import mesh_for
 from farm.presets import default_model
@@ -131,23 +132,6 @@ def one(spec, mesh, a, roll: Roll, label: str, axis: int = 1) -> tuple[float, fl
     print(f"  drift of F{'xy'[axis]} {100.0 * (last - first) / abs(last):+.2f} % "
           f"({100 * slope:+.2f} N per 100 mm)", flush=True)
     return last, slope
-
-
-def secant(ends: list[tuple[float, float]]) -> tuple[float, float]:
-    """The steady Fy and the relaxation length sigma of a first-order lag, dF/ds = (F_ss
-    - F) / sigma, from rolls that end at (F, dF/ds): least squares of F = F_ss - sigma
-    dF/ds (two rolls: exact)."""
-    f, s = np.array(ends).T
-    (steady, sigma), *_ = np.linalg.lstsq(np.column_stack([np.ones_like(s), -s]), f,
-                                          rcond=None)
-    return float(steady), float(sigma)
-
-
-def flat_lead(leads: list[float], slopes: list[float]) -> float:
-    """The lead (mm) whose force would not drift: the zero of the straight line through
-    (lead, dF/ds) by least squares (two rolls: exact)."""
-    gain, offset = np.polyfit(leads, slopes, 1)
-    return float(-offset / gain)
 
 
 def _led(spec, mesh, a, roll: Roll, leads: list[tuple[float, str]], axis: int = 1
