@@ -177,11 +177,21 @@ def stick_slope(law: ContactLaw) -> float:
     return math.log(100.0) / law.clearance * law.pressure
 
 
+@dataclass(frozen=True)
+class Lead:
+    """A roll's lead (:func:`lead_points`): the road's further offset, mm, along its tilted
+    lateral axis (``y``, ``Roll.lead``) and along x (``x``, ``Roll.lead_x``), both eased in
+    over ``time`` of step time from the shift's start (:func:`farm.solve.rolling.lead_time`)."""
+
+    y: float = 0.0
+    x: float = 0.0
+    time: float = 0.0
+
+
 def road_motion_lines(road: Road, travel: float, shift: tuple[float, float], tilt: float,
                       t0: float, tilt_time: float, rise: str = "vertical",
                       split: Split | None = None, move_time: float = 1.0,
-                      lead: tuple[float, float] = (0.0, 0.0), lead_x: float = 0.0,
-                      ) -> tuple[list[str], list[str]]:
+                      lead: Lead = Lead()) -> tuple[list[str], list[str]]:
     """Road boundary conditions of a combined load: tilt, rise, then shift.
 
     Every road node is prescribed (the slab stays rigid and its reactions sum to the
@@ -197,11 +207,10 @@ def road_motion_lines(road: Road, travel: float, shift: tuple[float, float], til
 
     ``split``: the deck is cut into two steps (:class:`Split`), every amplitude in total
     time with the hold inserted. ``move_time``: the shift's ramp lasts this long instead
-    of one unit (a long roll, :func:`farm.solve.rolling.roll_time`). ``lead`` = (mm,
-    step time): a further lateral offset along the tilted lateral axis, eased in over
-    that much of the shift's ramp (a roll's lead, :func:`lead_points`); ``lead_x``: one
-    along x (mm), eased in over the same time. Without it dof 1 keeps its relative
-    amplitude (decks as before leads); with it the amplitude holds the x values in mm.
+    of one unit (a long roll, :func:`farm.solve.rolling.roll_time`). ``lead``: further
+    offsets along the tilted lateral axis and along x, eased in over the start of the
+    shift's ramp (:class:`Lead`). Without one along x dof 1 keeps its relative amplitude
+    (decks as before leads); with it the amplitude holds the x values in mm.
 
     Returns the amplitude lines (model definition) and the boundary lines (the step).
     """
@@ -211,14 +220,14 @@ def road_motion_lines(road: Road, travel: float, shift: tuple[float, float], til
     groups, index = np.unique(rot, axis=0, return_inverse=True)
     index = np.ravel(index)
     end = t0 + 1 + move_time
-    lines, bcs = _road_x_lines(shift[0], t0, end, split, (lead_x, lead[1]))
+    lines, bcs = _road_x_lines(shift[0], t0, end, split, lead)
     t1 = t0 + tilt_time
     sy, sz = shift[1] * math.cos(angle), shift[1] * math.sin(angle)  # in the road plane
     ry, rz = _rise(travel, tilt, rise)
-    ly, lz = lead[0] * math.cos(angle), lead[0] * math.sin(angle)
+    ly, lz = lead.y * math.cos(angle), lead.y * math.sin(angle)
     for k, (uy, uz) in enumerate(groups):
-        for dof, points in ((2, [(t1, uy), *lead_points(t0 + 1, end, uy + ry, sy, ly, lead[1])]),
-                            (3, [(t1, uz), *lead_points(t0 + 1, end, uz + rz, sz, lz, lead[1])])):
+        for dof, points in ((2, [(t1, uy), *lead_points(t0 + 1, end, uy + ry, sy, ly, lead.time)]),
+                            (3, [(t1, uz), *lead_points(t0 + 1, end, uz + rz, sz, lz, lead.time)])):
             name = f"ROAD_{k + 1}_{dof}"
             lines += amplitude_lines(name, [(0.0, 0.0), (t0, 0.0), *points], split)
             bcs.append(f"*BOUNDARY, AMPLITUDE={name}")
@@ -227,14 +236,14 @@ def road_motion_lines(road: Road, travel: float, shift: tuple[float, float], til
 
 
 def _road_x_lines(shift: float, t0: float, end: float, split: Split | None,
-                  lead_x: tuple[float, float]) -> tuple[list[str], list[str]]:
+                  lead: Lead) -> tuple[list[str], list[str]]:
     """Amplitude and boundary lines of every road node's dof 1 (x) over the shift's ramp
-    [t0 + 1, ``end``]: ``shift`` mm, plus a longitudinal lead (mm, step time) eased in by
+    [t0 + 1, ``end``]: ``shift`` mm, plus the lead along x eased in by
     :func:`lead_points`."""
-    if not lead_x[0]:  # a relative ramp scaled by the shift: decks as before leads
+    if not lead.x:  # a relative ramp scaled by the shift: decks as before leads
         lines = amplitude_lines("ROAD_MOVE", [(0.0, 0.0), (t0 + 1, 0.0), (end, 1.0)], split)
         return lines, ["*BOUNDARY, AMPLITUDE=ROAD_MOVE", f"ROAD, 1, 1, {fnum(shift)}"]
-    points = lead_points(t0 + 1, end, 0.0, shift, lead_x[0], lead_x[1])
+    points = lead_points(t0 + 1, end, 0.0, shift, lead.x, lead.time)
     lines = amplitude_lines("ROAD_MOVE", [(0.0, 0.0), *points], split)
     return lines, ["*BOUNDARY, AMPLITUDE=ROAD_MOVE", "ROAD, 1, 1, 1"]
 
