@@ -444,21 +444,25 @@ def _rolling(data: Any, given: set[str], model: ModelSpec,
     return Rolling(float(distance), None if radius in RADIUS_WORDS else float(radius),
                    states, branch_from, branches, radius_estimate=radius == "estimate",
                    friction_from=friction_from,
-                   lead_sigma=_lead_sigma(t, distance, branch_from, "lead_sigma_mm"),
-                   lead_sigma_x=_lead_sigma(t, distance, branch_from, "lead_sigma_x_mm"))
+                   lead_sigma=_lead_sigma(t, distance / states, branch_from, "lead_sigma_mm"),
+                   lead_sigma_x=_lead_sigma(t, distance / states, branch_from,
+                                            "lead_sigma_x_mm"))
 
 
-def _lead_sigma(t: dict, distance: float, branch_from: float, key: str) -> float:
+def _lead_sigma(t: dict, first: float, branch_from: float, key: str) -> float:
     """``[loads.roll] lead_sigma_mm`` or ``lead_sigma_x_mm``: the relaxation length the
-    rolls' lateral or longitudinal leads take."""
+    rolls' lateral or longitudinal leads take. ``first``: the travel of a roll's first
+    kept state (mm), which must lie past the lead's ramp: a state is the roll of its own
+    travel, and a roll within the ramp has no whole lead (``RoadMotion`` refuses it)."""
     where = f"loads.roll.{key}"
     sigma = float(scalars.number(t.get(key, 0.0), where, low=0.0, high=MAX_LEAD_SIGMA_MM))
     if sigma and branch_from:
         raise fail(where, "leads rolls from rest, and branch_from_mm makes rolling trees "
                    "whose branches roll on from their trunk: drop one")
-    if sigma and distance <= LEAD_RAMP_MM:
+    if sigma and first <= LEAD_RAMP_MM:
         raise fail(where, f"a lead is eased in over a roll's first {LEAD_RAMP_MM:g} mm and "
-                   f"distance_mm = {distance:g}: roll further")
+                   f"the first kept state lies at {first:g} mm (distance_mm / states): roll "
+                   "further or keep fewer states")
     return sigma
 
 

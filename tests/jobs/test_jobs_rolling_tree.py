@@ -316,8 +316,9 @@ def test_a_lead_sigma_leads_each_roll_by_its_slip_in_a_group_of_its_own(
                           (f"{key} = \"long\"\n", "long")):
         with pytest.raises(StudyError, match=rf"loads\.roll\.{key}.*{needle}"):
             parse_study(_study(tmp_path, loads, roll + extra))
-    with pytest.raises(StudyError, match=rf"loads\.roll\.{key}: .*first 96 mm"):
-        parse_study(_study(tmp_path, loads, f"distance_mm = 60\n{key} = 600\n"))
+    for short in ("distance_mm = 60\n", "distance_mm = 200\nstates = 3\n"):  # a state at 67
+        with pytest.raises(StudyError, match=rf"loads\.roll\.{key}: .*first 96 mm.*states"):
+            parse_study(_study(tmp_path, loads, f"{short}{key} = 600\n"))
     models = ('[models]\nmethod = "lhs"\nn = 2\n[models.parameters]\n'
               '"materials.tread.youngs_modulus" = [5.0, 10.0]\n')
     with pytest.raises(StudyError, match=rf"loads\.roll\.{key}: .*\[models\]"):
