@@ -154,8 +154,8 @@ def roll_deck(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: floa
     amplitudes, boundary = D.road_motion_lines(road, travel, roll.travel, roll.tilt, 1.0,
                                                TILT_TIME if roll.tilt else 0.0, "normal",
                                                split, move_time=duration,
-                                               lead=D.Lead(roll.lead, roll.lead_x,
-                                                           lead_time(roll)))
+                                               lead=D.Lead(y=roll.lead, x=roll.lead_x,
+                                                           time=lead_time(roll)))
     amplitudes += D.inflate_amplitude_lines(split)
     rim_amplitudes, rim = rim_lines(mesh, roll.spin, 2.0, duration, split)
     if not fractions or any(not 0.0 <= f <= 1.0 for f in fractions) or any(
