@@ -35,6 +35,7 @@ from tyre_farm_cli import (
     converge,
     export,
     invert,
+    invocation,
     predict,
     reproduce,
     roll,
@@ -135,6 +136,7 @@ def command():
 def main(argv: list[str] | None = None) -> None:
     """Console entry point: run the app and turn errors into one line and an exit code."""
     args = list(sys.argv[1:] if argv is None else argv)
+    invocation.ARGS[:] = args  # what a study's provenance names
     debug = args[:1] == ["--debug"]  # a root option: `farm --debug run ...`
     if not debug:
         logging.getLogger("asyncio").addFilter(_UnretrievedTasks())

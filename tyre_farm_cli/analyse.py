@@ -146,14 +146,20 @@ def _analyse(name: str, command: str, *, store: str, options: list[str] | None,
     """The scaffold of every store analysis: the output folder checked, the selection
     loaded on the scheduler (turned to ``axes``), ``reference`` checked against it when
     the analysis takes one, the study run, what it wrote reported."""
+    from analysis.render import provenance
+    from tyre_farm_cli.invocation import command as invocation
+
     folder = _out(out, command)
+    run = provenance.Run(invocation())  # the command, commit and load, beside the results
     with dask_scheduler(scheduler):
         ds = load_selection(store, options, group, pressure, deflection)
         if axes is not None:
             ds = in_axes(ds, axes)
         if reference is not _NO_REFERENCE:
             kwargs["reference_deflection"] = _reference(ds, reference)  # type: ignore[arg-type]
-        _done(_study(name).run(ds, folder, **kwargs), as_json)
+        report = _study(name).run(ds, folder, **kwargs)
+    report.files.extend(p for p in provenance.record(run, report.out) if p not in report.files)
+    _done(report, as_json)
 
 
 def load_selection(store: str, options: list[str] | None, group: str | None, pressure: float | None,

@@ -58,6 +58,22 @@ def test_analyse_json_is_the_tables_it_wrote(store, tmp_path, capsys, command):
     assert code == 0 and text.startswith(f"wrote {len(doc['files'])} files to ")
 
 
+def test_an_analysis_names_its_command_commit_and_load(store, tmp_path, capsys):
+    """What `farm analyse` wrote ends with where it came from (analysis/render/provenance)."""
+    from analysis.render.provenance import ROOT, code_commit
+
+    out = tmp_path / "p"
+    code, _, err = run_cli(["analyse", "pca", str(store), "--out", str(out)], capsys)
+    assert code == 0, err
+    rows = dict(pd.read_csv(out / "provenance.csv").itertuples(index=False))
+    assert rows["command"] == f"farm analyse pca {store} --out {out}"
+    assert rows["commit"] == code_commit()
+    if (ROOT / ".git").exists():  # a checkout (CI's clean clone): the commit itself
+        assert len(rows["commit"]) == 40 and int(rows["commit"], 16) >= 0
+    summary = (out / "summary.md").read_text()
+    assert summary.index("## Provenance") > 0 and f"`farm analyse pca {store}" in summary
+
+
 # ---------------------------------------------------------------- farm invert
 
 X_TRUE = np.array([10.0, 20.0, 40.0])
