@@ -38,6 +38,7 @@ from tyre_farm_cli.analyse import (
 from tyre_farm_cli.analyse_options import IntervalKind, Tpms, TpmsPressure
 from tyre_farm_cli.checks import model_folder, output_folder
 from tyre_farm_cli.errors import usage
+from tyre_farm_cli.invocation import command as invocation
 from tyre_farm_cli.options import open_target
 
 OUTSIDE_EXIT = 3
@@ -79,7 +80,9 @@ def fit(
     from analysis.camera import predictor
     from analysis.camera.features import model_inputs
     from analysis.camera.population import Tyres
+    from analysis.render import provenance
 
+    run = provenance.Run(invocation())
     spec = _fit_checks(sensor, learner, out, draws, folds, alpha, test_fraction, intervals)
     tyres = Tyres.of(load_tyres(store, storage_option, _groups(store, storage_option, group),
                                 pressure, skip_empty=group is not None and group.strip() == "all"))
@@ -89,7 +92,7 @@ def fit(
                                  inputs=model_inputs(tpms))
     ids = [str(i) for i in tyres.ids()[model.info["train"]]]
     path = predictor.save(model, out, store=str(store), group=",".join(tyres.names()),
-                          ids=ids, check=check)
+                          ids=ids, check=check, provenance=run.rows())
     _print_fit(path, model, check, ids, as_json)
 
 
@@ -288,20 +291,26 @@ def mismatch(
     growth beside the model's own held-out error."""
     from analysis.camera import predictor
     from analysis.camera.mismatch import mismatch as run
+    from analysis.render import provenance
 
+    started = provenance.Run(invocation())
     with usage():
         integer(draws, "--draws", low=1, high=MAX_DRAWS)
     fitted, manifest = predictor.load(model)
     ds = load_selection(store, storage_option, group, pressure, None)
     table, _, _ = run(fitted, ds, draws=draws, seed=seed)
+    rows = started.rows()
+    origin = {"provenance": rows,  # this run's, and the model's training's
+              "trained_by": (manifest.get("extra") or {}).get("provenance")}
     if as_json:
         typer.echo(json.dumps({"model": str(model), "trained_on": manifest.get("group"),
                                "applied_to": ds.attrs.get("group"),
-                               "errors": table.to_dict("records")}, indent=1))
+                               "errors": table.to_dict("records"), **origin}, indent=1))
         return
     typer.echo(f"trained on {manifest.get('store')} group {manifest.get('group')!r}; "
                f"applied to {store} group {ds.attrs.get('group')!r}")
     typer.echo(table.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+    typer.echo(provenance.line(rows))
 
 
 def _finite(table):

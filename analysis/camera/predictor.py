@@ -279,8 +279,10 @@ def _check(model: ForceModel, Xt, Yt, span, alpha: float) -> pd.DataFrame:
 
 
 def save(model: ForceModel, path, *, store: str, group: str, ids: list[str],
-         check: pd.DataFrame) -> object:
-    """Write ``model`` with its manifest (:func:`analysis.camera.predict.persist.save_model`).
+         check: pd.DataFrame, provenance: dict[str, str] | None = None) -> object:
+    """Write ``model`` with its manifest (:func:`analysis.camera.predict.persist.save_model`);
+    ``provenance`` (the command, commit and load that trained it,
+    :mod:`analysis.render.provenance`) goes into the manifest's ``extra`` as it is.
 
     The learner, the intervals and the reference surface's arrays go into the skops file
     (plain arrays and the farm's own estimators: nothing a safe loader must trust
@@ -298,7 +300,8 @@ def save(model: ForceModel, path, *, store: str, group: str, ids: list[str],
     manifest = {"store": store, "group": group, "experiment_ids": list(ids),
                 "sensor": model.sensor.to_dict(), "inputs": list(model.inputs),
                 "targets": list(model.targets),
-                "extra": {"info": model.info, "check": check.to_dict("records")}}
+                "extra": {"info": model.info, "check": check.to_dict("records"),
+                          **({"provenance": dict(provenance)} if provenance else {})}}
     return save_model(path, payload, manifest)
 
 

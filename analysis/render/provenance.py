@@ -78,6 +78,15 @@ class Run:
                 ("load average (1 min) at start / end", f"{self.load:.2f} / {_load():.2f}")]
         return pd.DataFrame(rows, columns=["item", "value"])
 
+    def rows(self) -> dict[str, str]:
+        """:meth:`table` as a mapping, item to value (JSON, a model's manifest)."""
+        return dict(self.table().itertuples(index=False))
+
+
+def line(rows: dict[str, str]) -> str:
+    """:meth:`Run.rows` as one line, for a command that prints its results."""
+    return "provenance: " + "; ".join(f"{item} {value}" for item, value in rows.items())
+
 
 def record(run: Run, out: Path) -> list[Path]:
     """Write ``out/provenance.csv`` and end ``out/summary.md`` (where the study wrote

@@ -285,6 +285,13 @@ def test_mismatch_reports_error_growth(stores, model):
     assert np.isfinite(table["rmse_pct_range"]).all()
     assert np.isfinite(table["trained_heldout_pct_range"]).all()
     assert table["outside"].between(0.0, 1.0).all()  # the domain's flags (issue 47)
+    # where the figures came from: this run, and the fit that trained the model
+    doc = json.loads(out)
+    assert doc["provenance"]["command"].startswith(f"farm mismatch {path} ")
+    assert doc["trained_by"]["command"].startswith("farm fit ")
+    assert doc["trained_by"]["commit"] == doc["provenance"]["commit"]
+    code, text, err = _cli(["mismatch", path, stores / "b.zarr"])
+    assert code in (0, None) and text.splitlines()[-1].startswith("provenance: command farm ")
 
 
 @pytest.mark.parametrize(("argv", "needle"), [
