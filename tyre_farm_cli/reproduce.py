@@ -38,9 +38,12 @@ def reproduce(
     cluster=None,
 ) -> None:
     """Run the thesis study (chapters 3-5) on the farm and write OUT/report.md."""
+    from analysis.render.provenance import Run
     from analysis.report import reproduction
     from farm.ccx.runner import ccx_version
+    from tyre_farm_cli.invocation import command as invocation
 
+    run = Run(invocation())  # the command, commit and load before the first stage
     opts = _options(quick, out, store, scheduler, workers, coarse, materials, cluster)
     done = []
     for name, stage in (("chapter 3: validation", _validation),
@@ -49,7 +52,7 @@ def reproduce(
         _stage_log(f"reproduce: {name}", rule=True)
         done.append(stage(opts))
     provenance = reproduction.provenance(
-        solver=f"CalculiX {ccx_version()}", store=opts.store, quick=opts.quick,
+        run, solver=f"CalculiX {ccx_version()}", store=opts.store, quick=opts.quick,
         meshes=opts.mesh_tag(), materials=opts.materials, scheduler=opts.scheduler,
         workers=opts.workers)
     path = reproduction.write(opts.out, done, provenance, opts.quick)

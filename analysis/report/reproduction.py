@@ -9,12 +9,12 @@ import json
 import os
 import platform
 import re
-import time
 from importlib import metadata
 from pathlib import Path
 
 import pandas as pd
 
+from analysis.render.provenance import Run
 from analysis.report import findings, readable, table_5_1
 from analysis.report.readable import table as md_table
 from analysis.report.stage import StageResult  # where the chapters and the CLI take it from
@@ -46,15 +46,17 @@ CH5_FIGURES = [
 ]
 
 
-def provenance(*, solver: str, store: str, quick: bool, meshes: str, materials: str,
-               scheduler: str | None = None, workers: int | None = None) -> pd.DataFrame:
-    """Where the numbers come from: date, solver, store, mode, cluster, machine, versions."""
-    rows = [("date", time.strftime("%Y-%m-%d %H:%M:%S %Z")), ("solver", solver),
+def provenance(run: Run, *, solver: str, store: str, quick: bool, meshes: str,
+               materials: str, scheduler: str | None = None,
+               workers: int | None = None) -> pd.DataFrame:
+    """Where the numbers come from: the run's command, commit, times, machine and load
+    (:class:`analysis.render.provenance.Run`, as every ``farm analyse`` writes them), then
+    solver, store, mode, cluster, Python and versions."""
+    rows = [*run.table().itertuples(index=False), ("solver", solver),
             ("store", store), ("mode", "quick" if quick else "full"),
             ("meshes", meshes), ("materials", materials),
             ("cluster", scheduler or f"embedded LocalCluster, {workers or 'all'} "
-             "workers"), ("machine", f"{platform.machine()}, {os.cpu_count()} cores, "
-                          f"Python {platform.python_version()}")]
+             "workers"), ("Python", platform.python_version())]
     for name in PACKAGES:
         try:
             rows.append((name, metadata.version(name)))

@@ -48,8 +48,11 @@ def dataset(thesis_store, tmp_path_factory):
 @pytest.fixture(scope="module")
 def report(dataset, tmp_path_factory):
     out = tmp_path_factory.mktemp("report")
-    prov = reproduction.provenance(solver="CalculiX test", store="s.zarr", quick=True,
-                                   meshes="coarse", materials="table-3.1")
+    from analysis.render.provenance import Run
+
+    prov = reproduction.provenance(Run("farm reproduce --quick"), solver="CalculiX test",
+                                   store="s.zarr", quick=True, meshes="coarse",
+                                   materials="table-3.1")
     path = reproduction.write(out, [_validation(), dataset, _inverse()], prov, quick=True)
     return path.read_text()
 
@@ -109,6 +112,9 @@ def test_table_5_1_is_one_table_with_the_thesis_values_in_it(report):
 
 def test_findings_come_first_and_hold_every_chapters_headline(report):
     assert report.index("## Findings") < report.index("## Provenance")
+    # the run's rows, as every `farm analyse` writes them (analysis/render/provenance.py)
+    assert "farm reproduce --quick" in _section(report, "## Provenance")
+    assert "commit" in _section(report, "## Provenance")
     [table] = _tables(_section(report, "## Findings"))
     assert table[0] == findings.COLUMNS
     assert {row[0] for row in table[1:]} == {"3", "4", "5"}
