@@ -137,10 +137,13 @@ def write_outcome(task: PathTask, exps: list[Experiment], result) -> PathOutcome
 
 
 def _stopped(last: Experiment) -> str:
-    """What a roll that stopped kept, for the reason of the states it did not reach."""
-    travel = last.motion.roll if last.motion is not None else float("nan")
-    return (f"partial roll: stopped after the state at {travel:g} mm of travel (stored, "
-            f"{last.id}) and before this one")
+    """What a roll or a slide that stopped kept, for the reason of the states it did
+    not reach."""
+    m = last.motion
+    where = (f"roll: stopped after the state at {m.roll:g} mm of travel" if m is not None
+             and m.rolls else "slide: stopped after the state at a shift of "
+             f"({m.shift_x if m else 0:.4g}, {m.shift_y if m else 0:.4g}) mm")
+    return f"partial {where} (stored, {last.id}) and before this one"
 
 
 def _combine(task: PathTask, parts: list[PathOutcome]) -> PathOutcome:

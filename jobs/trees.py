@@ -26,10 +26,11 @@ from dataclasses import dataclass
 
 import storage
 import storage.saved
-from farm.errors import ResultsError
+from farm.errors import ResultsError, SolverError
 from farm.measure.measurement import measure
 from farm.mesh import mesh_for
 from farm.solve import trunk_file
+from farm.solve.states import PathSolution
 from farm.solve.tree import Trunk, solve_branch, solve_trunk
 from farm.specs import LoadPath, ModelSpec, RoadMotion, SolverSettings
 from jobs.expand import BranchPlan, Experiment, PathPlan, TreePlan
@@ -228,32 +229,59 @@ def run_branch(task: TreeTask, trunk: TrunkResult) -> PathOutcome:
             result = _slide(task, branch, trunk.trunk, should_stop)
         if isinstance(result, Failed):
             known = branch.level < len(trunk.levels_done)
+            slid = result
             if not known or trunk.levels_done[branch.level]:
                 result = _from_rest(task, branch, should_stop, result.reason)
             else:  # from rest it would stop where the trunk's own path from rest did
                 result = dataclasses.replace(result, reason=(
                     f"{result.reason}; not tried from rest: the trunk's own experiment at "
                     f"{d:g} mm failed from rest too"))
+            if isinstance(result, Failed) and result.partial is None:
+                result = dataclasses.replace(result, partial=slid.partial)
         motion = branch.experiments[-1].motion
         plain = task.path_task(branch.key, branch.experiments, motion)
-        wanted = {e.id for e in todo}
-        if isinstance(result, Solved):
-            result = dataclasses.replace(result, measurements=tuple(
-                m for e, m in zip(branch.experiments, result.measurements, strict=True)
-                if e.id in wanted))
+        result = _wanted(result, branch, {e.id for e in todo})
         outcome = dataclasses.replace(write_outcome(plain, todo, result), skipped=skipped)
         _drop_if_finished(task)
         return outcome
 
 
+def _wanted(result: Solved | Failed, branch: BranchPlan, wanted: set[str]) -> Solved | Failed:
+    """``result`` with the measurements of the slide's experiments in ``wanted`` only
+    (those still to do; a failed slide's: of those it reached, issue 45)."""
+    def kept(solved: Solved, strict: bool) -> Solved:
+        return dataclasses.replace(solved, measurements=tuple(
+            m for e, m in zip(branch.experiments, solved.measurements, strict=strict)
+            if e.id in wanted))
+
+    if isinstance(result, Solved):
+        return kept(result, True)
+    if result.partial is None:
+        return result
+    reached = kept(result.partial, False)
+    return dataclasses.replace(result, partial=reached if reached.measurements else None)
+
+
 def _slide(task: TreeTask, branch: BranchPlan, trunk: Trunk, should_stop) -> Solved | Failed:
+    """The slide from the trunk's state; a slide that stops keeps the fractions it
+    reached (:attr:`Failed.partial`, measured; issue 45), as a roll does."""
     model = task.model
     mesh = mesh_for(model)
 
+    def measured(states: tuple, seconds: float) -> tuple:
+        reached = PathSolution(trunk.solution.reference, states, seconds, 1, 0)
+        return tuple(measure(mesh, reached, task.tree.pressure, inflated=True))
+
     def solve(settings: SolverSettings) -> Solved:
-        s = solve_branch(model, mesh, trunk, branch.level, branch.shift, settings, should_stop)
-        states = measure(mesh, s, task.tree.pressure, inflated=True)
-        return Solved(tuple(states), s.solve_seconds, s.ccx_runs, s.increments)
+        try:
+            s = solve_branch(model, mesh, trunk, branch.level, branch.shift, settings,
+                             should_stop)
+        except SolverError as e:
+            if isinstance(e.partial, tuple):
+                raise e.with_partial(measured(e.partial, e.partial[-1].solve_seconds)) from e
+            raise
+        return Solved(measured(s.states, s.solve_seconds), s.solve_seconds, s.ccx_runs,
+                      s.increments)
 
     return guarded(solve, task.settings, retry=task.retry_smaller_increments)
 

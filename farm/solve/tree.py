@@ -55,6 +55,7 @@ from farm.solve.contact import (
     path_deck,
     path_state,
     road_of,
+    run_deck_keeping,
     slave_faces,
     stage,
     tilted_gap,
@@ -157,14 +158,6 @@ def trunk_deck(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: Solver
     deck, _, z = path_deck(spec, mesh, first, one_step, touch_z, model=model, then=steps)
     assert abs(z - z_start) < 1e-9, "the trunk's road starts where the one-run path's does"
     return deck, z_start
-
-
-def _run(deck: str, settings: SolverSettings, should_stop, jobname: str,
-         inputs: dict[str, bytes] | None = None) -> tuple[CcxRun, FrdFile]:
-    with scratch_dir(keep=settings.keep_scratch, prefix=f"{jobname}-") as workdir:
-        run = run_ccx(deck, workdir, jobname=jobname, threads=settings.threads,
-                      timeout=settings.timeout, should_stop=should_stop, inputs=inputs)
-        return run, read_frd(run.file("frd"))
 
 
 def _run_trunk(deck: str, settings: SolverSettings, should_stop
@@ -368,27 +361,41 @@ def solve_branch(spec: ModelSpec, mesh: TyreMesh, trunk: Trunk, level: int,
     """Slide the road from the trunk's state at ``trunk.path.deflections[level]``.
 
     Returns the trunk's reference and one state per fraction f of ``trunk.fractions``:
-    the road slid by f times ``shift``.
+    the road slid by f times ``shift``. A slide that stops raises its
+    :class:`~farm.errors.SolverError` holding the states it reached (``partial``, in
+    order; None: none), as a roll does.
     """
     fractions = trunk.fractions
     if not 0 <= level < len(trunk.restarts):
         raise SpecError(f"the trunk has {len(trunk.restarts)} deflections, no level {level}")
     motion = trunk.motion
     full = dataclasses.replace(motion, shift_x=shift[0], shift_y=shift[1])
-    deck = branch_deck(spec, mesh, trunk, level, shift, settings)
     d = trunk.path.deflections[level]
-    try:
-        run, frd = _run(deck, settings, should_stop, "branch",
-                        inputs={"rin": zlib.decompress(trunk.restarts[level])})
-    except SolverError as e:
-        where = f"in the slide from the trunk's {d:g} mm state"
-        raise (e.located(where) if e.reached is not None else e) from e
-    times = sorted({b.time for b in frd.results_named("DISP")})
-    if len(times) != len(fractions):
-        raise ResultsError(f"the branch wrote {len(times)} states for {len(fractions)} "
-                           "slide fractions")
     gap = tilted_gap(spec, motion.tilt)
-    states = _states(spec, mesh, frd, trunk.path, trunk.touch_z - gap, times,
-                     [(d, full.scaled(f)) for f in fractions], run.seconds_to)
-    return PathSolution(trunk.solution.reference, tuple(states), run.seconds, 1,
-                        run.increments)
+
+    def states(frd: FrdFile, seconds: Callable[[float], float]) -> list[SolvedState]:
+        times = sorted({b.time for b in frd.results_named("DISP")})
+        if len(times) > len(fractions):
+            raise ResultsError(f"the branch wrote {len(times)} states for {len(fractions)} "
+                               "slide fractions")
+        return _states(spec, mesh, frd, trunk.path, trunk.touch_z - gap, times,
+                       [(d, full.scaled(f)) for f in fractions[:len(times)]], seconds)
+
+    run, frd, error = run_deck_keeping(
+        branch_deck(spec, mesh, trunk, level, shift, settings), settings, should_stop,
+        "branch", inputs={"rin": zlib.decompress(trunk.restarts[level])})
+    if error is None and frd is not None:
+        done = states(frd, run.seconds_to)
+        if len(done) != len(fractions):
+            raise ResultsError(f"the branch wrote {len(done)} states for {len(fractions)} "
+                               "slide fractions")
+        return PathSolution(trunk.solution.reference, tuple(done), run.seconds, 1,
+                            run.increments)
+    assert error is not None
+    if error.reached is not None:
+        error = error.located(f"in the slide from the trunk's {d:g} mm state")
+    try:  # what it reached before it stopped (the reader drops a diverged output)
+        reached = states(frd, lambda t: run.seconds) if frd is not None else []
+    except ResultsError:
+        reached = []
+    raise error.with_partial(tuple(reached) or None)

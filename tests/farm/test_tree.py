@@ -109,6 +109,24 @@ def test_branch_equals_the_slide_from_rest(coarse, trunk, level):
 
 
 @pytest.mark.ccx
+def test_a_slide_that_stops_keeps_the_states_it_reached(coarse, trunk):
+    """Out of increments between its two states (15 of the 17 the slide takes with
+    ccx 2.20), a slide raises with the state it reached, equal to the whole slide's: the
+    same deck up to there (issue 45; as a roll does)."""
+    spec, mesh = coarse
+    whole = solve_branch(spec, mesh, trunk, 0, SHIFT, SolverSettings())
+    with pytest.raises(SolverError, match="max_increments") as info:
+        solve_branch(spec, mesh, trunk, 0, SHIFT, SolverSettings(max_increments=15))
+    assert "in the slide from the trunk's 10 mm state" in info.value.where
+    [reached] = info.value.partial
+    assert reached.motion == whole.states[0].motion
+    np.testing.assert_allclose(reached.road_reaction, whole.states[0].road_reaction,
+                               rtol=1e-9)
+    np.testing.assert_allclose(reached.displacement, whole.states[0].displacement,
+                               rtol=1e-9, atol=1e-12)
+
+
+@pytest.mark.ccx
 def test_tree_refuses_what_it_cannot_do(coarse, trunk):
     spec, mesh = coarse
     with pytest.raises(SpecError, match="does not slide"):
