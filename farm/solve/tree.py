@@ -124,8 +124,23 @@ def _pressure_lines(spec: ModelSpec, mesh: TyreMesh, pressure: float) -> list[st
     return D.cavity_pressure_lines(mesh, pressure, None) if spec.inflated else []
 
 
-def _controls(motion: RoadMotion, settings: SolverSettings) -> list[str]:
-    return D.friction_controls_lines(settings.grow_after) if motion.friction > 0 else []
+#: ccx's IG in a slide (:attr:`farm.specs.SolverSettings.grow_after`, at least): an
+#: increment grows once two in a row took at most this many iterations. Frictional
+#: slides of ``patch`` converge in 5-9, so at ccx's default 4 a slide cut back once kept
+#: its increment: the 1024-experiment study's slowest slides ran 30-60 min at 1/640-1/3000
+#: of the slide (docs/combined-loads.md). Measured side by side
+#: (``benchmarks/bench_static_branch.py``, 2026-12-01): its stalled slide (tree 7, 30.1 mm,
+#: (3.89, 1.62) mm) stopped at a 15 min cap at its first fifth under IG 4 and took 95 s
+#: under IG 10, equal there within 0.001 % of |F|; the other slides of that level equal
+#: within the issue's rule. The same choice as the rolling branches'
+#: (:data:`farm.solve.rolling_tree.BRANCH_GROW_AFTER`).
+SLIDE_GROW_AFTER = 10
+
+
+def _controls(motion: RoadMotion, settings: SolverSettings, grow: int = 0) -> list[str]:
+    """The friction controls with IG ``settings.grow_after``, or ``grow`` if larger."""
+    ig = max(settings.grow_after, grow)
+    return D.friction_controls_lines(ig) if motion.friction > 0 else []
 
 
 def trunk_deck(spec: ModelSpec, mesh: TyreMesh, path: LoadPath, settings: SolverSettings,
@@ -348,7 +363,8 @@ def branch_deck(spec: ModelSpec, mesh: TyreMesh, trunk: Trunk, level: int,
     d = trunk.path.deflections[level]
     return "\n".join([
         *D.restart_lines(read=True, write=False),
-        *D.static_step_lines(1.0, settings, first=D.STEP_DWELL), *_controls(motion, settings),
+        *D.static_step_lines(1.0, settings, first=D.STEP_DWELL),
+        *_controls(motion, settings, SLIDE_GROW_AFTER),
         *D.road_step_lines(road, (gap + d, (0.0, 0.0)), (gap + d, shift), motion.tilt,
                            motion.rise, "SLIDE"),
         *_pressure_lines(spec, mesh, trunk.path.pressure),
