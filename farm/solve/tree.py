@@ -130,9 +130,12 @@ def _pressure_lines(spec: ModelSpec, mesh: TyreMesh, pressure: float) -> list[st
 #: its increment: the 1024-experiment study's slowest slides ran 30-60 min at 1/640-1/3000
 #: of the slide (docs/combined-loads.md). Measured side by side
 #: (``benchmarks/bench_static_branch.py``, 2026-12-01): its stalled slide (tree 7, 30.1 mm,
-#: (3.89, 1.62) mm) stopped at a 15 min cap at its first fifth under IG 4 and took 95 s
-#: under IG 10, equal there within 0.001 % of |F|; the other slides of that level equal
-#: within the issue's rule. The same choice as the rolling branches'
+#: (3.89, 1.62) mm) stopped at a 15 min cap after its first fifth under IG 4 and took 95 s
+#: under IG 10, equal there within 0.001 % of |F|; another slide of that level stopped
+#: with nothing under IG 4 (192 s under IG 10), and the third, which IG 4 finished,
+#: equals within 0.002 %; the
+#: two stalled slides under IG 10 equal IG 10 with a 4x smaller largest increment within
+#: 0.045 % at every state. The same choice as the rolling branches'
 #: (:data:`farm.solve.rolling_tree.BRANCH_GROW_AFTER`).
 SLIDE_GROW_AFTER = 10
 
