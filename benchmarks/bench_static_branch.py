@@ -13,9 +13,9 @@ A copied stalled slide went through in 98 s with IG 10, checked at its first out
 This solves one tree's trunk once (the study's model, pressure, friction, tilt and
 deflections) and then slides of it under each IG of ``--values`` (``G/Q``: IG G with the
 largest increment divided by Q, as the guard's retry divides it by 4: whether the
-answer depends on the increments at all), alternating: by
-default the level of ``--experiment`` (index in the study's order; 487 is the stalled
-slide's first fifth) and every slide from it.
+answer depends on the increments at all), alternating: by default the level of
+``--experiment`` (index in the study's order; 487 is the stalled slide's first fifth)
+and every slide from it.
 
 Printed per slide and value: ccx seconds, increments and how far it got (a slide that
 passes ``--timeout`` keeps the fractions it reached), and against the first value at every
@@ -27,10 +27,10 @@ issue's rule (0.5 % and 1 %). Nothing is asserted (noisy machines).
 benchmark subset of at least 4 trunks"): the trees K of the study (0-based, the study's
 order), each trunk and every slide of it, one process, under the first of ``--values``
 (or the farm's own with ``--values study``: IG ``farm.solve.tree.SLIDE_GROW_AFTER`` in
-slides). Printed: each trunk's and slide's ccx
-seconds, the slowest slide, the subset's total, and the study's time extrapolated to two
-workers (the subset's ccx seconds x trees / subset trees / 2: trees keep two workers
-busy, so this is what two idle cores take, load aside).
+slides). Printed: each trunk's and slide's ccx seconds, the slowest slide, the subset's
+total, and the study's time extrapolated to two workers (the subset's ccx seconds x
+trees / subset trees / 2: trees keep two workers busy, so this is what two idle cores
+take, load aside).
 """
 
 from __future__ import annotations
