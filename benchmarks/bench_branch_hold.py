@@ -21,7 +21,7 @@ from __future__ import annotations
 import argparse
 import time
 
-import numpy as np
+from answer_rule import differences, verdict
 
 import farm.solve.rolling_tree as rolling_tree
 from farm.mesh import mesh_for
@@ -54,10 +54,6 @@ def _model(a: argparse.Namespace):
         return default_model("full", mesh=a.mesh, materials=a.materials)
     mesh = MeshDensity(tread=4, sidewall=2, bead=1, circumferential=a.circumferential)
     return default_model("full", mesh=mesh, materials=a.materials)
-
-
-def _rms(x: np.ndarray) -> float:
-    return float(np.sqrt(np.mean(np.square(x))))
 
 
 def _tree(spec, mesh, a: argparse.Namespace, hold: float, cases):
@@ -99,14 +95,12 @@ def main() -> None:
         worst_f = worst_c = 0.0
         for case, (states, _) in runs[h][1].items():
             for x, y in zip(states, ref[case][0], strict=True):
-                worst_f = max(worst_f, float(np.abs(x.force - y.force).max()
-                                             / np.linalg.norm(y.force)))
-                worst_c = max(worst_c, _rms(x.camera - y.camera) / _rms(y.camera))
-        same = worst_f <= 5e-3 and worst_c <= 1e-2
+                f, c = differences(y.force, x.force, y.camera, x.camera)
+                worst_f, worst_c = max(worst_f, f), max(worst_c, c)
         print(f"hold {h:g}: branches {total:.1f} s ({base / total:.2f}x the first hold's "
-              f"speed); worst state against the first hold: forces {100 * worst_f:.3f} % "
-              f"of |F|, camera field {100 * worst_c:.3f} % of its RMS: "
-              f"{'the same answer' if same else 'NOT the same'} (rule: 0.5 %, 1 %)")
+              f"speed); worst state against the first hold: forces {worst_f:.3f} % "
+              f"of |F|, camera field {worst_c:.3f} % of its RMS: "
+              f"{verdict(worst_f, worst_c)} (rule: 0.5 %, 1 %)")
 
 
 if __name__ == "__main__":

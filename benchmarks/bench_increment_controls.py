@@ -43,7 +43,8 @@ import argparse
 import dataclasses
 import time
 
-import numpy as np
+import answer_rule
+from answer_rule import differences
 
 from farm.errors import SolverError
 from farm.experiment import PathResult, run_load_path
@@ -89,18 +90,14 @@ def _args() -> argparse.Namespace:
     return p.parse_args()
 
 
-def _rms(x: np.ndarray) -> float:
-    return float(np.sqrt(np.mean(np.square(x))))
-
-
 def _compare(ref: PathResult, other: PathResult) -> tuple[float, float]:
     """Largest force and field differences over the states, in % of |F| and of RMS."""
     force = field = 0.0
     for a, b in zip(ref.measurements, other.measurements, strict=True):
         fa, fb = (m.road_reaction if m.road_reaction is not None else m.total_force
                   for m in (a, b))
-        force = max(force, 100 * float(np.abs(fb - fa).max()) / np.linalg.norm(fa))
-        field = max(field, 100 * _rms(b.displacement - a.displacement) / _rms(a.displacement))
+        f, c = differences(fa, fb, a.displacement, b.displacement)
+        force, field = max(force, f), max(field, c)
     return force, field
 
 
@@ -149,7 +146,7 @@ def main() -> None:
             if ref is not None and g != grows[0]:
                 force, field = _compare(ref, r)
                 speed = min(times[grows[0]]) / min(times[g])
-                same = "same" if force <= 0.5 and field <= 1.0 else "NOT the same"
+                same = "same" if answer_rule.same(force, field) else "NOT the same"
                 line += (f"; {speed:.2f}x faster; forces {force:.3f} % of |F|, field "
                          f"{field:.3f} % of RMS: {same}")
             print(line, flush=True)

@@ -21,7 +21,7 @@ import argparse
 import statistics
 import time
 
-import numpy as np
+from answer_rule import differences, verdict
 
 from farm.experiment import PathResult, run_load_path
 from farm.mesh import mesh_for
@@ -61,10 +61,6 @@ def _model(a: argparse.Namespace):
     return default_model("full", mesh=mesh, materials=a.materials)
 
 
-def _rms(x: np.ndarray) -> float:
-    return float(np.sqrt(np.mean(np.square(x))))
-
-
 def main() -> None:
     a = _args()
     spec = _model(a)
@@ -92,13 +88,10 @@ def main() -> None:
     print(f"experiments per hour of ccx (median run): {one} {rate[one]:.0f}, "
           f"{many} {rate[many]:.0f}; ratio {rate[many] / rate[one]:.1f}x")
     alone, end = last[one].measurements[-1], last[many].measurements[-1]
-    force = np.abs(end.road_reaction - alone.road_reaction).max() / np.linalg.norm(
-        alone.road_reaction)
-    field = _rms(end.displacement - alone.displacement) / _rms(alone.displacement)
-    same = force <= 5e-3 and field <= 1e-2
-    print(f"end state, {many} against {one}: forces {100 * force:.3f} % of |F|, camera "
-          f"field {100 * field:.3f} % of its RMS: {'the same answer' if same else 'NOT the same'}"
-          " (rule: 0.5 %, 1 %)")
+    force, field = differences(alone.road_reaction, end.road_reaction, alone.displacement,
+                               end.displacement)
+    print(f"end state, {many} against {one}: forces {force:.3f} % of |F|, camera "
+          f"field {field:.3f} % of its RMS: {verdict(force, field)} (rule: 0.5 %, 1 %)")
 
 
 if __name__ == "__main__":

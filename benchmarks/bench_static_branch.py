@@ -39,7 +39,8 @@ import argparse
 import dataclasses
 import time
 
-import numpy as np
+import answer_rule
+from answer_rule import differences
 
 import farm.solve.tree as tree_module
 from farm.errors import SolverError
@@ -76,20 +77,15 @@ def _locate(plans: list[TreePlan], index: int) -> tuple[TreePlan, int]:
     raise SystemExit(f"--experiment {index}: the study has {seen} experiments")
 
 
-def _rms(x: np.ndarray) -> float:
-    return float(np.sqrt(np.mean(np.square(x))))
-
-
 def _compare(ref: tuple[SolvedState, ...], other: tuple[SolvedState, ...]) -> str:
     """Largest force and field differences over the states both reached."""
     if not ref or not other:
         return "nothing to compare"
     force = field = 0.0
     for a, b in zip(ref, other, strict=False):
-        force = max(force, 100 * float(np.abs(b.road_reaction - a.road_reaction).max())
-                    / float(np.linalg.norm(a.road_reaction)))
-        field = max(field, 100 * _rms(b.displacement - a.displacement) / _rms(a.displacement))
-    same = "same" if force <= 0.5 and field <= 1.0 else "NOT the same"
+        f, c = differences(a.road_reaction, b.road_reaction, a.displacement, b.displacement)
+        force, field = max(force, f), max(field, c)
+    same = "same" if answer_rule.same(force, field) else "NOT the same"
     return (f"{min(len(ref), len(other))} states: forces {force:.3f} % of |F|, field "
             f"{field:.3f} % of RMS: {same}")
 

@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 from collections import defaultdict
 
+import answer_rule
 import numpy as np
 import xarray as xr
 
@@ -39,10 +40,6 @@ def _index(g: xr.Dataset) -> dict[tuple[float, ...], int]:
     return {tuple(map(float, k)): i for i, k in enumerate(keys)}
 
 
-def _rms(x: np.ndarray) -> float:
-    return float(np.sqrt(np.nanmean(np.square(x))))
-
-
 def differences(a: xr.Dataset, b: xr.Dataset) -> dict[float, list[tuple[float, float]]]:
     """Per travel, (force %, field %) of each state done in both."""
     sa, sb = a["status"].values, b["status"].values
@@ -54,8 +51,7 @@ def differences(a: xr.Dataset, b: xr.Dataset) -> dict[float, list[tuple[float, f
             continue
         fa, fb = (g["road_reaction"][k].values for g, k in ((a, i), (b, j)))
         da, db = (g["displacement"][k].values for g, k in ((a, i), (b, j)))
-        out[key[-1]].append((100 * float(np.abs(fb - fa).max() / np.linalg.norm(fa)),
-                             100 * _rms(db - da) / _rms(da)))
+        out[key[-1]].append(answer_rule.differences(fa, fb, da, db))
     return out
 
 
