@@ -22,22 +22,19 @@ import argparse
 import time
 
 from answer_rule import differences, verdict
+from rolled_model import add_model_args, model
 
 import farm.solve.rolling_tree as rolling_tree
 from farm.mesh import mesh_for
-from farm.presets import default_model
 from farm.solve.contact import touch_height
-from farm.specs import MeshDensity, Roll, SolverSettings
+from farm.specs import Roll, SolverSettings
 
 PRESSURE, DEFLECTION = 0.2, 15.0
 
 
 def _args() -> argparse.Namespace:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--mesh", default="", help="a mesh preset (e.g. patch)")
-    p.add_argument("--circumferential", type=int, default=16)
-    p.add_argument("--materials", default="table-3.1")
-    p.add_argument("--radius", type=float, default=403.8, help="rolling radius, mm")
+    add_model_args(p, radius=403.8)
     p.add_argument("--holds", default="0.1,0.002", help="BRANCH_DWELL values, the first "
                    "the reference")
     p.add_argument("--cases", default="0:2,0.05:-2,-0.08:3.5",
@@ -47,13 +44,6 @@ def _args() -> argparse.Namespace:
     p.add_argument("--friction", type=float, default=0.6)
     p.add_argument("--tilt", type=float, default=0.0, help="camber, degrees")
     return p.parse_args()
-
-
-def _model(a: argparse.Namespace):
-    if a.mesh:
-        return default_model("full", mesh=a.mesh, materials=a.materials)
-    mesh = MeshDensity(tread=4, sidewall=2, bead=1, circumferential=a.circumferential)
-    return default_model("full", mesh=mesh, materials=a.materials)
 
 
 def _tree(spec, mesh, a: argparse.Namespace, hold: float, cases):
@@ -80,7 +70,7 @@ def _tree(spec, mesh, a: argparse.Namespace, hold: float, cases):
 
 def main() -> None:
     a = _args()
-    spec = _model(a)
+    spec = model(a)
     mesh = mesh_for(spec)
     touch_height(spec, mesh, PRESSURE, SolverSettings())  # cached, not timed
     holds = [float(h) for h in a.holds.split(",")]

@@ -27,14 +27,14 @@ import itertools
 import time
 
 from answer_rule import differences, verdict
+from rolled_model import model
 
 from farm.errors import SolverError
 from farm.mesh import mesh_for
-from farm.presets import default_model
 from farm.solve.contact import touch_height
 from farm.solve.rolling import solve_roll
 from farm.solve.rolling_tree import solve_rolling_branch, solve_rolling_trunk
-from farm.specs import MeshDensity, Roll, SolverSettings
+from farm.specs import Roll, SolverSettings
 from jobs.guard import smaller_increments
 
 PRESSURE, DEFLECTION, MU = 0.2, 15.0, 0.6
@@ -57,15 +57,6 @@ def _args() -> argparse.Namespace:
     return p.parse_args()
 
 
-def _model(a: argparse.Namespace):
-    if a.mesh:
-        return default_model("full", mesh=a.mesh, materials=a.materials)
-    tread, sidewall, bead = (int(v) for v in a.wall.split(","))
-    mesh = MeshDensity(tread=tread, sidewall=sidewall, bead=bead,
-                       circumferential=a.circumferential)
-    return default_model("full", mesh=mesh, materials=a.materials)
-
-
 def _timed(f, *args, **kw):
     """``f(*args, settings, **kw)`` as a study runs it: a try, and on a solver failure
     the guard's retry with smaller increments (:func:`jobs.guard.smaller_increments`);
@@ -82,7 +73,7 @@ def _timed(f, *args, **kw):
 
 def main() -> None:
     a = _args()
-    spec = _model(a)
+    spec = model(a)
     mesh = mesh_for(spec)
     touch_height(spec, mesh, PRESSURE, SolverSettings())  # cached, not timed
     cases = list(itertools.product((float(k) for k in a.kappas.split(",")),

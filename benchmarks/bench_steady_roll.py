@@ -38,14 +38,14 @@ import math
 import time
 
 import numpy as np
+from rolled_model import model
 
 from analysis.relaxation import flat_lead, secant
 from farm.measure.axes import in_road_axes
 from farm.mesh import mesh_for
-from farm.presets import default_model
 from farm.solve.contact import touch_height
 from farm.solve.rolling import element_pitch, estimated_radius, solve_roll
-from farm.specs import LEAD_RAMP_MM, MeshDensity, Roll, SolverSettings
+from farm.specs import LEAD_RAMP_MM, Roll, SolverSettings
 
 PER_PITCH = 8
 
@@ -78,14 +78,6 @@ def _args() -> argparse.Namespace:
     p.add_argument("--grow-after", type=int, default=4, help="ccx's IG (solver.grow_after; "
                    "the answer's study rolls `lean` with 10)")
     return p.parse_args()
-
-
-def _model(a: argparse.Namespace):
-    if a.mesh:
-        return default_model("full", mesh=a.mesh, materials=a.materials)
-    tread, sidewall, bead = (int(n) for n in a.wall.split(","))
-    return default_model("full", materials=a.materials, mesh=MeshDensity(
-        tread=tread, sidewall=sidewall, bead=bead, circumferential=a.circumferential))
 
 
 def windows(spec, roll: Roll, n: int) -> list[list[float]]:
@@ -165,7 +157,7 @@ def _floats(text: str) -> list[float]:
 
 def main() -> None:
     a = _args()
-    spec = _model(a)
+    spec = model(a)
     mesh = mesh_for(spec)
     touch_height(spec, mesh, a.pressure / 1000.0, SolverSettings())  # cached first
     a.radius = (estimated_radius(spec, mesh, a.deflection, a.pressure / 1000.0,
