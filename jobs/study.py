@@ -60,6 +60,7 @@ A study names a store, a model and its load cases::
     timeout_s = 1800
     max_path_length = 0               # split load paths longer than this (0: never)
     # grow_after = 4                  # ccx's IG on frictional paths (issue 45)
+    # restart_every_mm = 0            # rolls: a restart point every so many mm (0: none)
 
     [models]                          # optional: a design over [model]'s fields
     method = "sobol"                  # grid | lhs | sobol | morris (jobs/design.py)

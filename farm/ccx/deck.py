@@ -13,6 +13,7 @@ produce results at every deflection of a load path.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
@@ -388,9 +389,9 @@ SPLIT_HOLD = 0.01
 
 @dataclass(frozen=True)
 class Split:
-    """A one-step deck's time layout cut at time ``at`` into two steps: the second
-    holds every load still for its first increment, of ``hold``; every time after ``at``
-    moves on by ``hold``.
+    """A one-step deck's time layout cut at time ``at`` (and at each time of ``more``,
+    after it) into steps: each step after a cut holds every load still for its first
+    increment, of ``hold``; every time after a cut moves on by ``hold``.
 
     Why (:attr:`farm.specs.SolverSettings.split_rise`): ccx's automatic increments grow
     through the easy inflation; the rise then starts with increments of half its ramp,
@@ -399,27 +400,52 @@ class Split:
     A new step starts its increments small again. The hold keeps the step's first
     iteration an ordinary one (:func:`road_step_lines` says why a moving first increment
     is not). Amplitudes and time points of a split deck are in total time, so that
-    loads ramp across the cut as they did in one step.
+    loads ramp across the cut as they did in one step. ``more``: a roll's restart points
+    (:attr:`farm.specs.SolverSettings.restart_every_mm`; ccx writes its restart state at
+    a step's end).
     """
 
     at: float
     hold: float = SPLIT_HOLD
+    more: tuple[float, ...] = ()
+
+    def __post_init__(self) -> None:
+        if any(b <= a for a, b in itertools.pairwise(self.cuts)):
+            raise ValueError(f"a split's cuts must increase, got {list(self.cuts)}")
+
+    @property
+    def cuts(self) -> tuple[float, ...]:
+        """Every cut, in the one-step layout's time, in order."""
+        return (self.at, *self.more)
 
     def time(self, t: float) -> float:
         """The total time of the one-step layout's time ``t``."""
-        return t + self.hold if t > self.at else t
+        return t + self.hold * sum(t > c for c in self.cuts)
 
     def layout(self, total: float) -> float:
-        """The one-step layout's time of total time ``total`` (the hold maps to ``at``)."""
-        return total if total <= self.at else max(self.at, total - self.hold)
+        """The one-step layout's time of total time ``total`` (a hold maps to its cut)."""
+        for k, c in enumerate(self.cuts):
+            if total <= c + k * self.hold:
+                return total - k * self.hold
+            if total <= c + (k + 1) * self.hold:
+                return c
+        return total - len(self.cuts) * self.hold
+
+    def step_end(self, step: int) -> float:
+        """The total time at which step ``step`` (1: the first) ends: its cut's hold
+        begins there; the last step ends with the layout."""
+        return self.time(self.cuts[step - 1])
 
     def points(self, points: Sequence[tuple[float, float]]) -> list[tuple[float, float]]:
-        """Amplitude ``points`` (time, value) of the one-step layout, held over the cut
+        """Amplitude ``points`` (time, value) of the one-step layout, held over each cut
         (after the last point an amplitude keeps its last value, in ccx as here)."""
-        ts, vs = zip(*points, strict=True)
-        v = float(np.interp(self.at, ts, vs))
-        return ([p for p in points if p[0] <= self.at] + [(self.at, v), (self.at + self.hold, v)]
-                + [(t + self.hold, u) for t, u in points if t > self.at])
+        out = list(points)
+        for c in reversed(self.cuts):  # the last cut first: earlier cuts move its hold on
+            ts, vs = zip(*out, strict=True)
+            v = float(np.interp(c, ts, vs))
+            out = ([p for p in out if p[0] <= c] + [(c, v), (c + self.hold, v)]
+                   + [(t + self.hold, u) for t, u in out if t > c])
+        return out
 
 
 def amplitude_lines(name: str, points: Sequence[tuple[float, float]],

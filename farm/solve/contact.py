@@ -62,14 +62,16 @@ def run_deck(deck: str, settings: SolverSettings, should_stop,
 
 
 def run_deck_keeping(deck: str, settings: SolverSettings, should_stop, jobname: str, *,
-                     keep: bool = True, inputs: dict[str, bytes] | None = None
+                     keep: bool = True, inputs: dict[str, bytes] | None = None,
+                     on_stop: Callable[[CcxRun], None] | None = None
                      ) -> tuple[CcxRun, FrdFile | None, SolverError | None]:
     """Run ``deck`` in a scratch directory: (run, frd, None) when it converged; with
     ``keep`` (a roll, issue 45: it keeps what it reached when it stops), (run, the
     ``.frd`` as far as ccx wrote it or None where nothing can be read, the error) when it
     did not; without, (run, None, the error), the ``.frd`` unread. A cancellation
     raises: there is nothing to keep for a job being stopped. ``inputs``: files beside
-    the deck (a restart block, ``{"rin": ...}``)."""
+    the deck (a restart block, ``{"rin": ...}``); ``on_stop`` is called with a run that
+    stopped, cancelled too, while its files are still there (a roll's restart point)."""
     with scratch_dir(keep=settings.keep_scratch, prefix=f"{jobname}-") as workdir:
         run = run_ccx(deck, workdir, jobname=jobname, threads=settings.threads,
                       timeout=settings.timeout, should_stop=should_stop, check=False,
@@ -77,6 +79,8 @@ def run_deck_keeping(deck: str, settings: SolverSettings, should_stop, jobname: 
         if run.outcome is Outcome.CONVERGED:
             return run, read_frd(run.file("frd")), None
         error = failure(run)
+        if on_stop is not None:
+            on_stop(run)
         if run.outcome is Outcome.CANCELLED:
             raise error
         if not keep:

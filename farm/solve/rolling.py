@@ -35,9 +35,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from farm.ccx import deck as D
+from farm.ccx.frd import FrdFile
 from farm.ccx.runner import CcxRun, ccx_version
 from farm.errors import ResultsError, SolverError, SpecError
 from farm.mesh.tyremesh import TyreMesh
+from farm.solve import roll_restart
 from farm.solve.contact import (
     TILT_TIME,
     combined_state,
@@ -134,13 +136,15 @@ def rim_lines(mesh: TyreMesh, spin: float, start: float,
 def roll_deck(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: float,
               roll: Roll, settings: SolverSettings, touch_z: float,
               fractions: Sequence[float], *, model: Sequence[str] = (),
-              ahead: float = 0.0) -> tuple[str, list[float], D.Road, float]:
+              ahead: float = 0.0, every: float = 0.0) -> tuple[str, list[float], D.Road, float]:
     """The one-run deck of a roll; returns (deck, output times of the fractions, road,
     road start z).
 
     ``model`` lines go at the end of the model definition and ``ahead`` (mm) lengthens
     the road past the roll's end: a rolling trunk's restart output, its branches' time
-    points and their travel (:mod:`farm.solve.rolling_tree`)."""
+    points and their travel (:mod:`farm.solve.rolling_tree`). ``every`` (mm): the roll
+    cut into steps at every so many mm of travel, each step's end written as a restart
+    point (:mod:`farm.solve.roll_restart`)."""
     gap = tilted_gap(spec, roll.tilt)
     travel = gap + deflection
     z_start = touch_z - gap
@@ -150,7 +154,7 @@ def roll_deck(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: floa
                        half_width=0.6 * spec.geometry.section_width, divisions=(16, 4))
     # camber as a rig gives it: the road pushed along its own normal (no side slide)
     duration = roll_time(roll)
-    split = roll_split(roll)
+    split = roll_split(roll, every)
     amplitudes, boundary = D.road_motion_lines(road, travel, roll.travel, roll.tilt, 1.0,
                                                TILT_TIME if roll.tilt else 0.0, "normal",
                                                split, move_time=duration,
@@ -158,38 +162,64 @@ def roll_deck(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: floa
                                                            time=lead_time(roll)))
     amplitudes += D.inflate_amplitude_lines(split)
     rim_amplitudes, rim = rim_lines(mesh, roll.spin, 2.0, duration, split)
-    if not fractions or any(not 0.0 <= f <= 1.0 for f in fractions) or any(
-            b <= a for a, b in itertools.pairwise(fractions)):
-        raise SpecError(f"roll fractions must increase within [0, 1] (0: the standing "
-                        f"tyre before the roll), got {list(fractions)}")
-    times = [2.0 + f * duration for f in fractions]
+    times = _output_times(fractions, duration, split, every)
     lam = D.stick_slope(spec.contact)
     capped = _capped(settings, roll)
     controls = D.friction_controls_lines(settings.grow_after) if roll.friction > 0 else []
     outputs = D.output_lines(time_points=True, contact=True)
-    rise_mu = roll.friction if split is None else RISE_FRICTION
+    rise_mu = RISE_FRICTION if roll.friction_from == "roll" else roll.friction
     deck = D.assemble(
         D.mesh_lines(mesh), D.material_lines(spec.materials), D.cord_lines(spec, mesh),
         road.lines,
         D.contact_lines(mesh, spec.contact, (rise_mu, lam) if roll.friction > 0 else None),
         amplitudes, rim_amplitudes, D.time_points_lines(sorted({1.0, 2.0, *times}), split),
         D.measured_set_lines((*D.written_sets(mesh), "ROAD")), model,
+        D.restart_lines(read=False, write=True) if every > 0 else [],
         D.static_step_lines(2.0 + duration if split is None else split.at, capped),
         controls, rim, boundary, D.cavity_pressure_lines(mesh, pressure, "INFLATE"),
         outputs, ["*END STEP"],
-        [] if split is None else _friction_step(roll, split, capped, lam, controls + outputs),
+        [] if split is None else _later_steps(roll, split, capped, lam,
+                                              _later_controls(roll, settings, every) + outputs),
     )
     return deck, [split.time(t) for t in times] if split else times, road, z_start
 
 
-def _friction_step(roll: Roll, split: D.Split, settings: SolverSettings, stick: float,
-                   cards: list[str]) -> list[str]:
-    """The roll's own step after a frictionless rise (:func:`roll_split`): held for its
-    first increment, the roll's friction switched on (``*CHANGE FRICTION``), ``cards``
-    (controls and outputs); loads, boundaries and amplitudes carry over."""
-    return [*D.static_step_lines(roll_time(roll) + split.hold, settings, first=split.hold),
-            "*CHANGE FRICTION, INTERACTION=ROAD_CONTACT", "*FRICTION",
-            f"{D.fnum(roll.friction)}, {D.fnum(stick)}", *cards, "*END STEP"]
+def _output_times(fractions: Sequence[float], duration: float, split: D.Split | None,
+                  every: float) -> list[float]:
+    """The layout's times of a roll's states at ``fractions``; refused in one line where
+    they do not increase within [0, 1] or where one falls on a restart point's cut."""
+    if not fractions or any(not 0.0 <= f <= 1.0 for f in fractions) or any(
+            b <= a for a, b in itertools.pairwise(fractions)):
+        raise SpecError(f"roll fractions must increase within [0, 1] (0: the standing "
+                        f"tyre before the roll), got {list(fractions)}")
+    times = [2.0 + f * duration for f in fractions]
+    restart_cuts = [c for c in split.cuts if c > 2.0] if split is not None else []
+    if any(abs(t - c) < 1e-6 for t in times for c in restart_cuts):
+        raise SpecError(f"a state of the roll falls on one of its restart points (every "
+                        f"{every:g} mm, {CUT_AFTER_MM:g} mm on): give restart_every_mm "
+                        f"another value")
+    return times
+
+
+def _later_steps(roll: Roll, split: D.Split, settings: SolverSettings, stick: float,
+                 cards: list[str]) -> list[str]:
+    """The steps after each cut of a split roll (:func:`roll_split`): each held for its
+    first increment, with ``cards`` (controls and outputs); loads, boundaries and
+    amplitudes carry over. The step that begins at the roll's start after a
+    frictionless rise switches the roll's friction on (``*CHANGE FRICTION``)."""
+    ends = [*split.cuts[1:], 2.0 + roll_time(roll)]
+    later = settings
+    if any(c > 2.0 for c in split.cuts):  # restart points: see STEP_MIN_FACTOR
+        later = dataclasses.replace(settings,
+                                    min_increment=settings.min_increment * STEP_MIN_FACTOR)
+    lines: list[str] = []
+    for cut, end in zip(split.cuts, ends, strict=True):
+        lines += D.static_step_lines(end - cut + split.hold, later, first=split.hold)
+        if cut == 2.0 and roll.friction_from == "roll":
+            lines += ["*CHANGE FRICTION, INTERACTION=ROAD_CONTACT", "*FRICTION",
+                      f"{D.fnum(roll.friction)}, {D.fnum(stick)}"]
+        lines += [*cards, "*END STEP"]
+    return lines
 
 
 #: mu of a frictionless rise (``friction_from = "roll"``): ccx refuses mu = 0 and changes
@@ -198,18 +228,69 @@ def _friction_step(roll: Roll, split: D.Split, settings: SolverSettings, stick: 
 RISE_FRICTION = 1e-4
 
 
-def roll_split(roll: Roll) -> D.Split | None:
-    """Where a roll's deck is cut in two: at the roll's start (step time 2), for a roll
-    whose friction begins there (``roll.friction_from == "roll"``); None otherwise.
+def roll_split(roll: Roll, every: float = 0.0) -> D.Split | None:
+    """Where a roll's deck is cut into steps: at the roll's start (step time 2), for a
+    roll whose friction begins there (``roll.friction_from == "roll"``), and at every
+    ``every`` mm of travel after it (0: nowhere; restart points,
+    :mod:`farm.solve.roll_restart`); None where the roll is one step.
 
-    Why (issue 45, docs/rolling.md "A frictionless rise"): on the 16-element polygon a
-    node stands for some 7,800 mm2 of tread, and its tangential penalty swings its shear
-    past its margin to slip in one Newton correction: rolls stopped in a frictional rise
-    (a tilted road presses the shoulder nodes first) and at the roll's first increment
-    (shoulder nodes left sticking at 95 % of mu by the rise). Rising without friction
-    leaves no node sticking when the friction comes on, at rest, in the new step's hold.
+    Why the first (issue 45, docs/rolling.md "A frictionless rise"): on the 16-element
+    polygon a node stands for some 7,800 mm2 of tread, and its tangential penalty swings
+    its shear past its margin to slip in one Newton correction: rolls stopped in a
+    frictional rise (a tilted road presses the shoulder nodes first) and at the roll's
+    first increment (shoulder nodes left sticking at 95 % of mu by the rise). Rising
+    without friction leaves no node sticking when the friction comes on, at rest, in the
+    new step's hold. Why the others: ccx writes its restart state at a step's end only.
     """
-    return D.Split(2.0) if roll.friction_from == "roll" and roll.friction > 0 else None
+    cuts = [2.0] if roll.friction_from == "roll" and roll.friction > 0 else []
+    if every > 0:
+        duration = roll_time(roll)
+        cuts += [2.0 + (k * every + CUT_AFTER_MM) / roll.distance * duration
+                 for k in range(1, math.ceil((roll.distance - CUT_AFTER_MM) / every - 1e-9))]
+    if not cuts:
+        return None
+    return D.Split(cuts[0], STEP_HOLD if every > 0 else D.SPLIT_HOLD, tuple(cuts[1:]))
+
+
+#: Road travel (mm) past each multiple of ``restart_every_mm`` at which the roll is cut.
+#: A roll restarted at a step's end finds its next output time from the total time of
+#: that end (ccx ``checktime``): an output time equal to it, as a state's at a round
+#: travel would be, comes out a rounding error ahead and stops the restart ("a time
+#: point precedes the minimum time tmin"); the states' times stay clear of the cuts.
+CUT_AFTER_MM = 0.25
+
+#: The hold that begins each step of a roll cut at restart points (:func:`roll_split`),
+#: in step time, and ccx's IG in those steps: a rolling branch's
+#: (:data:`farm.solve.rolling_tree.BRANCH_DWELL`, ``BRANCH_GROW_AFTER``). A roll's first
+#: moving increment in a new step converges only once cut to about 1e-4 of its step, and
+#: at ccx's default IG 4 its increments then stay small and stop at a tread node's entry
+#: (docs/rolling.md, "Why a roll in a new step"). Measured on `patch` for branches; on
+#: the coarse model, at the roll's own smallest increment, a 0.01 hold and IG 4 stopped
+#: the two rolls tried at their first cut (every 20 or 30 mm), these at a later cut or
+#: not at all (docs/rolling.md, "Restart points").
+STEP_HOLD = 0.002
+STEP_GROW_AFTER = 10
+
+#: The smallest increment of a roll's steps after a restart cut, as a part of the
+#: roll's own (``min_increment``): the first moving increment after a cut converges only
+#: cut far back (as a branch's, to about 1e-4 of a 30 mm branch's step), and a roll's
+#: step lasts its whole distance. Measured on the coarse model (mu 0.5, kappa 0.01,
+#: 2 degrees, 100 mm, cut every 30 or 40 mm): at the roll's own minimum (1e-5 of the
+#: step, 0.001 mm) it stopped "increment below minimum" at the first cut, the retry from
+#: the point too; at 1/100 every stop at a cut's first moving increment went. (A cut a
+#: few mm before a tread node's entry still stops or changes a coarse roll: docs/
+#: rolling.md, "Restart points".) A smaller minimum costs nothing where increments
+#: converge.
+STEP_MIN_FACTOR = 0.01
+
+
+def _later_controls(roll: Roll, settings: SolverSettings, every: float) -> list[str]:
+    """Controls of the steps after a roll's first: the roll's own, or a branch's IG
+    where the roll is cut at restart points."""
+    if roll.friction <= 0:
+        return []
+    grow = max(settings.grow_after, STEP_GROW_AFTER) if every > 0 else settings.grow_after
+    return D.friction_controls_lines(grow)
 
 
 #: The most road travel one increment may take, mm. Measured (coarse full model, 16 and
@@ -403,7 +484,9 @@ def _roll_run(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: floa
               roll: Roll, settings: SolverSettings, fractions: Sequence[float],
               should_stop: Callable[[], bool] | None) -> tuple[CcxRun, list[RolledState]]:
     """Solve the roll; its states at ``fractions``. A roll that stops raises its
-    :class:`SolverError` holding the states it reached (``partial``, issue 45)."""
+    :class:`SolverError` holding the states it reached (``partial``, issue 45); with
+    restart points (``settings.restart_every_mm``) its next run goes on from the last
+    one it passed (:mod:`farm.solve.roll_restart`)."""
     if not spec.inflated or spec.road != "contact":
         raise SpecError("rolling needs the inflated full model with the contact road "
                         "(model kind 'full', road 'contact')")
@@ -411,9 +494,11 @@ def _roll_run(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: floa
     touch_z, _ = touch_height(spec, mesh, pressure, settings, should_stop)
     start = start_spin(spec, roll)
     solved = turned_mesh(mesh, start)
+    every = settings.restart_every_mm
     deck, times, road, z_start = roll_deck(spec, solved, deflection, pressure, roll,
-                                           settings, touch_z, fractions)
-    run, frd, error = run_deck_keeping(deck, settings, should_stop, "roll")
+                                           settings, touch_z, fractions, every=every)
+    point_key = roll_restart.key(deck) if every > 0 else None
+    run, frd, error, point = _run_roll(deck, settings, should_stop, roll, point_key)
     # the contact centre: under the wheel centre, on the road plane at the deflection
     centre_z = z_start + tilted_gap(spec, roll.tilt) + deflection
     faces = slave_faces(mesh)
@@ -421,26 +506,80 @@ def _roll_run(spec: ModelSpec, mesh: TyreMesh, deflection: float, pressure: floa
     still = RoadMotion(friction=roll.friction)
 
     def states(at: Sequence[tuple[float, float]]) -> list[RolledState]:
-        assert frd is not None
-        reference = combined_state(frd, solved, faces, road, 1.0, 0.0, np.nan, still)
-        return [_rolled(combined_state(frd, solved, faces, road, t, deflection, centre_z,
-                                       motion, run.seconds_to(t)), reference, mesh, roll,
-                        f, start)
-                for t, f in at]
+        base = frd if point is None else point.frd  # the roll from rest's own results
+        if base is None:
+            raise ResultsError("the roll's results could not be read")
+        reference = combined_state(base, solved, faces, road, 1.0, 0.0, np.nan, still)
+        out = []
+        for t, f in at:
+            source, seconds = _source(point, frd, run, t)
+            state = combined_state(source, solved, faces, road, t, deflection, centre_z,
+                                   motion, seconds)
+            out.append(_rolled(state, reference, mesh, roll, f, start))
+        return out
 
     if error is None:
         return run, states(list(zip(times, fractions, strict=True)))
     if error.reached is not None:
-        error = error.located(_stage(layout_time(roll, error.reached), deflection, roll))
-    raise error.with_partial(tuple(_reached(states, times, fractions, frd, error)) or None)
+        error = error.located(_stage(layout_time(roll, error.reached, every), deflection,
+                                     roll))
+    if point is not None:
+        error = error.noting(f"It rolled on from its restart point at "
+                             f"{_travel_at(roll, point.time, every):.1f} mm of travel")
+    # a resumed run reached the point at least, even if no increment of its own converged
+    reached = max(error.reached or 0.0, 0.0 if point is None else point.time)
+    kept = _reached(states, times, fractions, frd if point is None else point.frd, reached)
+    raise error.with_partial(tuple(kept) or None)
+
+
+def _run_roll(deck: str, settings: SolverSettings, should_stop: Callable[[], bool] | None,
+              roll: Roll, point_key: dict | None
+              ) -> tuple[CcxRun, FrdFile | None, SolverError | None,
+                         roll_restart.RestartPoint | None]:
+    """Run a roll's deck from rest, or from the restart point a stopped run of it kept
+    (then the point too); a roll with restart points (``point_key``) that stops keeps
+    its last, one that finishes from a point drops it."""
+    if point_key is None:
+        return (*run_deck_keeping(deck, settings, should_stop, "roll"), None)
+    point = roll_restart.load(point_key)
+    if point is None:
+        split = roll_split(roll, settings.restart_every_mm)
+        assert split is not None  # restart points cut the roll
+
+        def keep_point(stopped: CcxRun) -> None:
+            roll_restart.save(point_key, stopped, split)
+
+        return (*run_deck_keeping(deck, settings, should_stop, "roll", on_stop=keep_point),
+                None)
+    run, frd, error = run_deck_keeping(roll_restart.resumed_deck(deck, point.step), settings,
+                                       should_stop, "roll", inputs={"rin": point.block})
+    if error is None:
+        roll_restart.drop(point_key)
+    return run, frd, error, point
+
+
+def _source(point: roll_restart.RestartPoint | None, frd: FrdFile | None, run: CcxRun,
+            t: float) -> tuple[FrdFile, float]:
+    """The results holding a roll's time ``t`` and the seconds it took to get there: a
+    resumed roll's states up to its restart point are the stopped run's."""
+    if point is not None and t <= point.time + 1e-9:
+        return point.frd, point.seconds_to(t)
+    if frd is None:
+        raise ResultsError(f"the roll's results at time {t:g} could not be read")
+    return frd, (0.0 if point is None else point.seconds) + run.seconds_to(t)
+
+
+def _travel_at(roll: Roll, total: float, every: float) -> float:
+    """Road travel (mm) of the roll's deck at total time ``total``."""
+    return max(0.0, layout_time(roll, total, every) - 2.0) / roll_time(roll) * roll.distance
 
 
 def _reached(states: Callable[[Sequence[tuple[float, float]]], list[RolledState]],
              times: Sequence[float], fractions: Sequence[float], frd: object,
-             error: SolverError) -> list[RolledState]:
-    """The states a stopped roll converged at before it stopped, in order; none where
-    its ``.frd`` cannot be read or lacks them (the roll then keeps nothing)."""
-    reached = error.reached or 0.0
+             reached: float) -> list[RolledState]:
+    """The states a stopped roll converged at before it stopped (at total time
+    ``reached``), in order; none where its ``.frd`` cannot be read or lacks them (the
+    roll then keeps nothing)."""
     at = [(t, f) for t, f in zip(times, fractions, strict=True) if t <= reached + 1e-9]
     if frd is None or not at:
         return []
@@ -568,11 +707,11 @@ def cached_free_radius(spec: ModelSpec, mesh: TyreMesh, deflection: float, press
     return radius, tried
 
 
-def layout_time(roll: Roll, total: float) -> float:
+def layout_time(roll: Roll, total: float, every: float = 0.0) -> float:
     """The one-step layout's time (inflation [0, 1], rise [1, 2], roll after) of the
-    roll's deck's total time ``total`` (:func:`roll_split`'s hold maps to the roll's
-    start)."""
-    split = roll_split(roll)
+    roll's deck's total time ``total`` (the holds of :func:`roll_split`'s cuts map to
+    their cuts)."""
+    split = roll_split(roll, every)
     return total if split is None else split.layout(total)
 
 

@@ -48,6 +48,8 @@ from farm.solve.contact import combined_state, slave_faces, tilted_gap, touch_he
 from farm.solve.rolling import (
     RIM_PIECE_RAD,
     RIM_PIECES,
+    STEP_GROW_AFTER,
+    STEP_HOLD,
     RolledState,
     roll_deck,
     roll_split,
@@ -72,7 +74,7 @@ BRANCH_POINTS = "BRANCH"
 #: an increment of 0.67 mm in 10 iterations at 62 mm, kept that size, and then stopped
 #: "increment below minimum" at a tread node's entry. At 10 it grew past it (as a
 #: growth factor of 4 did): the one-run roll takes that place with 5 mm increments.
-BRANCH_GROW_AFTER = 10
+BRANCH_GROW_AFTER = STEP_GROW_AFTER
 
 #: The part of a branch's step for which road and rim hold still (the hold of
 #: :func:`farm.ccx.deck.road_step_lines`). ccx tries the first moving increment at the
@@ -84,7 +86,7 @@ BRANCH_GROW_AFTER = 10
 #: states within 0.071 % of |F| and 0.099 % of the camera field's RMS
 #: (`benchmarks/bench_branch_hold.py --mesh patch`, docs/rolling.md). The hold is a
 #: pause in step time, not in travel (the model is rate-free).
-BRANCH_DWELL = 0.002
+BRANCH_DWELL = STEP_HOLD
 
 
 @dataclass(frozen=True, eq=False)

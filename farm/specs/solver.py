@@ -15,6 +15,9 @@ TIMEOUT_S = (1.0, 7 * 86400.0)  # wall-clock seconds per ccx run: a second to a 
 MAX_ITERATIONS = 16
 MIN_INCREMENT = 1e-12  # smallest min_increment (a fraction of a load ramp)
 MAX_INCREMENTS = 1_000_000
+#: a roll's restart points' spacing, mm of road travel (``restart_every_mm``; 0: none):
+#: at least two increments of the roll's 5 mm travel cap a step
+RESTART_EVERY_MM = (10.0, 10_000.0)
 
 
 @dataclass(frozen=True)
@@ -46,6 +49,11 @@ class SolverSettings:
     # default 4). Contact under friction takes 5-9 iterations an increment, so at 4 its
     # increments never grow after a cutback (docs/rolling.md, "Increments that grow").
     grow_after: int = 4
+    # Rolls from rest (issue 45): the roll cut into steps every this many mm of road
+    # travel, each step's end kept as a restart point, so that a roll that stops is
+    # retried from the last one it passed instead of from rest (0: one step, no points;
+    # farm.solve.roll_restart). Each cut holds the loads for a step's first increment.
+    restart_every_mm: float = 0.0
 
     def __post_init__(self) -> None:
         low, high = THREADS
@@ -71,6 +79,13 @@ class SolverSettings:
                 and 1 <= self.grow_after <= MAX_ITERATIONS):
             raise SpecError(f"solver.grow_after must be an integer in [1, {MAX_ITERATIONS}] "
                             f"(iterations; ccx's default 4), got {shown(self.grow_after)}")
+        if not (isinstance(self.restart_every_mm, (int, float))
+                and not isinstance(self.restart_every_mm, bool)
+                and (self.restart_every_mm == 0
+                     or RESTART_EVERY_MM[0] <= self.restart_every_mm <= RESTART_EVERY_MM[1])):
+            raise SpecError(f"solver.restart_every_mm must be 0 (no restart points) or in "
+                            f"[{RESTART_EVERY_MM[0]:g}, {RESTART_EVERY_MM[1]:g}] mm of road "
+                            f"travel, got {shown(self.restart_every_mm)}")
         if not isinstance(self.split_rise, bool):
             raise SpecError("solver.split_rise must be true or false, got "
                             f"{shown(self.split_rise)}")

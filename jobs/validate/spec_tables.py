@@ -20,7 +20,7 @@ from jobs.validate.scalars import boolean, integer, number, table
 
 SOLVER_KEYS = {"timeout_s", "threads", "initial_increment", "min_increment", "max_increment",
                "max_increments", "max_path_length", "retry_smaller_increments", "split_rise",
-               "grow_after"}
+               "grow_after", "restart_every_mm"}
 
 
 def model(data: Any, where: str = "model") -> ModelSpec:
@@ -64,6 +64,9 @@ def solver(data: Any, where: str = "solver") -> SolverTable:
     for k in ("initial_increment", "min_increment", "max_increment"):
         if k in t:
             kwargs[k] = number(t[k], f"{where}.{k}", low=0, strict=True)
+    if "restart_every_mm" in t:
+        kwargs["restart_every_mm"] = number(t["restart_every_mm"], f"{where}.restart_every_mm",
+                                            low=0)
     if "split_rise" in t:
         kwargs["split_rise"] = boolean(t["split_rise"], f"{where}.split_rise")
     try:

@@ -266,6 +266,8 @@ def test_mesh_node_bound_counts_what_the_mesher_makes(monkeypatch):
     (("[solver]", "[solver]\nmax_increments = 9223372036854775807"), "solver.max_increments"),
     (("[solver]", "[solver]\ngrow_after = 17"), "solver.grow_after must be an integer in "
      "[1, 16]"),
+    (("[solver]", "[solver]\nrestart_every_mm = 5"), "solver.restart_every_mm must be 0 (no "
+     "restart points) or in [10, 10000] mm of road travel, got 5"),
     (("start = 5", "start = 5e-324"), "loads.deflection_mm: must be > 0, got 5e-324 (rounds to 0"),
     (('store = "', 'store = "~no_such_user_x/'), "study.store: cannot resolve the path"),
     (('store = "', 'store = "a\\u0000b'), "study.store: must be a directory path or URL"),
