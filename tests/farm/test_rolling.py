@@ -211,6 +211,7 @@ def test_the_guard_s_retry_rolls_in_smaller_increments(coarse):
     assert first[3] == pytest.approx(5.0 / 150.0)  # 5 mm of travel
     assert retry[3] == pytest.approx(1.25 / 150.0)  # 1.25 mm: another deck
     assert retry[0] <= retry[3]
+    assert first[2] == retry[2] == rolling.ROLL_MIN_INCREMENT  # below ccx's usual 1e-5
 
 
 @pytest.mark.ccx
@@ -670,22 +671,28 @@ def test_a_frictionless_rise_cuts_the_deck_at_the_roll_s_start(coarse, friction_
 
 @pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
 @pytest.mark.ccx
-def test_a_frictionless_rise_rolls_the_case_that_stopped_at_the_roll_s_start(coarse):
+def test_the_case_that_stopped_at_the_roll_s_start_rolls_on(coarse, monkeypatch):
     """Issue 45's lost rolls: mu 0.68, kappa 0.017, -2 degrees (a case of
-    examples/rolling_coarse.toml's design) stops at the roll's first increment when the
-    tyre rises with friction (its shoulder nodes stick at 95 % of mu); risen without
-    friction it rolls through, the friction saturating nowhere beyond mu Fz."""
+    examples/rolling_coarse.toml's design) stopped at the roll's first increment at
+    ccx's usual least increment (1e-5 of the step) when the tyre rose with friction (its
+    shoulder nodes stick at 95 % of mu); risen without friction it rolled through. At
+    the roll's own least increment (ROLL_MIN_INCREMENT, 1e-7) it rolls through risen
+    with friction too, the friction saturating nowhere beyond mu Fz."""
     spec, mesh = coarse
     roll = Roll(friction=0.6824, slip_ratio=0.0171, slip_angle=-2.0312, distance=100.0,
                 rolling_radius=402.9)
-    with pytest.raises(SolverError, match=r"after 0\.0 mm"):
-        solve_roll(spec, mesh, DEFLECTION, PRESSURE, roll, SolverSettings())
-    [end] = solve_roll(spec, mesh, DEFLECTION, PRESSURE,
-                       dataclasses.replace(roll, friction_from="roll"), SolverSettings())
-    assert end.travelled == pytest.approx(100.0)
-    assert np.hypot(*end.force[:2]) <= roll.friction * end.force[2]
-    assert abs(end.force[0]) > 50.0  # friction is on: a driven wheel's Fx
-    _balanced(end)
+    with monkeypatch.context() as old:
+        old.setattr(rolling, "ROLL_MIN_INCREMENT", 1e-5)
+        with pytest.raises(SolverError, match=r"after 0\.0 mm"):
+            solve_roll(spec, mesh, DEFLECTION, PRESSURE, roll, SolverSettings())
+        [risen] = solve_roll(spec, mesh, DEFLECTION, PRESSURE,
+                             dataclasses.replace(roll, friction_from="roll"), SolverSettings())
+    [end] = solve_roll(spec, mesh, DEFLECTION, PRESSURE, roll, SolverSettings())
+    for state in (risen, end):
+        assert state.travelled == pytest.approx(100.0)
+        assert np.hypot(*state.force[:2]) <= roll.friction * state.force[2]
+        assert abs(state.force[0]) > 50.0  # friction is on: a driven wheel's Fx
+        _balanced(state)
 
 
 @pytest.mark.e2e  # slow: out of the ~15-min default run; CI runs it with the e2e set
