@@ -24,7 +24,6 @@ import argparse
 import math
 import os
 import tempfile
-import threading
 import time
 from pathlib import Path
 
@@ -73,12 +72,9 @@ def _timed(solve):
 
 def _stopped(spec, mesh, roll, settings, fractions, blocks: int, scratch: Path):
     """The cut roll cancelled once it has written ``blocks`` restart blocks."""
-    done = threading.Event()
 
     def stop() -> bool:
-        if not done.is_set() and _blocks(scratch) >= blocks:
-            done.set()
-        return done.is_set()
+        return _blocks(scratch) >= blocks
 
     return _timed(lambda: rolling.solve_roll(spec, mesh, DEFLECTION, PRESSURE, roll, settings,
                                              fractions, should_stop=stop))

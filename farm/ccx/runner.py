@@ -24,7 +24,7 @@ import sys
 import tempfile
 import threading
 import time
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -57,14 +57,21 @@ class CcxRun:
 
     def seconds_to(self, total_time: float) -> float:
         """Seconds the solver took to reach ``total_time`` (the run's total if unknown)."""
-        for t, s in self.progress:
-            if t >= total_time - 1e-9:
-                return s
-        return self.seconds
+        return seconds_to(self.progress, total_time, self.seconds)
 
     def file(self, suffix: str) -> Path:
         """Path of ``jobname.<suffix>`` (``frd``, ``dat``, ``sta``, ``inp``)."""
         return self.workdir / f"{self.jobname}.{suffix}"
+
+
+def seconds_to(progress: Sequence[tuple[float, float]], total_time: float,
+               otherwise: float) -> float:
+    """Of a run's ``progress`` ((total time, seconds) an increment), the seconds at which
+    it reached ``total_time``; ``otherwise`` where it never did."""
+    for t, s in progress:
+        if t >= total_time - 1e-9:
+            return s
+    return otherwise
 
 
 def find_ccx() -> str:

@@ -31,7 +31,7 @@ from typing import Any
 from farm.atomic import write_bytes, write_text
 from farm.ccx import deck as D
 from farm.ccx.frd import FrdFile, read_frd
-from farm.ccx.runner import CcxRun, ccx_version
+from farm.ccx.runner import CcxRun, ccx_version, seconds_to
 from farm.errors import ResultsError
 from farm.mesh.cache import cache_dir
 from farm.solve.tree import split_restart
@@ -63,10 +63,8 @@ class RestartPoint:
 
     def seconds_to(self, total_time: float) -> float:
         """Seconds the stopped run took to reach ``total_time`` (at most the point's)."""
-        for t, s in self.progress:
-            if t >= total_time - 1e-9:
-                return s
-        return self.progress[-1][1] if self.progress else 0.0
+        return seconds_to(self.progress, total_time,
+                          self.progress[-1][1] if self.progress else 0.0)
 
 
 def key(deck: str) -> dict[str, Any]:

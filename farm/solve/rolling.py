@@ -347,15 +347,21 @@ def travel_cap(settings: SolverSettings) -> float:
 ROLL_MIN_INCREMENT = 1e-7
 
 
-def _capped(settings: SolverSettings, roll: Roll) -> SolverSettings:
-    """``settings`` with the increments capped to :func:`travel_cap` of road travel
-    (an increment is a fraction of step time; the roll lasts :func:`roll_time`) and
-    the smallest one at most :data:`ROLL_MIN_INCREMENT`."""
-    cap = min(settings.max_increment, travel_cap(settings) * roll_time(roll) / roll.distance)
+def capped_increments(settings: SolverSettings, cap: float) -> SolverSettings:
+    """``settings`` for a rolling step whose increments may last ``cap`` of step time at
+    most (:func:`travel_cap` of road travel), the smallest at most
+    :data:`ROLL_MIN_INCREMENT`: a roll's and a rolling branch's."""
+    cap = min(settings.max_increment, cap)
     return dataclasses.replace(settings, max_increment=cap,
                                initial_increment=min(settings.initial_increment, cap),
                                min_increment=min(settings.min_increment, cap,
                                                  ROLL_MIN_INCREMENT))
+
+
+def _capped(settings: SolverSettings, roll: Roll) -> SolverSettings:
+    """:func:`capped_increments` for a roll (an increment is a fraction of step time;
+    the roll lasts :func:`roll_time`)."""
+    return capped_increments(settings, travel_cap(settings) * roll_time(roll) / roll.distance)
 
 
 def turned(xyz: np.ndarray, spin: float) -> np.ndarray:

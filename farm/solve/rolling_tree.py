@@ -48,10 +48,10 @@ from farm.solve.contact import combined_state, slave_faces, tilted_gap, touch_he
 from farm.solve.rolling import (
     RIM_PIECE_RAD,
     RIM_PIECES,
-    ROLL_MIN_INCREMENT,
     STEP_GROW_AFTER,
     STEP_HOLD,
     RolledState,
+    capped_increments,
     roll_deck,
     roll_split,
     rolled_at,
@@ -280,10 +280,7 @@ def branch_deck(trunk: RollingTrunk, branch: Roll, settings: SolverSettings) -> 
     before = (rise, roll.travel)
     after = (rise, (roll.travel[0] + branch.travel[0], roll.travel[1] + branch.travel[1]))
     cap = travel_cap(settings) * (1.0 - BRANCH_DWELL) / branch.distance
-    capped = dataclasses.replace(settings, max_increment=min(settings.max_increment, cap),
-                                 initial_increment=min(settings.initial_increment, cap),
-                                 min_increment=min(settings.min_increment, cap,
-                                                   ROLL_MIN_INCREMENT))
+    capped = capped_increments(settings, cap)
     grow = max(settings.grow_after, BRANCH_GROW_AFTER)
     controls = D.friction_controls_lines(grow) if roll.friction > 0 else []
     return "\n".join([
