@@ -7,8 +7,12 @@ section at the end of ``summary.md``, so a table copied from a summary into the 
 (the answer's, docs/answer.md) carries its own origin.
 
 The commit is read from the checkout's ``.git`` files (HEAD, its ref or ``packed-refs``),
-without running git: uncommitted changes are not seen, and an installed copy (no
-``.git`` beside the packages) reports none. The load is the 1-minute load average
+without running git; an installed copy (no ``.git`` beside the packages) reports none.
+A commit alone would hide a figure made by code that was not committed (issue 45's
+benchmarks named "commit X plus the change in the working tree" by hand), so the code's
+uncommitted changes are listed too (:func:`code_changes`: ``git status`` of the
+packages, benchmarks and study files, not of stores or results kept in the checkout).
+The load is the 1-minute load average
 (``os.getloadavg``) at the start and at the end, beside the machine's core count: a
 study timed on a busy machine says so.
 """
@@ -17,6 +21,7 @@ from __future__ import annotations
 
 import os
 import platform
+import subprocess
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -50,6 +55,31 @@ def code_commit(root: Path = ROOT) -> str:
     return f"unknown ({name} has no commit yet)"
 
 
+#: What "the code" is: the packages, the benchmarks and the study files. A store kept
+#: in the checkout (results/, docs/answer.md) changes as a sweep runs; it is not code.
+CODE_PATHS = ("farm", "jobs", "analysis", "storage", "tyre_farm_cli", "benchmarks",
+              "examples", "scripts", "pyproject.toml")
+
+
+def code_changes(root: Path = ROOT, timeout: float = 10.0) -> str:
+    """The code's files at ``root`` that differ from its commit (changed, added,
+    untracked): ``"none"``, ``"3 files: farm/a.py, jobs/b.py, ..."``, or why unknown."""
+    command = ["git", "-C", str(root), "status", "--porcelain=v1", "--untracked-files=all",
+               "--", *CODE_PATHS]
+    try:
+        done = subprocess.run(command, capture_output=True, text=True, timeout=timeout,
+                              check=False)
+    except (OSError, subprocess.TimeoutExpired) as e:  # no git, or a hung one
+        return f"unknown (git status: {type(e).__name__})"
+    if done.returncode != 0:
+        return "unknown (not a git checkout)"
+    paths = sorted({line[3:].split(" -> ")[-1] for line in done.stdout.splitlines() if line})
+    if not paths:
+        return "none"
+    shown = ", ".join(paths[:5]) + (", ..." if len(paths) > 5 else "")
+    return f"{len(paths)} file{'s' if len(paths) > 1 else ''}: {shown}"
+
+
 def _load() -> float:
     try:
         return os.getloadavg()[0]
@@ -66,11 +96,13 @@ class Run:
     load: float = field(default_factory=_load)
 
     def table(self, ended: float | None = None) -> pd.DataFrame:
-        """(item, value) rows: command, commit, start and end (UTC), wall seconds,
-        machine, the 1-minute load average at the start and at the end."""
+        """(item, value) rows: command, commit, the code's uncommitted changes, start and
+        end (UTC), wall seconds, machine, the 1-minute load average at the start and at
+        the end."""
         ended = time.time() if ended is None else ended
         stamp = "%Y-%m-%d %H:%M:%S UTC"
         rows = [("command", self.command), ("commit", code_commit()),
+                ("uncommitted changes to the code", code_changes()),
                 ("started", time.strftime(stamp, time.gmtime(self.started))),
                 ("ended", time.strftime(stamp, time.gmtime(ended))),
                 ("wall seconds", f"{ended - self.started:.0f}"),

@@ -3,10 +3,13 @@
 
 from __future__ import annotations
 
+import shutil
+import subprocess
+
 import pandas as pd
 import pytest
 
-from analysis.render.provenance import Run, code_commit, record
+from analysis.render.provenance import Run, code_changes, code_commit, record
 
 SHA = "0123456789abcdef0123456789abcdef01234567"
 
@@ -56,3 +59,29 @@ def test_a_run_is_recorded_beside_the_results_and_at_the_summary_s_end(tmp_path)
     assert "- command: `farm analyse pca s.zarr --out x`" in text
     frame = pd.read_csv(tmp_path / "provenance.csv")
     assert list(frame["item"])[:2] == ["command", "commit"]
+
+
+@pytest.mark.skipif(shutil.which("git") is None, reason="needs git")
+def test_the_code_s_uncommitted_changes_are_named_and_a_store_s_are_not(tmp_path):
+    (tmp_path / "plain").mkdir()
+    assert code_changes(tmp_path / "plain") == "unknown (not a git checkout)"
+    tmp_path = tmp_path / "repo"
+
+    def git(*args):
+        subprocess.run(["git", "-C", str(tmp_path), "-c", "user.name=t", "-c",
+                        "user.email=t@t", *args], check=True, capture_output=True)
+
+    for path in ("farm/a.py", "jobs/b.py", "results/s.zarr/zarr.json", "docs/x.md"):
+        (tmp_path / path).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / path).write_text("1\n")
+    git("init", "-q")
+    git("add", ".")
+    git("commit", "-q", "-m", "first")
+    assert code_changes(tmp_path) == "none"
+    for path in ("results/s.zarr/zarr.json", "docs/x.md"):  # a store and a page: not code
+        (tmp_path / path).write_text("2\n")
+    assert code_changes(tmp_path) == "none"
+    (tmp_path / "farm/a.py").write_text("2\n")  # changed
+    (tmp_path / "analysis").mkdir()
+    (tmp_path / "analysis/new.py").write_text("1\n")  # not added yet
+    assert code_changes(tmp_path) == "2 files: analysis/new.py, farm/a.py"

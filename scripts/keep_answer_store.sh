@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# Bring the answer's store (issue 46) from the clone its sweep runs in into this
+# checkout, checked, ready to commit (docs/answer.md, "Where the store is kept").
+#
+#   bash scripts/keep_answer_store.sh /work/studies/t2cam    # then git add results/...
+#
+# Why: the study takes some 15 h of two cores and a session some 3 h; a new machine
+# starts from the repository alone, so a store kept anywhere else is lost with it. The
+# sweep runs in a clone (its workers import that clone's code; this checkout changes
+# under them otherwise). Stop the sweep first: a store copied while a worker writes may
+# hold a torn chunk, which `farm sweep verify` below reports (exit 1, nothing replaced).
+# The workers' claims, the client lock and the saved trunks stay behind: a tree cut by
+# the stop rolls its trunk again (its stored states are kept).
+set -euo pipefail
+
+STORE=results/t2cam_rolling.zarr
+clone=${1:?usage: bash scripts/keep_answer_store.sh CLONE (the sweep's checkout)}
+here=$(cd "$(dirname "$0")/.." && pwd)
+src="$clone/$STORE"
+farm="$here/.venv/bin/farm"
+[[ -x "$farm" ]] || farm=farm
+
+[[ -d "$src" ]] || { echo "keep_answer_store: no store at $src: give the clone its sweep ran in" >&2; exit 1; }
+[[ "$(cd "$clone" && pwd)" != "$here" ]] || { echo "keep_answer_store: $clone is this checkout: give the sweep's clone" >&2; exit 1; }
+
+new="$here/$STORE.incoming"
+rm -rf "$new"
+mkdir -p "$new"
+(cd "$src" && tar --exclude=./.claims --exclude=./.states --exclude=./.farm.lock -cf - .) \
+    | (cd "$new" && tar -xf -)
+if ! "$farm" sweep verify "$new"; then
+    rm -rf "$new"
+    echo "keep_answer_store: the copy of $src is damaged (above); was the sweep stopped? $here/$STORE is unchanged" >&2
+    exit 1
+fi
+rm -rf "$here/$STORE"
+mv "$new" "$here/$STORE"
+du -sh "$here/$STORE"
+(cd "$here" && "$farm" sweep status examples/t2cam_rolling.toml) | tail -n 3 || true
