@@ -3,6 +3,7 @@
 # checkout, checked, ready to commit (docs/answer.md, "Where the store is kept").
 #
 #   bash scripts/keep_answer_store.sh /work/studies/t2cam    # then git add results/...
+#   bash scripts/keep_answer_store.sh CLONE DEST              # into DEST, not this checkout
 #
 # Why: the study takes some 15 h of two cores and a session some 3 h; a new machine
 # starts from the repository alone, so a store kept anywhere else is lost with it. The
@@ -14,10 +15,11 @@
 set -euo pipefail
 
 STORE=results/t2cam_rolling.zarr
-clone=${1:?usage: bash scripts/keep_answer_store.sh CLONE (the sweep's checkout)}
-here=$(cd "$(dirname "$0")/.." && pwd)
+clone=${1:?usage: bash scripts/keep_answer_store.sh CLONE [DEST] (CLONE: the checkout the sweep ran in)}
+repo=$(cd "$(dirname "$0")/.." && pwd)
+here=$(cd "${2:-$repo}" && pwd)
 src="$clone/$STORE"
-farm="$here/.venv/bin/farm"
+farm="$repo/.venv/bin/farm"
 [[ -x "$farm" ]] || farm=farm
 
 [[ -d "$src" ]] || { echo "keep_answer_store: no store at $src: give the clone its sweep ran in" >&2; exit 1; }
@@ -26,14 +28,15 @@ farm="$here/.venv/bin/farm"
 new="$here/$STORE.incoming"
 rm -rf "$new"
 mkdir -p "$new"
+trap 'rm -rf "$new"' EXIT
 (cd "$src" && tar --exclude=./.claims --exclude=./.states --exclude=./.farm.lock -cf - .) \
     | (cd "$new" && tar -xf -)
 if ! "$farm" sweep verify "$new"; then
-    rm -rf "$new"
     echo "keep_answer_store: the copy of $src is damaged (above); was the sweep stopped? $here/$STORE is unchanged" >&2
     exit 1
 fi
 rm -rf "$here/$STORE"
 mv "$new" "$here/$STORE"
 du -sh "$here/$STORE"
-(cd "$here" && "$farm" sweep status examples/t2cam_rolling.toml) | tail -n 3 || true
+[[ ! -f "$here/examples/t2cam_rolling.toml" ]] \
+    || (cd "$here" && "$farm" sweep status examples/t2cam_rolling.toml) | tail -n 3 || true
