@@ -24,6 +24,7 @@ from jobs.validate import messages
 from jobs.wording import plural
 from tyre_farm_cli.analyse_options import (
     Axes,
+    Bands,
     BootstrapSeed,
     CombinedDraws,
     CombinedFolds,
@@ -64,12 +65,17 @@ from tyre_farm_cli.analyse_options import (
     Pressure,
     PressuresKpa,
     Reference,
+    RegionComponents,
+    RegionFolds,
+    RegionNoise,
+    RegionRepeats,
     Repeats,
     Restarts,
     Sampling,
     Scheduler,
     ScoreComponents,
     ScoreField,
+    Sectors,
     Sensor,
     SensorDraws,
     SensorFolds,
@@ -77,6 +83,7 @@ from tyre_farm_cli.analyse_options import (
     ShuffleSeed,
     Sizes,
     Spacings,
+    Span,
     SplitSeed,
     StorageOption,
     Store,
@@ -471,6 +478,43 @@ def free_rolling(store: Store, group: Group = None, out: Out = None, pressure: P
     free_slip_ratio is measured from it; issue 46)."""
     _analyse("free_rolling", "free-rolling", store=store, options=storage_option,
              group=group, pressure=pressure, out=out, scheduler=scheduler, as_json=as_json)
+
+
+# ---------------------------------------------------------------- regions (issue 46)
+
+@app.command("regions")
+@with_tls
+def regions(store: Store, group: Group = None, out: Out = None, pressure: Pressure = None,
+            targets: Targets = "all", bands: Bands = 6, sectors: Sectors = 8,
+            span: Span = 60.0, folds: RegionFolds = 5, repeats: RegionRepeats = 3,
+            noise_mm: RegionNoise = 0.0, max_components: RegionComponents = 5,
+            seed: SplitSeed = 0, scheduler: Scheduler = None,
+            storage_option: StorageOption = None, as_json: Json = False) -> None:
+    """Where each target lives on the inner surface: for a grid of regions (bands of
+    meridian by sectors round the contact centre), the held-out share of each target's
+    variance that the region's displacement field explains (issue 46: where to look)."""
+    with usage():
+        wanted = _targets(targets)
+        _region_grid(bands, sectors, span, folds, repeats, noise_mm, max_components)
+    _analyse("regions", "regions", store=store, options=storage_option, group=group,
+             pressure=pressure, out=out, scheduler=scheduler, as_json=as_json,
+             targets=None if wanted == "all" else wanted, bands=bands, sectors=sectors,
+             span_deg=span, folds=folds, repeats=repeats, noise_mm=noise_mm,
+             max_components=max_components, seed=seed)
+
+
+def _region_grid(bands: int, sectors: int, span: float, folds: int, repeats: int,
+                 noise_mm: float, max_components: int) -> None:
+    checks = (("--bands", bands, 1 <= bands <= 100, "in [1, 100]"),
+              ("--sectors", sectors, 1 <= sectors <= 360, "in [1, 360]"),
+              ("--span", span, 0.0 < span <= 180.0, "in (0, 180] degrees"),
+              ("--folds", folds, 2 <= folds <= 100, "in [2, 100]"),
+              ("--repeats", repeats, 1 <= repeats <= 100, "in [1, 100]"),
+              ("--noise-mm", noise_mm, 0.0 <= noise_mm < 1e3, "finite and >= 0"),
+              ("--max-components", max_components, 1 <= max_components <= 50, "in [1, 50]"))
+    for name, value, ok, what in checks:
+        if not ok:  # NaN fails too
+            raise ParameterError(f"{name} must be {what}, got {value}")
 
 
 # ----------------------------------------------------------------- population (issue 47)

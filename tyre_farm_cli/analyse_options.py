@@ -182,6 +182,20 @@ Edges = Annotated[
                         "[default: 0, no edge check].")
 ]
 
+# ---------------------------------------------------------------- regions (issue 46)
+Bands = Annotated[int, typer.Option(help="Bands of meridional arc length, bead to bead.")]
+Sectors = Annotated[int, typer.Option(help="Sectors of angle about the contact centre.")]
+Span = Annotated[float, typer.Option("--span", help="Half-width of the angles mapped, degrees "
+                                     "from the contact centre, in (0, 180].")]
+RegionFolds = Annotated[int, typer.Option("--folds", help="Grouped CV folds (whole load "
+                                          "paths: a rolling tree's states together).")]
+RegionRepeats = Annotated[int, typer.Option("--repeats", help="Repeats over shuffled folds: "
+                                            "each index a mean with its spread.")]
+RegionNoise = Annotated[float, typer.Option("--noise-mm", help="IID noise on each coordinate, "
+                                            "mm, drawn for training and test alike.")]
+RegionComponents = Annotated[int, typer.Option("--max-components",
+                                               help="Largest PLS count the inner CV tries.")]
+
 # ---------------------------------------------------------------- surrogate (issue 28)
 SurrogateField = Annotated[
     str, typer.Option("--field", help="Inner-surface field the surrogate predicts beside the "
