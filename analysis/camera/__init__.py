@@ -17,7 +17,8 @@ patch. Everything that follows from that lives here:
 - :mod:`.predict`: measured clouds and model files (reading and writing clouds,
   registration, the intervals, the training clouds' domain, skops files and their
   checks);
-- :mod:`.mismatch`: a force model trained on one tyre model applied to another's clouds.
+- :mod:`.mismatch`: a force model trained on one tyre model applied to another's clouds;
+- :mod:`.regions`: where each target lives on the surface (each region's held-out R2).
 
 ``farm fit|measure|predict|mismatch`` are its commands; ``farm analyse sensor``
 (:mod:`analysis.studies.sensor`) is a study that uses it. Public API, imported lazily::

@@ -33,7 +33,7 @@ from analysis.camera.learners import PLSCV
 from analysis.camera.sensor.surface import InnerSurface
 from analysis.errors import ParameterError
 
-__all__ = ["Region", "held_out_r2", "region_grid", "region_r2"]
+__all__ = ["Region", "grouped_folds", "held_out_r2", "region_grid", "region_r2"]
 
 
 @dataclass(frozen=True)

@@ -100,6 +100,22 @@ def test_the_quick_answer_study_sweeps_and_is_analysed_over_repeated_grouped_spl
     summary = (out / "summary.md").read_text()
     assert "3 grouped splits" in summary and "At the design's edges" in summary
     assert "The reference cloud" in summary
+    _where_each_target_lives(s.store, tmp_path / "regions", capsys)
+
+
+def _where_each_target_lives(store, out: Path, capsys) -> None:
+    """`farm analyse regions` on the quick store: Fz, the load, is carried by the crown
+    at the contact patch, far more than by the crown a quarter turn away (the camera
+    frame's field there is the inflated tyre's: little of the load reaches it)."""
+    code, _, err = _farm(["analyse", "regions", store, "--out", out, "--bands", 3,
+                          "--sectors", 4, "--span", 90, "--folds", 3, "--repeats", 2,
+                          "--targets", "Fx,Fz,Mz"], capsys)
+    assert code == 0, err
+    table = pd.read_csv(out / "regions.csv")
+    fz = table[(table["target"] == "Fz") & (table["s_band"] == 1)].set_index("sector")
+    near, far = fz["r2_mean"][[1, 2]].max(), fz["r2_mean"][[0, 3]].min()
+    assert near > 0.5 and near > far, fz
+    assert "## Where to look" in (out / "summary.md").read_text()
 
 
 def _lateral_per_degree(ds) -> float:
