@@ -1,7 +1,7 @@
 """scripts/keep_answer_store.sh: the answer's store brought from its sweep's clone into a
 checkout, checked (issue 46: a store of some 15 h outlives a session only in the
-repository). A copy that verifies replaces the kept store, without the clone's claims,
-lock and saved trunks; a damaged copy is refused and the kept store stays as it was."""
+repository). A copy that verifies replaces the kept store, with its saved trunks and
+without the clone's claims and lock; a damaged copy is refused and the kept store stays as it was."""
 
 from __future__ import annotations
 
@@ -52,13 +52,15 @@ def dest(tmp_path) -> Path:
     return tmp_path / "dest"
 
 
-def test_a_verified_copy_is_kept_without_claims_lock_or_saved_trunks(tmp_path, dest):
+def test_a_verified_copy_is_kept_with_its_saved_trunks_without_claims_or_lock(tmp_path,
+                                                                              dest):
     clone = _clone(tmp_path / "clone")
     done = _keep(clone, dest)
     assert done.returncode == 0, done.stderr
     kept = dest / STORE
     assert _done(kept) == ["e0", "e1"]
-    assert not (kept / ".claims").exists() and not (kept / ".states").exists()
+    assert not (kept / ".claims").exists()
+    assert saved.load(kept, GROUP, "tree-0") == b"a trunk's restart"
     assert not (dest / f"{STORE}.incoming").exists()
     src = storage.open_dataset(clone / STORE, GROUP)["displacement"].values
     np.testing.assert_array_equal(storage.open_dataset(kept, GROUP)["displacement"].values, src)
