@@ -68,7 +68,7 @@ def region_grid(surface: InnerSurface, bands: int, sectors: int,
                 raise ParameterError(
                     f"regions: {bands} x {sectors} over +-{span_deg:g} degrees leaves a region "
                     f"with no node (the grid has {surface.shape[0]} rows, {cols.size} columns "
-                    "there): ask for fewer bands or sectors")
+                    "there): ask for fewer bands or sectors, or a smaller span")
             out.append(Region(i, j, (float(s_edges[i]), float(s_edges[i + 1])),
                               (float(t_edges[j]), float(t_edges[j + 1])),
                               surface.node_index[np.ix_(rows, c)].ravel()))
@@ -105,6 +105,9 @@ def held_out_r2(X: np.ndarray, y: np.ndarray, groups: np.ndarray, folds, *,
         return float("nan")
     pred = np.empty_like(y)
     for train, test in folds:
+        if np.ptp(y[train]) == 0:  # nothing to learn here (a camber all folds but one lack)
+            pred[test] = y[train].mean()
+            continue
         inner = min(3, np.unique(groups[train]).size)
         fit = PLSCV(max_components=max_components, folds=inner)
         pred[test] = fit.fit(X[train], y[train, None], groups=groups[train]).predict(

@@ -1,7 +1,8 @@
 """scripts/keep_answer_store.sh: the answer's store brought from its sweep's clone into a
 checkout, checked (issue 46: a store of some 15 h outlives a session only in the
 repository). A copy that verifies replaces the kept store, with its saved trunks and
-without the clone's claims and lock; a damaged copy is refused and the kept store stays as it was."""
+without the clone's claims and lock; a damaged copy is refused and the kept store stays
+as it was."""
 
 from __future__ import annotations
 

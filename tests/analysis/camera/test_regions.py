@@ -93,6 +93,9 @@ def test_a_target_with_no_spread_has_no_index():
     groups = np.repeat(np.arange(6), 2)
     folds = grouped_folds(groups, 3, np.random.default_rng(0))
     assert np.isnan(held_out_r2(X, np.ones(12), groups, folds, max_components=2))
+    y = np.zeros(12)
+    y[folds[0][1]] = 1.0  # constant wherever the first fold trains: its mean predicted
+    assert held_out_r2(X, y, groups, folds, max_components=2) < 1.0
 
 
 def test_the_command_writes_its_map_and_names_where_each_target_lives(tmp_path):
