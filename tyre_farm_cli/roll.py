@@ -63,6 +63,10 @@ SAMPLES = typer.Option(10, "--samples", help="States written along the roll.")
 OVERRIDES = typer.Option(
     [], "--set", help="Override a model setting, e.g. --set mesh.circumferential=64.")
 TIMEOUT = typer.Option(3600.0, "--timeout", help="Seconds per ccx run.")
+RESTART_EVERY = typer.Option(
+    0.0, "--restart-every", help="Restart points every so many mm of travel (10-10000; 0: "
+    "none): a roll that stops, run again with the same arguments, goes on from its last "
+    "point (kept in $FARM_CACHE_DIR; docs/rolling.md, 'Restart points').")
 JSON_OPTION = typer.Option(False, "--json", help="Print one JSON document.")
 
 
@@ -73,13 +77,15 @@ def roll(
     rolling_radius: str = ROLLING_RADIUS,
     samples: int = SAMPLES, materials: str = MATERIALS_OPTION, mesh: str = MESH_OPTION,
     overrides: list[str] = OVERRIDES, threads: int = THREADS_OPTION,
-    timeout: float = TIMEOUT, as_json: bool = JSON_OPTION,
+    timeout: float = TIMEOUT, restart_every: float = RESTART_EVERY,
+    as_json: bool = JSON_OPTION,
 ) -> None:
     """Roll the tyre once: forces, moments and stick/slip along the roll."""
     with usage():
         spec = build_model("full", materials, "contact", overrides, mesh)
         settings, fixed = _checked(spec, pressure, deflection, samples, threads, timeout,
                                    rolling_radius)
+        settings = _with_restart_points(settings, restart_every)
         # every bound of the roll checked now (a placeholder radius when it is found later)
         motion = Roll(friction=friction, slip_ratio=slip_ratio, slip_angle=slip_angle,
                       tilt=tilt, distance=distance, rolling_radius=fixed or 400.0,
@@ -125,6 +131,15 @@ def _checked(spec, kpa: float, deflection: float, samples: int, threads: int,
             raise SpecError(f"--rolling-radius: give a radius in mm or 'free', got "
                             f"{radius!r}") from None
     return SolverSettings(threads=threads, timeout=timeout), fixed
+
+
+def _with_restart_points(settings: SolverSettings, every: float) -> SolverSettings:
+    """``settings`` with restart points every ``every`` mm; a bad spacing is one line
+    naming the option."""
+    try:
+        return dataclasses.replace(settings, restart_every_mm=every)
+    except SpecError as e:
+        raise SpecError(f"--restart-every: {e}") from e
 
 
 def _row(s: RolledState, tilt: float = 0.0) -> dict:

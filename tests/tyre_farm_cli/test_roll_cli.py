@@ -24,6 +24,8 @@ COARSE = ["--set", "mesh.tread=4", "--set", "mesh.sidewall=2", "--set", "mesh.be
                                           "is eased in over the first 96 mm"),
     (["--lead-x", "-51"], "roll.lead_x must be a number in [-50, 50]"),
     (["--lead-x", "3", "--distance", "90"], "roll.lead_x = 3.0 on a roll of 90.0 mm"),
+    (["--restart-every", "5"], "--restart-every: solver.restart_every_mm must be 0"),
+    (["--restart-every", "nan"], "--restart-every"),
 ])
 def test_bad_arguments_give_one_line_and_nonzero_exit(argv, needle, capsys, monkeypatch):
     monkeypatch.setenv("FARM_CCX", "no-such-ccx")  # nothing may reach the solver
@@ -98,3 +100,21 @@ def test_the_radius_search_rolls_its_own_length_not_the_rolls(argv, searched_mm,
                 capsys)
     [roll] = rolls
     assert roll.distance == searched_mm and roll.slip_ratio == 0.05  # zeroed by the search
+
+
+def test_restart_points_reach_the_roll_s_settings(capsys, monkeypatch):
+    """``--restart-every 40``: the roll is solved with restart points every 40 mm (what
+    they do: tests/farm/test_roll_restart.py)."""
+    import farm.experiment
+
+    seen = []
+
+    def spy(model, mesh, deflection, pressure, motion, settings, fractions):
+        seen.append(settings)
+        raise _Searched
+
+    monkeypatch.setattr(farm.experiment, "solve_roll", spy)
+    monkeypatch.setattr(farm.experiment, "mesh_for", lambda model: None)
+    with pytest.raises(_Searched):
+        run_cli(["roll", *COARSE, "--rolling-radius", "395", "--restart-every", "40"], capsys)
+    assert [s.restart_every_mm for s in seen] == [40.0]
