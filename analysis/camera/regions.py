@@ -86,6 +86,9 @@ def grouped_folds(groups: np.ndarray, n_folds: int,
     """``n_folds`` (train, test) folds of whole groups, the groups shuffled by ``rng``
     (scikit-learn's GroupKFold does not shuffle, and repeats need different folds)."""
     labels = np.unique(groups)
+    if labels.size < 3:  # each fold's training part needs 2 for its own inner CV
+        raise ParameterError(f"regions: grouped CV needs at least 3 load paths (rolling "
+                             f"trees), the selection has {labels.size}: run more of the study")
     if not 2 <= n_folds <= labels.size:
         raise ParameterError(f"regions: {n_folds} folds need 2 to {labels.size} groups "
                              f"(the store's load paths), got {n_folds}")

@@ -52,6 +52,8 @@ def test_folds_keep_every_group_whole_and_repeats_differ():
     assert any(not np.array_equal(a[1], b[1]) for a, b in zip(first, second, strict=True))
     with pytest.raises(ParameterError, match="folds"):
         grouped_folds(groups, 11, rng)
+    with pytest.raises(ParameterError, match="at least 3 load paths"):
+        grouped_folds(np.repeat([0, 1], 5), 2, rng)
 
 
 def _planted(torus, regions, n_paths=12, states=3, seed=1):
