@@ -54,6 +54,27 @@ def path_groups(ds: xr.Dataset, *, trees: bool = True) -> np.ndarray:
     return order[labels.ravel()]
 
 
+def path_progress(ds: xr.Dataset) -> dict[str, int] | None:
+    """How far a group's load paths are (``farm sweep status``): of its ``paths`` (a
+    rolling tree counts once, :func:`path_groups`), how many are ``whole`` (every state
+    done), ``growing`` (some done, the rest pending), ``not_started`` (all pending) and
+    ``with_failures`` (a state failed). None for a group without load paths (no
+    ``travel`` parameter): each experiment is its own path there."""
+    if TRAVEL not in ds.variables or ds.sizes["experiment"] == 0:
+        return None
+    groups = path_groups(ds)
+    status = np.asarray(ds["status"].values)
+    out = {"paths": 0, "whole": 0, "growing": 0, "not_started": 0, "with_failures": 0}
+    for g in np.unique(groups):
+        mine = status[groups == g]
+        key = ("with_failures" if (mine == storage.FAILED).any() else
+               "whole" if (mine == storage.DONE).all() else
+               "not_started" if (mine == storage.PENDING).all() else "growing")
+        out[key] += 1
+        out["paths"] += 1
+    return out
+
+
 def grouped_split(groups: np.ndarray, test_fraction: float,
                   seed: int) -> tuple[np.ndarray, np.ndarray]:
     """Seeded random (train, test) positions that hold out whole groups: round(groups

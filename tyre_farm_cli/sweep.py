@@ -326,9 +326,12 @@ def status(target: str = TARGET, group: str = GROUP, as_json: bool = JSON,
             groups = [store_status(store, g)[0] if g in made or g not in expected else
                       GroupStatus(g, {"pending": expected[g]["cases"]}, ())
                       for g in names]
+        paths = {g.group: _paths(store, g.group) for g in groups if g.counts.get("done")
+                 or g.counts.get("failed")}
     if as_json:
         _dump({"store": where, "groups": [
             {"group": g.group, "counts": {k: g.counts.get(k, 0) for k in STATUSES},
+             "paths": paths.get(g.group),
              "failed": [_row(f.experiment, f, "failed", f.reason) for f in g.failures]}
             for g in groups]})
         return
@@ -337,6 +340,10 @@ def status(target: str = TARGET, group: str = GROUP, as_json: bool = JSON,
         c = g.counts
         console.print(f"group {g.group}: {c.get('done', 0)} done, {c.get('failed', 0)} failed, "
                       f"{c.get('pending', 0)} pending")
+        if (p := paths.get(g.group)) is not None:
+            console.print(f"  load paths: {p['whole']} of {p['paths']} whole, {p['growing']} "
+                          f"growing, {p['not_started']} not started, {p['with_failures']} "
+                          "with failures")
         if g.failures:
             _failure_table([(f.experiment, f.deflection, f.pressure, f.reason)
                             for f in g.failures], console)
@@ -349,6 +356,14 @@ def status(target: str = TARGET, group: str = GROUP, as_json: bool = JSON,
         raise StoreError(f"group {unfinished[0]!r} of {where} was never finished (a client "
                          "stopped creating it, e.g. on a full disk): submit the study again "
                          "to rebuild it")
+
+
+def _paths(store, group: str) -> dict[str, int] | None:
+    """How far the group's load paths are (rolls and rolling trees), or None."""
+    import storage
+    from analysis.splits import path_progress
+
+    return path_progress(storage.open_dataset(store, group))
 
 
 def _status_option(value: str | None) -> str | None:

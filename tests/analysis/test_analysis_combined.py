@@ -8,7 +8,7 @@ import pytest
 from analysis import data
 from analysis.combined import BlockRegression, BlockScaler, cross_validate, latent_count
 from analysis.errors import NoVarianceError, ParameterError, TooFewExperimentsError
-from analysis.splits import edge_split, grouped_split, path_groups
+from analysis.splits import edge_split, grouped_split, path_groups, path_progress
 from analysis.splits import folds as path_folds
 from analysis.studies import combined
 from tests.synthetic import make_combined_store, make_store
@@ -207,6 +207,26 @@ def test_the_states_of_one_roll_are_one_load_path():
                slip_angle=[0, 2, -2, 0, 2, -2], roll_from=[0, 40, 40, 0, 40, 40],
                travel=[40, 70, 70, 40, 70, 70])
     assert path_groups(trees).tolist() == [0, 0, 0, 1, 1, 1]
+
+
+@pytest.mark.parametrize(("status", "expected"), [
+    ([1, 1, 1, 0, 0, 0, 0, 0, 0], dict(whole=1, growing=0, not_started=2, with_failures=0)),
+    ([1, 1, 0, 1, 0, 0, 0, 0, 0], dict(whole=0, growing=2, not_started=1, with_failures=0)),
+    ([1, 1, 1, 2, 1, 1, 0, 0, 1], dict(whole=1, growing=1, not_started=0, with_failures=1)),
+])
+def test_how_far_each_rolling_tree_is(status, expected):
+    """path_progress (`farm sweep status`): a tree counts once, whole when every state
+    is done, failed when any failed; a group without rolls has no load paths."""
+    import xarray as xr
+
+    trees = xr.Dataset({"status": ("experiment", np.asarray(status, dtype=np.int8))},
+                       coords={k: ("experiment", np.asarray(v, dtype=float)) for k, v in dict(
+                           deflection=[15] * 9, pressure=[0.2] * 9,
+                           friction=[0.4] * 3 + [0.6] * 3 + [0.8] * 3,
+                           slip_angle=[0, 2, -2] * 3, roll_from=[0, 40, 40] * 3,
+                           travel=[40, 70, 70] * 3).items()})
+    assert path_progress(trees) == {"paths": 3, **expected}
+    assert path_progress(trees.drop_vars("travel")) is None
 
 
 def test_vertical_only_group_is_refused_in_one_line(tmp_path):

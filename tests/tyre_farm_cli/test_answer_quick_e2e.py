@@ -67,6 +67,12 @@ def test_the_quick_answer_study_sweeps_and_is_analysed_over_repeated_grouped_spl
     done = storage.done(ds)
     groups = path_groups(done)
     assert np.unique(groups).size >= 6  # trees, the splits' groups
+    code, out, err = _farm(["sweep", "status", quick, "--json"], capsys)
+    assert code == 0, err
+    [paths] = [g["paths"] for g in json.loads(out)["groups"]]
+    # a finished sweep: each of the 8 trees whole, or with a state failed (data)
+    assert paths["paths"] == 8 and paths["whole"] + paths["with_failures"] == 8
+    assert paths["whole"] >= 1 and paths["growing"] == paths["not_started"] == 0
     # each trunk rolled at its own estimate, R - 0.59 d of its inflated radius R, which is
     # the unloaded tyre's (one for all) plus the growth under its own pressure
     from farm.solve.rolling import FREE_RADIUS_DROP
