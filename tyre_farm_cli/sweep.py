@@ -335,7 +335,20 @@ def status(target: str = TARGET, group: str = GROUP, as_json: bool = JSON,
              "failed": [_row(f.experiment, f, "failed", f.reason) for f in g.failures]}
             for g in groups]})
         return
-    console = Console()
+    _print_status(groups, paths, Console())
+    try:
+        with reading("the store's groups", where):
+            unfinished = unfinished_groups(store)
+    except (NotAStoreError, GroupNotFoundError):  # a study not submitted yet: no store
+        unfinished = []
+    if unfinished:  # invisible otherwise: "0 groups", exit 0 (issue 26)
+        raise StoreError(f"group {unfinished[0]!r} of {where} was never finished (a client "
+                         "stopped creating it, e.g. on a full disk): submit the study again "
+                         "to rebuild it")
+
+
+def _print_status(groups, paths: dict, console: Console) -> None:
+    """Each group's counts, how far its load paths are, and its failures."""
     for g in groups:
         c = g.counts
         console.print(f"group {g.group}: {c.get('done', 0)} done, {c.get('failed', 0)} failed, "
@@ -347,15 +360,6 @@ def status(target: str = TARGET, group: str = GROUP, as_json: bool = JSON,
         if g.failures:
             _failure_table([(f.experiment, f.deflection, f.pressure, f.reason)
                             for f in g.failures], console)
-    try:
-        with reading("the store's groups", where):
-            unfinished = unfinished_groups(store)
-    except (NotAStoreError, GroupNotFoundError):  # a study not submitted yet: no store
-        unfinished = []
-    if unfinished:  # invisible otherwise: "0 groups", exit 0 (issue 26)
-        raise StoreError(f"group {unfinished[0]!r} of {where} was never finished (a client "
-                         "stopped creating it, e.g. on a full disk): submit the study again "
-                         "to rebuild it")
 
 
 def _paths(store, group: str) -> dict[str, int] | None:
